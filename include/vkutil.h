@@ -1,0 +1,73 @@
+/* vkutil.h: small algorithms shared across stages: radix sort of 64-bit
+ * keys, Morton (Z-order) keys for locality, a static spatial hash over
+ * axis-aligned boxes (radius estimate, crossings, later yarn contact), and
+ * wall time / peak memory for the summaries. */
+#pragma once
+#include <petscsys.h>
+#include <stdint.h>
+
+/* Sort keys ascending (stable LSD radix sort), permuting payload alongside
+ * (payload may be NULL). */
+PETSC_EXTERN PetscErrorCode VKSortU64(PetscInt n, uint64_t keys[], PetscInt payload[]);
+
+/* Interleaved bits of three non-negative 21-bit integers. */
+static inline uint64_t VKMorton3(uint64_t i, uint64_t j, uint64_t k)
+{
+  uint64_t v[3] = {i, j, k}, key = 0;
+  for (int a = 0; a < 3; a++) {
+    uint64_t x = v[a] & 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffffULL;
+    x = (x | x << 16) & 0x1f0000ff0000ffULL;
+    x = (x | x << 8) & 0x100f00f00f00f00fULL;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+    key |= x << a;
+  }
+  return key;
+}
+
+static inline void VKMorton3Decode(uint64_t key, PetscInt ijk[])
+{
+  for (int a = 0; a < 3; a++) {
+    uint64_t x = (key >> a) & 0x1249249249249249ULL;
+    x = (x | x >> 2) & 0x10c30c30c30c30c3ULL;
+    x = (x | x >> 4) & 0x100f00f00f00f00fULL;
+    x = (x | x >> 8) & 0x1f0000ff0000ffULL;
+    x = (x | x >> 16) & 0x1f00000000ffffULL;
+    x = (x | x >> 32) & 0x1fffffULL;
+    ijk[a] = (PetscInt)x;
+  }
+}
+
+/* Position of `key` in the ascending array keys[0..n), or -1. */
+static inline PetscInt VKSearchU64(PetscInt n, const uint64_t keys[], uint64_t key)
+{
+  PetscInt lo = 0, hi = n;
+  while (lo < hi) {
+    PetscInt mid = lo + (hi - lo) / 2;
+    if (keys[mid] < key) lo = mid + 1;
+    else hi = mid;
+  }
+  return (lo < n && keys[lo] == key) ? lo : -1;
+}
+
+/* A uniform grid over boxes: item b is listed in every cell its box
+ * [lo_b, hi_b] overlaps.  Cells are addressed by integer coordinates. */
+typedef struct {
+  PetscReal cell, origin[3];
+  PetscInt  dims[3];
+  PetscInt  ncells;    /* non-empty cells */
+  uint64_t *key;       /* sorted cell keys, ncells */
+  PetscInt *start;     /* ncells+1 offsets into item */
+  PetscInt *item;      /* item ids grouped by cell */
+} VKSpatialHash;
+PETSC_EXTERN PetscErrorCode VKSpatialHashBuild(VKSpatialHash *, PetscInt n, const PetscReal lo[], const PetscReal hi[], PetscReal cell);
+PETSC_EXTERN PetscErrorCode VKSpatialHashDestroy(VKSpatialHash *);
+/* Cell coordinates of a point (clamped to the grid). */
+PETSC_EXTERN void VKSpatialHashCellOf(const VKSpatialHash *, const PetscReal p[], PetscInt c[]);
+/* Items of cell c: item[*begin .. *end) (empty if the cell is absent). */
+PETSC_EXTERN void VKSpatialHashItems(const VKSpatialHash *, const PetscInt c[], PetscInt *begin, PetscInt *end);
+
+PETSC_EXTERN PetscLogDouble VKWallTime(void);
+/* Peak resident set size of this process in bytes. */
+PETSC_EXTERN PetscErrorCode VKPeakMemory(PetscLogDouble *);

@@ -1,0 +1,102 @@
+# volknit makefile.
+#
+#   make          library (lib/libvolknit.a) and driver (bin/volknit)
+#   make run      install missing Debian packages (as root), build, run the demo scene
+#   make check    build and run the tests with 1 and 2 MPI ranks
+#   make bench    build and run the benchmarks (printed tables)
+#   make fuzz     build the libFuzzer targets with clang and run each for FUZZ_TIME s
+#   make examples build the example programs
+#   make clean
+#
+# PETSc, SLEPc and HDF5 come from pkg-config; METIS is linked directly.
+
+PKGS      := petsc slepc hdf5-openmpi
+CC        := mpicc
+CSTD      := -std=c99 -D_POSIX_C_SOURCE=200809L
+OPT       ?= -O2 -g
+WARN      := -Wall -Wextra
+# Evaluated lazily so that `make run` can install the packages first.
+PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS))
+PKG_LIBS   = $(shell pkg-config --libs $(PKGS))
+CFLAGS     = $(CSTD) $(OPT) $(WARN) -Iinclude $(PKG_CFLAGS)
+LDLIBS     = $(PKG_LIBS) -lmetis -lm
+MPIEXEC   ?= mpiexec
+FUZZ_TIME ?= 60
+
+LIB_SRC   := $(sort $(wildcard src/util/*.c src/yarn/*.c src/mesh/*.c src/app/*.c))
+LIB_OBJ   := $(LIB_SRC:src/%.c=build/%.o)
+LIB       := lib/libvolknit.a
+BIN       := bin/volknit
+TEST_SRC  := $(sort $(wildcard tests/test_*.c))
+TEST_BIN  := $(TEST_SRC:tests/%.c=bin/tests/%)
+BENCH_SRC := $(sort $(wildcard tests/bench/bench_*.c))
+BENCH_BIN := $(BENCH_SRC:tests/bench/%.c=bin/bench/%)
+EX_SRC    := $(sort $(wildcard examples/*.c))
+EX_BIN    := $(EX_SRC:examples/%.c=bin/examples/%)
+FUZZ_SRC  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_BIN  := $(FUZZ_SRC:tests/fuzz/%.c=bin/fuzz/%)
+
+.PHONY: all run check bench fuzz examples clean deps tests
+.DEFAULT_GOAL := all
+
+all: $(LIB) $(BIN)
+
+deps:
+	@.ci/ensure-packages
+
+# The entry points that must work on a fresh machine check the packages
+# first, then build in a sub-make (pkg-config needs the packages).
+run: deps
+	@$(MAKE) --no-print-directory all
+	OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 $(MPIEXEC) -n 1 $(BIN) run -options_file options/demo.opts
+
+check: deps
+	@$(MAKE) --no-print-directory all tests examples
+	@tests/run_tests.sh
+
+bench: deps
+	@$(MAKE) --no-print-directory all $(BENCH_BIN)
+	@tests/bench/run_bench.sh
+
+tests: $(TEST_BIN)
+examples: $(EX_BIN)
+
+$(LIB): $(LIB_OBJ)
+	@mkdir -p $(@D)
+	ar rcs $@ $^
+
+build/%.o: src/%.c $(wildcard include/*.h src/*/*.h)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -Isrc -c $< -o $@
+
+$(BIN): src/volknit.c $(LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $< -o $@ $(LIB) $(LDLIBS)
+
+bin/tests/%: tests/%.c tests/vktest.h $(LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -Itests $< -o $@ $(LIB) $(LDLIBS)
+
+bin/bench/%: tests/bench/%.c $(LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $< -o $@ $(LIB) $(LDLIBS)
+
+bin/examples/%: examples/%.c $(LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $< -o $@ $(LIB) $(LDLIBS)
+
+# libFuzzer targets: the library sources again, built with clang and
+# sanitizers, one binary per reader.
+FUZZ_CFLAGS = $(CSTD) -O1 -g -fsanitize=fuzzer,address,undefined -Iinclude -Isrc $(PKG_CFLAGS) \
+              $(shell mpicc --showme:compile)
+FUZZ_LIBS   = $(PKG_LIBS) $(shell mpicc --showme:link) -lmetis -lm
+bin/fuzz/%: tests/fuzz/%.c $(LIB_SRC)
+	@mkdir -p $(@D)
+	clang $(FUZZ_CFLAGS) $< $(LIB_SRC) -o $@ $(FUZZ_LIBS)
+
+fuzz: deps
+	@$(MAKE) --no-print-directory $(FUZZ_BIN)
+	@tests/fuzz/run_fuzz.sh $(FUZZ_TIME)
+
+clean:
+	rm -rf build lib bin tests/out

@@ -1,0 +1,42 @@
+/* log.c: registration of volknit's log stages and events (DESIGN §12). */
+#include <vklog.h>
+
+PetscClassId  VK_CLASSID;
+PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH;
+PetscLogEvent VK_EVENT_YarnBuild, VK_EVENT_YarnRead, VK_EVENT_YarnResample, VK_EVENT_YarnFrames, VK_EVENT_YarnBind, VK_EVENT_YarnRadius;
+PetscLogEvent VK_EVENT_Voxelize, VK_EVENT_Tets, VK_EVENT_Lump, VK_EVENT_Embed, VK_EVENT_DualGraph, VK_EVENT_Partition, VK_EVENT_Layout, VK_EVENT_Write;
+
+static PetscBool registered = PETSC_FALSE;
+
+static PetscErrorCode VKFinalizePackage(void)
+{
+  PetscFunctionBegin;
+  registered = PETSC_FALSE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKInitializePackage(void)
+{
+  PetscFunctionBegin;
+  if (registered) PetscFunctionReturn(0);
+  registered = PETSC_TRUE;
+  PetscCall(PetscClassIdRegister("volknit", &VK_CLASSID));
+  PetscCall(PetscLogStageRegister("volknit yarn", &VK_STAGE_YARN));
+  PetscCall(PetscLogStageRegister("volknit mesh", &VK_STAGE_MESH));
+  PetscCall(PetscLogEventRegister("YarnBuild", VK_CLASSID, &VK_EVENT_YarnBuild));
+  PetscCall(PetscLogEventRegister("YarnRead", VK_CLASSID, &VK_EVENT_YarnRead));
+  PetscCall(PetscLogEventRegister("YarnResample", VK_CLASSID, &VK_EVENT_YarnResample));
+  PetscCall(PetscLogEventRegister("YarnFrames", VK_CLASSID, &VK_EVENT_YarnFrames));
+  PetscCall(PetscLogEventRegister("YarnBind", VK_CLASSID, &VK_EVENT_YarnBind));
+  PetscCall(PetscLogEventRegister("YarnRadius", VK_CLASSID, &VK_EVENT_YarnRadius));
+  PetscCall(PetscLogEventRegister("MeshVoxelize", VK_CLASSID, &VK_EVENT_Voxelize));
+  PetscCall(PetscLogEventRegister("MeshTets", VK_CLASSID, &VK_EVENT_Tets));
+  PetscCall(PetscLogEventRegister("MeshLump", VK_CLASSID, &VK_EVENT_Lump));
+  PetscCall(PetscLogEventRegister("MeshEmbed", VK_CLASSID, &VK_EVENT_Embed));
+  PetscCall(PetscLogEventRegister("MeshDualGraph", VK_CLASSID, &VK_EVENT_DualGraph));
+  PetscCall(PetscLogEventRegister("MeshPartition", VK_CLASSID, &VK_EVENT_Partition));
+  PetscCall(PetscLogEventRegister("MeshLayout", VK_CLASSID, &VK_EVENT_Layout));
+  PetscCall(PetscLogEventRegister("VKWrite", VK_CLASSID, &VK_EVENT_Write));
+  PetscCall(PetscRegisterFinalize(VKFinalizePackage));
+  PetscFunctionReturn(0);
+}
