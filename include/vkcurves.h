@@ -1,0 +1,69 @@
+/* vkcurves.h: a set of polylines (open or closed) and the geometric
+ * operations on it that every yarn source shares: Catmull-Rom evaluation,
+ * arc-length resampling, rest frames by parallel transport, radius
+ * estimation and projected crossings (DESIGN §2, §3). */
+#pragma once
+#include <petscsys.h>
+
+/* Curve c owns vertices start[c] .. start[c+1]-1 of x (3 per vertex).
+ * Segments join consecutive vertices; a closed curve also joins its last
+ * vertex to its first.  Segments are numbered curve by curve. */
+typedef struct {
+  PetscInt   n, nv;
+  PetscInt  *start;  /* n+1 */
+  PetscBool *closed; /* n */
+  PetscReal *x;      /* 3 nv */
+  PetscInt   capn, capv;
+} VKCurves;
+
+typedef enum {
+  VK_CURVE_POLYLINE,
+  VK_CURVE_CATMULL_ROM /* uniform Catmull-Rom through the control points */
+} VKCurveType;
+
+PETSC_EXTERN PetscErrorCode VKCurvesInit(VKCurves *);
+PETSC_EXTERN PetscErrorCode VKCurvesFree(VKCurves *);
+PETSC_EXTERN PetscErrorCode VKCurvesAdd(VKCurves *, PetscInt nv, const PetscReal x[], PetscBool closed);
+PETSC_EXTERN PetscErrorCode VKCurvesCopy(const VKCurves *, VKCurves *);
+
+static inline PetscInt VKCurveSize(const VKCurves *c, PetscInt i)
+{
+  return c->start[i + 1] - c->start[i];
+}
+static inline PetscInt VKCurveNumSegments(const VKCurves *c, PetscInt i)
+{
+  PetscInt m = VKCurveSize(c, i);
+  return c->closed[i] ? m : m - 1;
+}
+PETSC_EXTERN PetscInt       VKCurvesNumSegments(const VKCurves *);
+/* seg[2 s], seg[2 s + 1]: the vertices of segment s (PetscMalloc'ed) */
+PETSC_EXTERN PetscErrorCode VKCurvesGetSegments(const VKCurves *, PetscInt *nseg, PetscInt **seg);
+/* segment -> curve index (PetscMalloc'ed) */
+PETSC_EXTERN PetscErrorCode VKCurvesGetSegmentCurves(const VKCurves *, PetscInt **curve);
+PETSC_EXTERN PetscErrorCode VKCurvesLength(const VKCurves *, PetscReal *);
+PETSC_EXTERN PetscErrorCode VKCurvesBoundingBox(const VKCurves *, PetscReal lo[], PetscReal hi[]);
+PETSC_EXTERN PetscErrorCode VKCurvesScale(VKCurves *, PetscReal);
+/* Error naming `what` if a coordinate is NaN/Inf or a curve is too short. */
+PETSC_EXTERN PetscErrorCode VKCurvesValidate(const VKCurves *, const char what[]);
+
+/* Dense polyline through a Catmull-Rom control set, samples <= spacing apart.
+ * Open curves use mirrored phantom end points (p_-1 = 2 p_0 - p_1). */
+PETSC_EXTERN PetscErrorCode VKCurvesEvaluateCatmullRom(const VKCurves *ctrl, PetscReal spacing, VKCurves *dense);
+/* Uniform arc-length resampling, segments as close to `length` as fits;
+ * open curves keep their end points. */
+PETSC_EXTERN PetscErrorCode VKCurvesResample(const VKCurves *in, PetscReal length, VKCurves *out);
+/* Unit normal n1 per segment by parallel transport along each curve
+ * (n2 = t x n1). */
+PETSC_EXTERN PetscErrorCode VKCurvesTransportFrames(const VKCurves *, PetscReal n1[]);
+/* Half the typical distance between touching non-adjacent yarn parts. */
+PETSC_EXTERN PetscErrorCode VKCurvesEstimateRadius(const VKCurves *, PetscReal *radius);
+
+/* A crossing of the xy-projections of segment seg[0] (curve a) and seg[1]
+ * (curve b) at parameters s[] along them; z[] the heights there. */
+typedef struct {
+  PetscInt  seg[2];
+  PetscReal s[2], z[2], p[2];
+} VKCrossing;
+/* All projected crossings between curve a and curve b (a != b), ordered
+ * along curve a. */
+PETSC_EXTERN PetscErrorCode VKCurvesProjectedCrossings(const VKCurves *, PetscInt a, PetscInt b, PetscInt *n, VKCrossing **);

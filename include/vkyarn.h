@@ -1,0 +1,140 @@
+/* vkyarn.h: yarn models (DESIGN §3): rest polylines with radius, linear
+ * density, rest frames and glue pairs, built from a knit chart, a weave
+ * matrix, a BCC or pyp file, or volknit's own HDF5 file. */
+#pragma once
+#include <petscsys.h>
+#include <petscviewer.h>
+#include <vkcurves.h>
+#include <vkio.h>
+
+/* ---- knit charts ------------------------------------------------------ */
+/* sign[r * cols + c] is +1 for a knit (K) and -1 for a purl (P) stitch in
+ * chart row r (course, bottom first) and column c (wale). */
+typedef struct {
+  PetscInt     rows, cols;
+  signed char *sign;
+} VKKnitChart;
+PETSC_EXTERN const char *const VKKnitBuiltins[]; /* NULL-terminated names */
+PETSC_EXTERN PetscErrorCode    VKKnitChartBuiltin(const char name[], VKKnitChart *);
+/* Chart text (see meshes/README): one row of stitch codes per course,
+ * bottom course first, codes separated by blanks, '#' starts a comment. */
+PETSC_EXTERN PetscErrorCode VKKnitChartParse(const char buf[], size_t len, const char fname[], VKKnitChart *);
+PETSC_EXTERN PetscErrorCode VKKnitChartFree(VKKnitChart *);
+
+/* Loop geometry of DESIGN §3 for a patch of wales x courses stitches. */
+typedef struct {
+  PetscInt  wales, courses;
+  PetscReal width;       /* w: stitch width (wale spacing) */
+  PetscReal height;      /* dy: course spacing */
+  PetscReal loop_height; /* h: loop height, dy < h < 2 dy */
+  PetscReal bulge;       /* a: sideways bulge of the loop head, 0 <= a < 3w/8 */
+  PetscReal depth;       /* d: out-of-plane amplitude */
+} VKKnitParams;
+PETSC_EXTERN PetscErrorCode VKKnitParamsDefault(PetscReal radius, VKKnitParams *);
+PETSC_EXTERN PetscErrorCode VKKnitParamsCheck(const VKKnitParams *);
+/* One open yarn per course (curve j = course j), sampled densely (about
+ * two samples per `spacing`); the chart is tiled over the patch. */
+PETSC_EXTERN PetscErrorCode VKKnitBuild(const VKKnitChart *, const VKKnitParams *, PetscReal spacing, VKCurves *);
+/* Glue pairs for knit polylines (curve j = course j): every crossing of the
+ * first two and of the last two courses, and both ends of every yarn to
+ * the nearest vertex of the neighbouring course; 2 vertices per pair. */
+PETSC_EXTERN PetscErrorCode VKKnitBind(const VKCurves *, PetscInt *nbind, PetscInt **bind);
+
+/* ---- woven patterns --------------------------------------------------- */
+/* over[i * cols + j] = 1 where weft i passes over warp j. */
+typedef struct {
+  PetscInt       rows, cols;
+  unsigned char *over;
+} VKWeave;
+/* plain; twill a/b (a over, b under); basket m (m x m); satin n with step s */
+PETSC_EXTERN PetscErrorCode VKWeaveBuiltin(const char name[], PetscInt p0, PetscInt p1, VKWeave *);
+/* Matrix text: rows of 0/1 digits (blanks allowed), weft 0 first. */
+PETSC_EXTERN PetscErrorCode VKWeaveParse(const char buf[], size_t len, const char fname[], VKWeave *);
+PETSC_EXTERN PetscErrorCode VKWeaveFree(VKWeave *);
+typedef struct {
+  PetscInt  warps, wefts;
+  PetscReal spacing, depth;
+} VKWeaveParams;
+/* Wefts (curves 0..wefts-1, along x) then warps (along y). */
+PETSC_EXTERN PetscErrorCode VKWeaveBuild(const VKWeave *, const VKWeaveParams *, PetscReal spacing, VKCurves *);
+
+/* ---- BCC (binary curve collection) ------------------------------------ */
+/* On error `curves` holds what was read so far: free it with VKCurvesFree. */
+PETSC_EXTERN PetscErrorCode VKBCCParse(const unsigned char buf[], size_t len, const char fname[], VKCurveType *, VKCurves *);
+/* Polyline (PL) BCC; closed curves get negative counts. */
+PETSC_EXTERN PetscErrorCode VKBCCWrite(const char path[], const VKCurves *);
+
+/* ---- pyp (periodic yarn pattern of HYLC) ------------------------------ */
+typedef struct {
+  char       name[16];
+  PetscInt   rows, cols;
+  PetscReal *v; /* rows x cols */
+} VKPypSection;
+typedef struct {
+  PetscReal     period[2], radius;
+  PetscInt      nv, ne;
+  PetscReal    *q; /* 4 per vertex: x y z twist */
+  PetscInt     *e; /* 4 per edge: v0 v1 dx dy, tile offsets in {-1,0,1} */
+  PetscInt      nextra;
+  VKPypSection *extra; /* RL RK RT RefD1 RefT ... kept for round trips */
+} VKPyp;
+PETSC_EXTERN PetscErrorCode VKPypParse(const char buf[], size_t len, const char fname[], VKPyp *);
+PETSC_EXTERN PetscErrorCode VKPypWrite(const char path[], const VKPyp *);
+PETSC_EXTERN PetscErrorCode VKPypFree(VKPyp *);
+/* Tile m x n copies; origin (optional, 2 per vertex: tile i + m*j, pattern vertex). */
+PETSC_EXTERN PetscErrorCode VKPypTile(const VKPyp *, PetscInt m, PetscInt n, VKCurves *, PetscInt **origin);
+
+/* ---- the yarn model --------------------------------------------------- */
+typedef enum {
+  VK_YARN_CHART,
+  VK_YARN_WOVEN,
+  VK_YARN_BCC,
+  VK_YARN_PYP,
+  VK_YARN_H5,
+  VK_YARN_GIVEN /* polylines handed over by VKYarnSetCurves */
+} VKYarnSource;
+PETSC_EXTERN const char *const VKYarnSources[];
+
+typedef struct _n_VKYarn *VKYarn;
+struct _n_VKYarn {
+  MPI_Comm      comm;
+  VKYarnSource  source;
+  char          file[PETSC_MAX_PATH_LEN]; /* chart/bcc/pyp/h5/weave file ("" for built-ins) */
+  char          pattern[64];              /* built-in knit pattern or weave */
+  char          description[PETSC_MAX_PATH_LEN + 64];
+  VKKnitParams  knit;
+  VKWeaveParams weave;
+  PetscInt      weave_param[2];
+  PetscInt      tiles[2];
+  PetscReal     scale, radius, density, seglen;
+  PetscBool     radius_set, radius_estimated, seglen_set, knit_set[5], weave_set[2], weave_param_set;
+  PetscBool     setup;
+  /* the model */
+  VKCurves   curves; /* rest polylines (m) */
+  PetscReal *normal; /* rest n1 per segment */
+  PetscInt   nbind;
+  PetscInt  *bind;   /* 2 per glued vertex pair */
+  PetscLogDouble time_build;
+};
+
+PETSC_EXTERN PetscErrorCode VKYarnCreate(MPI_Comm, VKYarn *);
+PETSC_EXTERN PetscErrorCode VKYarnSetFromOptions(VKYarn);
+PETSC_EXTERN PetscErrorCode VKYarnSetUp(VKYarn);
+PETSC_EXTERN PetscErrorCode VKYarnView(VKYarn, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKYarnDestroy(VKYarn *);
+/* Programmatic set-up (before VKYarnSetUp) */
+PETSC_EXTERN PetscErrorCode VKYarnSetKnit(VKYarn, const char pattern_or_file[], PetscInt wales, PetscInt courses);
+PETSC_EXTERN PetscErrorCode VKYarnSetRadius(VKYarn, PetscReal);
+/* Take ownership-free copies of given polylines as the model (tests, tools) */
+PETSC_EXTERN PetscErrorCode VKYarnSetCurves(VKYarn, const VKCurves *);
+
+PETSC_EXTERN PetscErrorCode VKYarnGetMass(VKYarn, PetscReal *mass, PetscReal *length);
+/* Files: own HDF5 (read/write), XDMF companion, JSON summary, BCC, OBJ */
+PETSC_EXTERN PetscErrorCode VKYarnWriteH5(VKYarn, const char path[]);
+PETSC_EXTERN PetscErrorCode VKYarnLoadH5(VKYarn, const char path[]);
+PETSC_EXTERN PetscErrorCode VKYarnWriteOBJ(VKYarn, const char path[]);
+/* The /yarn group inside an open HDF5 file (mesh.h5 carries its yarn). */
+PETSC_EXTERN PetscErrorCode VKYarnWriteToH5(VKYarn, VKH5 *);
+PETSC_EXTERN PetscErrorCode VKYarnLoadFromH5(VKYarn, VKH5 *);
+/* yarn.h5, yarn.xdmf, yarn.json into dir */
+PETSC_EXTERN PetscErrorCode VKYarnWriteOutputs(VKYarn, const char dir[]);

@@ -1,0 +1,187 @@
+/* knit_geometry.c: procedural knit patches (DESIGN §3).  One yarn per
+ * course j; loop (j, k), t in [0, 2 pi):
+ *   x = w (k + t / 2 pi) + a sin 2t
+ *   y = j dy - (h/2) cos t
+ *   z = d (-cos 2t) (sigma_L w_L + s_{j+1,k} w_U),  w_U = (1 - cos t)/2, w_L = 1 - w_U
+ * s = +1 for knit, -1 for purl.  The lower half of a loop takes its own
+ * stitch sign, its head the sign of the loop above; sigma_L blends to the
+ * neighbouring column's sign over |t| < pi/8 around the sinker so z is
+ * continuous between a knit and a purl column.  With these signs the new
+ * loop (j+1, k) passes under the head of loop (j, k) where it enters it
+ * and over it where it leaves for a knit stitch, and the reverse for a
+ * purl (tested at every crossing).
+ *
+ * Free edges are glued so a pulled patch cannot unravel: every crossing
+ * between the first two and the last two courses, and both ends of every
+ * yarn to the nearest vertex of the neighbouring course. */
+#include <vkyarn.h>
+
+#define KNIT_BLEND (PETSC_PI / 8)
+
+PetscErrorCode VKKnitParamsDefault(PetscReal r, VKKnitParams *p)
+{
+  PetscFunctionBegin;
+  p->wales       = 10;
+  p->courses     = 10;
+  p->width       = 9 * r;
+  p->height      = 7 * r;
+  p->loop_height = 1.7 * p->height;
+  p->bulge       = 0.25 * p->width;
+  p->depth       = 1.5 * r;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKKnitParamsCheck(const VKKnitParams *p)
+{
+  PetscFunctionBegin;
+  PetscCheck(p->wales >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_wales must be at least 1, got %d", (int)p->wales);
+  PetscCheck(p->courses >= 2, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_courses must be at least 2 (a single course has nothing to interlock with), got %d", (int)p->courses);
+  PetscCheck((double)p->wales * (double)p->courses <= 1e8, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Patch of %d x %d stitches is too large", (int)p->wales, (int)p->courses);
+  PetscCheck(p->width > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_stitch_width must be positive, got %g", (double)p->width);
+  PetscCheck(p->height > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_stitch_height must be positive, got %g", (double)p->height);
+  PetscCheck(p->loop_height > p->height && p->loop_height < 2 * p->height, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_loop_height %g must lie between the course spacing %g and twice it, or loops of neighbouring courses do not interlock", (double)p->loop_height, (double)p->height);
+  PetscCheck(p->bulge >= 0 && p->bulge < 0.375 * p->width, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_loop_bulge %g must lie in [0, 3/8 of the stitch width %g), or a loop crosses itself", (double)p->bulge, (double)p->width);
+  PetscCheck(p->depth > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_loop_depth must be positive, got %g", (double)p->depth);
+  PetscFunctionReturn(0);
+}
+
+static inline int Sign(const VKKnitChart *chart, PetscInt j, PetscInt k)
+{
+  return chart->sign[(j % chart->rows) * chart->cols + (k % chart->cols)];
+}
+
+static void LoopPoint(const VKKnitParams *p, PetscInt j, PetscInt k, PetscReal t, PetscReal own, PetscReal left, PetscReal right, PetscReal up, PetscReal X[])
+{
+  PetscReal wU = 0.5 * (1 - PetscCosReal(t)), sigma = own;
+
+  if (t < KNIT_BLEND) sigma += (left - own) * 0.25 * (1 + PetscCosReal(PETSC_PI * t / KNIT_BLEND));
+  if (t > 2 * PETSC_PI - KNIT_BLEND) sigma += (right - own) * 0.25 * (1 + PetscCosReal(PETSC_PI * (2 * PETSC_PI - t) / KNIT_BLEND));
+  X[0] = p->width * ((PetscReal)k + t / (2 * PETSC_PI)) + p->bulge * PetscSinReal(2 * t);
+  X[1] = (PetscReal)j * p->height - 0.5 * p->loop_height * PetscCosReal(t);
+  X[2] = p->depth * (-PetscCosReal(2 * t)) * (sigma * (1 - wU) + up * wU);
+}
+
+PetscErrorCode VKKnitBuild(const VKKnitChart *chart, const VKKnitParams *p, PetscReal spacing, VKCurves *out)
+{
+  PetscInt   N, nv;
+  PetscReal *x, len = 0, prev[3], cur[3];
+
+  PetscFunctionBegin;
+  PetscCall(VKKnitParamsCheck(p));
+  PetscCheck(spacing > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Sample spacing must be positive");
+  /* samples per loop from the length of a knit loop */
+  LoopPoint(p, 0, 0, 0, 1, 1, 1, 1, prev);
+  for (PetscInt i = 1; i <= 1024; i++) {
+    LoopPoint(p, 0, 0, 2 * PETSC_PI * i / 1024.0, 1, 1, 1, 1, cur);
+    len += PetscSqrtReal(PetscSqr(cur[0] - prev[0]) + PetscSqr(cur[1] - prev[1]) + PetscSqr(cur[2] - prev[2]));
+    for (int a = 0; a < 3; a++) prev[a] = cur[a];
+  }
+  N = (PetscInt)PetscMax(32, PetscCeilReal(2 * len / spacing));
+  PetscCheck((double)N * (double)p->wales < 1e9, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment length %g is too small for a course of %d stitches", (double)spacing, (int)p->wales);
+  nv = N * p->wales + 1;
+  PetscCall(PetscMalloc1(3 * (size_t)nv, &x));
+  PetscCall(VKCurvesInit(out));
+  for (PetscInt j = 0; j < p->courses; j++) {
+    PetscInt v = 0;
+    for (PetscInt k = 0; k < p->wales; k++) {
+      PetscReal own = Sign(chart, j, k), left = k > 0 ? Sign(chart, j, k - 1) : own, right = k + 1 < p->wales ? Sign(chart, j, k + 1) : own;
+      PetscReal up = j + 1 < p->courses ? Sign(chart, j + 1, k) : own;
+      for (PetscInt i = 0; i < N; i++, v++) LoopPoint(p, j, k, 2 * PETSC_PI * i / N, own, left, right, up, &x[3 * v]);
+      if (k == p->wales - 1) LoopPoint(p, j, k, 2 * PETSC_PI, own, left, right, up, &x[3 * v]);
+    }
+    PetscCall(VKCurvesAdd(out, nv, x, PETSC_FALSE));
+  }
+  PetscCall(PetscFree(x));
+  PetscFunctionReturn(0);
+}
+
+static PetscInt SegmentVertex(const VKCurves *c, PetscInt curve, PetscInt seg, PetscReal s)
+{
+  PetscInt first = 0;
+  for (PetscInt i = 0; i < curve; i++) first += VKCurveNumSegments(c, i);
+  return c->start[curve] + (seg - first) + (s >= 0.5 ? 1 : 0);
+}
+
+static PetscInt NearestVertex(const VKCurves *c, PetscInt curve, const PetscReal p[])
+{
+  PetscInt  best = c->start[curve];
+  PetscReal bd   = PETSC_MAX_REAL;
+  for (PetscInt v = c->start[curve]; v < c->start[curve + 1]; v++) {
+    PetscReal d = PetscSqr(c->x[3 * v] - p[0]) + PetscSqr(c->x[3 * v + 1] - p[1]) + PetscSqr(c->x[3 * v + 2] - p[2]);
+    if (d < bd) {
+      bd   = d;
+      best = v;
+    }
+  }
+  return best;
+}
+
+static int ComparePair(const void *a, const void *b)
+{
+  const PetscInt *x = (const PetscInt *)a, *y = (const PetscInt *)b;
+  if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
+  return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+PetscErrorCode VKKnitBind(const VKCurves *c, PetscInt *nbind, PetscInt **bind)
+{
+  PetscInt C = c->n, n = 0, cap;
+  PetscInt pairs[2][2] = {
+    {0,     1    },
+    {C - 2, C - 1}
+  };
+
+  PetscFunctionBegin;
+  PetscCheck(C >= 2, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Binding needs at least two courses");
+  cap = 2 * C;
+  PetscCall(PetscMalloc1(2 * cap, bind));
+  for (int e = 0; e < 2; e++) {
+    PetscInt    nx;
+    VKCrossing *xs;
+    if (e == 1 && C == 2) break;
+    PetscCall(VKCurvesProjectedCrossings(c, pairs[e][0], pairs[e][1], &nx, &xs));
+    if (n + nx > cap) {
+      PetscInt *grown;
+      cap = 2 * (n + nx);
+      PetscCall(PetscMalloc1(2 * cap, &grown));
+      PetscCall(PetscArraycpy(grown, *bind, 2 * n));
+      PetscCall(PetscFree(*bind));
+      *bind = grown;
+    }
+    for (PetscInt i = 0; i < nx; i++, n++) {
+      (*bind)[2 * n]     = SegmentVertex(c, pairs[e][0], xs[i].seg[0], xs[i].s[0]);
+      (*bind)[2 * n + 1] = SegmentVertex(c, pairs[e][1], xs[i].seg[1], xs[i].s[1]);
+    }
+    PetscCall(PetscFree(xs));
+  }
+  if (n + 2 * C > cap) {
+    PetscInt *grown;
+    cap = n + 2 * C;
+    PetscCall(PetscMalloc1(2 * cap, &grown));
+    PetscCall(PetscArraycpy(grown, *bind, 2 * n));
+    PetscCall(PetscFree(*bind));
+    *bind = grown;
+  }
+  for (PetscInt j = 0; j < C; j++) {
+    PetscInt nb = j + 1 < C ? j + 1 : j - 1, ends[2] = {c->start[j], c->start[j + 1] - 1};
+    for (int e = 0; e < 2; e++, n++) {
+      (*bind)[2 * n]     = ends[e];
+      (*bind)[2 * n + 1] = NearestVertex(c, nb, c->x + 3 * ends[e]);
+    }
+  }
+  for (PetscInt i = 0; i < n; i++)
+    if ((*bind)[2 * i] > (*bind)[2 * i + 1]) {
+      PetscInt t         = (*bind)[2 * i];
+      (*bind)[2 * i]     = (*bind)[2 * i + 1];
+      (*bind)[2 * i + 1] = t;
+    }
+  qsort(*bind, (size_t)n, 2 * sizeof(PetscInt), ComparePair);
+  *nbind = 0;
+  for (PetscInt i = 0; i < n; i++)
+    if (i == 0 || ComparePair(&(*bind)[2 * i], &(*bind)[2 * (i - 1)])) {
+      (*bind)[2 * *nbind]     = (*bind)[2 * i];
+      (*bind)[2 * *nbind + 1] = (*bind)[2 * i + 1];
+      (*nbind)++;
+    }
+  PetscFunctionReturn(0);
+}

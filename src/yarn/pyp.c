@@ -1,0 +1,304 @@
+/* pyp.c: periodic yarn patterns of the HYLC work (DESIGN §3), a text
+ * format of sections introduced by '*name' lines:
+ *   *pattern   px py radius [n]     periods, yarn radius, vertex count
+ *   *Q         x y z twist          one line per vertex
+ *   *E         v0 v1 dx dy          edges; v1 lies in tile (dx, dy), |dx|,|dy| <= 1
+ *   *RL *RK *RT *RefD1 *RefT ...    rest data, kept (not interpreted) so
+ *                                   a read pattern writes back unchanged
+ * '#' starts a comment.  VKPypTile lays m x n tiles side by side and
+ * follows the edges to extract the yarns (each vertex has at most two
+ * edges; chains become open yarns, cycles closed ones). */
+#include <vkyarn.h>
+#include <vkio.h>
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PYP_MAXCOLS 64
+
+PetscErrorCode VKPypFree(VKPyp *p)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscFree(p->q));
+  PetscCall(PetscFree(p->e));
+  for (PetscInt i = 0; i < p->nextra; i++) PetscCall(PetscFree(p->extra[i].v));
+  PetscCall(PetscFree(p->extra));
+  PetscCall(PetscMemzero(p, sizeof(*p)));
+  PetscFunctionReturn(0);
+}
+
+/* Append `cols` values to a growing rows x cols array. */
+static PetscErrorCode AppendRow(PetscReal **v, PetscInt *rows, PetscInt *cap, PetscInt cols, const PetscReal row[])
+{
+  PetscFunctionBegin;
+  if (*rows == *cap) {
+    PetscInt   ncap = PetscMax(64, 2 * *cap);
+    PetscReal *nv;
+    PetscCall(PetscMalloc1((size_t)ncap * cols, &nv));
+    PetscCall(PetscArraycpy(nv, *v, (size_t)*rows * cols));
+    PetscCall(PetscFree(*v));
+    *v   = nv;
+    *cap = ncap;
+  }
+  PetscCall(PetscArraycpy(*v + (size_t)*rows * cols, row, cols));
+  (*rows)++;
+  PetscFunctionReturn(0);
+}
+
+/* Numbers on one line; a token that is not a finite number is an error. */
+static PetscErrorCode ParseNumbers(const char *s, const char *end, const char fname[], PetscInt line, PetscReal v[], PetscInt *n)
+{
+  PetscFunctionBegin;
+  *n = 0;
+  while (s < end) {
+    char        tok[64];
+    const char *t;
+    char       *stop;
+    size_t      len;
+    if (isspace((unsigned char)*s)) {
+      s++;
+      continue;
+    }
+    if (*s == '#') break;
+    t = s;
+    while (s < end && !isspace((unsigned char)*s) && *s != '#') s++;
+    len = (size_t)(s - t);
+    PetscCheck(len < sizeof(tok), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: token too long to be a number", fname, (int)line);
+    memcpy(tok, t, len);
+    tok[len] = 0;
+    PetscCheck(*n < PYP_MAXCOLS, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: more than %d numbers on a line", fname, (int)line, PYP_MAXCOLS);
+    errno = 0;
+    v[*n] = strtod(tok, &stop);
+    PetscCheck(stop != tok && *stop == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: '%s' is not a number", fname, (int)line, tok);
+    PetscCheck(isfinite(v[*n]) && errno != ERANGE, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: '%s' is not a finite number", fname, (int)line, tok);
+    (*n)++;
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscBool IsInt(PetscReal v, PetscReal lo, PetscReal hi)
+{
+  return (v == PetscFloorReal(v) && v >= lo && v <= hi) ? PETSC_TRUE : PETSC_FALSE;
+}
+
+/* Temporaries of the parse, freed whatever happens. */
+typedef struct {
+  PetscReal *e;             /* edges as read, 4 per edge */
+  PetscInt   ne, ecap, qcap;
+  PetscInt   excap[32];     /* row capacities of the extra sections */
+  PetscInt   declared;      /* vertex count in *pattern, -1 if absent */
+  PetscInt  *degree;
+} PypBuilder;
+
+static PetscErrorCode ParseSections(const char buf[], size_t len, const char fname[], VKPyp *p, PypBuilder *b)
+{
+  size_t    pos = 0;
+  PetscInt  line = 0;
+  char      section[16] = "";
+  PetscBool havepat = PETSC_FALSE, havepatline = PETSC_FALSE, haveq = PETSC_FALSE, havee = PETSC_FALSE;
+
+  PetscFunctionBegin;
+  while (pos < len) {
+    size_t      end = pos;
+    const char *s;
+    PetscReal   v[PYP_MAXCOLS];
+    PetscInt    n;
+
+    while (end < len && buf[end] != '\n') end++;
+    line++;
+    for (s = buf + pos; s < buf + end && isspace((unsigned char)*s); s++) {}
+    pos = end + 1;
+    if (s < buf + end && *s == '*') { /* section header */
+      const char *t = ++s;
+      size_t      nl;
+      while (s < buf + end && !isspace((unsigned char)*s)) s++;
+      nl = (size_t)(s - t);
+      PetscCheck(nl > 0 && nl < sizeof(section), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: bad section name (1 to %d characters after '*')", fname, (int)line, (int)sizeof(section) - 1);
+      memcpy(section, t, nl);
+      section[nl] = 0;
+      for (size_t k = 0; k < nl; k++) PetscCheck(isalnum((unsigned char)section[k]) || section[k] == '_', PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: bad section name '*%s'", fname, (int)line, section);
+      if (!strcmp(section, "pattern")) {
+        PetscCheck(!havepat, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: second *pattern section", fname, (int)line);
+        havepat = PETSC_TRUE;
+      } else if (!strcmp(section, "Q")) {
+        PetscCheck(!haveq, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: second *Q section", fname, (int)line);
+        haveq = PETSC_TRUE;
+      } else if (!strcmp(section, "E")) {
+        PetscCheck(!havee, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: second *E section", fname, (int)line);
+        havee = PETSC_TRUE;
+      } else {
+        for (PetscInt i = 0; i < p->nextra; i++) PetscCheck(strcmp(p->extra[i].name, section), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: second *%s section", fname, (int)line, section);
+        PetscCheck(p->nextra < 32, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: more than 32 extra sections", fname, (int)line);
+        if (!p->extra) PetscCall(PetscCalloc1(32, &p->extra));
+        PetscCall(PetscStrncpy(p->extra[p->nextra].name, section, sizeof(p->extra[0].name)));
+        p->nextra++;
+      }
+      continue;
+    }
+    PetscCall(ParseNumbers(s, buf + end, fname, line, v, &n));
+    if (n == 0) continue;
+    PetscCheck(section[0], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: data before the first section (expected *pattern)", fname, (int)line);
+    if (!strcmp(section, "pattern")) {
+      PetscCheck(!havepatline, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: *pattern has a single line of data", fname, (int)line);
+      PetscCheck(n == 3 || n == 4, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: *pattern needs 'px py radius [n]', found %d numbers", fname, (int)line, (int)n);
+      PetscCheck(v[0] > 0 && v[1] > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: periods must be positive, got %g %g", fname, (int)line, (double)v[0], (double)v[1]);
+      PetscCheck(v[2] > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: radius must be positive, got %g", fname, (int)line, (double)v[2]);
+      if (n == 4) {
+        PetscCheck(IsInt(v[3], 1, 1e8), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: vertex count must be a positive integer, got %g", fname, (int)line, (double)v[3]);
+        b->declared = (PetscInt)v[3];
+      }
+      havepatline  = PETSC_TRUE;
+      p->period[0] = v[0];
+      p->period[1] = v[1];
+      p->radius    = v[2];
+    } else if (!strcmp(section, "Q")) {
+      PetscCheck(n == 4, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: *Q lines are 'x y z twist', found %d numbers", fname, (int)line, (int)n);
+      PetscCheck(p->nv < 100000000, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: too many vertices", fname, (int)line);
+      PetscCall(AppendRow(&p->q, &p->nv, &b->qcap, 4, v));
+    } else if (!strcmp(section, "E")) {
+      PetscCheck(n == 4, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: *E lines are 'v0 v1 dx dy', found %d numbers", fname, (int)line, (int)n);
+      PetscCheck(IsInt(v[0], 0, 1e9) && IsInt(v[1], 0, 1e9), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: edge vertices must be non-negative integers", fname, (int)line);
+      PetscCheck(IsInt(v[2], -1, 1) && IsInt(v[3], -1, 1), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: edge tile offsets must be -1, 0 or 1, got %g %g", fname, (int)line, (double)v[2], (double)v[3]);
+      PetscCheck(b->ne < 100000000, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: too many edges", fname, (int)line);
+      PetscCall(AppendRow(&b->e, &b->ne, &b->ecap, 4, v));
+    } else {
+      VKPypSection *x = &p->extra[p->nextra - 1];
+      if (x->rows == 0) x->cols = n;
+      PetscCheck(n == x->cols, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: *%s lines have %d numbers, this one %d", fname, (int)line, x->name, (int)x->cols, (int)n);
+      PetscCheck(x->rows < 100000000, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s:%d: too many rows", fname, (int)line);
+      PetscCall(AppendRow(&x->v, &x->rows, &b->excap[p->nextra - 1], n, v));
+    }
+  }
+  PetscCheck(havepatline, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: missing *pattern section (px py radius [n])", fname);
+  PetscCheck(haveq && p->nv > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: missing or empty *Q section (vertices)", fname);
+  PetscCheck(havee && b->ne > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: missing or empty *E section (edges)", fname);
+  PetscCheck(b->declared < 0 || b->declared == p->nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: *pattern declares %d vertices, *Q has %d", fname, (int)b->declared, (int)p->nv);
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode CheckEdges(const char fname[], VKPyp *p, PypBuilder *b)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(4 * (size_t)b->ne, &p->e));
+  for (PetscInt i = 0; i < 4 * b->ne; i++) p->e[i] = (PetscInt)b->e[i];
+  p->ne = b->ne;
+  PetscCall(PetscCalloc1(p->nv, &b->degree));
+  for (PetscInt i = 0; i < p->ne; i++) {
+    const PetscInt *ed = p->e + 4 * i;
+    PetscCheck(ed[0] < p->nv && ed[1] < p->nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: edge %d (%d -> %d) refers to a vertex out of range [0, %d)", fname, (int)i, (int)ed[0], (int)ed[1], (int)p->nv);
+    PetscCheck(ed[0] != ed[1] || ed[2] || ed[3], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: edge %d joins vertex %d to itself in the same tile", fname, (int)i, (int)ed[0]);
+    b->degree[ed[0]]++;
+    b->degree[ed[1]]++;
+    PetscCheck(b->degree[ed[0]] <= 2 && b->degree[ed[1]] <= 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: vertex %d belongs to more than two edges (edge %d); a yarn vertex has at most two", fname, (int)(b->degree[ed[0]] > 2 ? ed[0] : ed[1]), (int)i);
+  }
+  PetscFunctionReturn(0);
+}
+
+/* On error `p` holds what was read so far: free it with VKPypFree. */
+PetscErrorCode VKPypParse(const char buf[], size_t len, const char fname[], VKPyp *p)
+{
+  PypBuilder     b;
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(p, sizeof(*p)));
+  PetscCall(PetscMemzero(&b, sizeof(b)));
+  b.declared = -1;
+  ierr       = ParseSections(buf, len, fname, p, &b);
+  if (!ierr) ierr = CheckEdges(fname, p, &b);
+  PetscCall(PetscFree(b.e));
+  PetscCall(PetscFree(b.degree));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode WritePyp(FILE *fp, const VKPyp *p)
+{
+  PetscFunctionBegin;
+  fprintf(fp, "# periodic yarn pattern written by volknit\n*pattern\n%.17g %.17g %.17g %d\n*Q\n", (double)p->period[0], (double)p->period[1], (double)p->radius, (int)p->nv);
+  for (PetscInt i = 0; i < p->nv; i++) fprintf(fp, "%.17g %.17g %.17g %.17g\n", (double)p->q[4 * i], (double)p->q[4 * i + 1], (double)p->q[4 * i + 2], (double)p->q[4 * i + 3]);
+  fputs("*E\n", fp);
+  for (PetscInt i = 0; i < p->ne; i++) fprintf(fp, "%d %d %d %d\n", (int)p->e[4 * i], (int)p->e[4 * i + 1], (int)p->e[4 * i + 2], (int)p->e[4 * i + 3]);
+  for (PetscInt s = 0; s < p->nextra; s++) {
+    fprintf(fp, "*%s\n", p->extra[s].name);
+    for (PetscInt r = 0; r < p->extra[s].rows; r++)
+      for (PetscInt c = 0; c < p->extra[s].cols; c++) fprintf(fp, "%.17g%c", (double)p->extra[s].v[r * p->extra[s].cols + c], c + 1 == p->extra[s].cols ? '\n' : ' ');
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPypWrite(const char path[], const VKPyp *p)
+{
+  VKOutput       out;
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(VKOutputBegin(path, PETSC_TRUE, &out));
+  ierr = WritePyp(out.fp, p);
+  if (ierr) PetscCall(VKOutputAbandon(&out));
+  PetscCall(ierr);
+  PetscCall(VKOutputCommit(&out));
+  PetscFunctionReturn(0);
+}
+
+/* Tiled vertex (tile t = i + m j, pattern vertex v) has id t * nv + v. */
+PetscErrorCode VKPypTile(const VKPyp *p, PetscInt m, PetscInt n, VKCurves *c, PetscInt **origin)
+{
+  PetscInt   N, *nbr, *deg, *order, *vis, nout = 0;
+  PetscReal *x;
+
+  PetscFunctionBegin;
+  PetscCheck(m >= 1 && n >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_tiles needs two positive counts, got %d,%d", (int)m, (int)n);
+  PetscCheck((double)m * (double)n * (double)p->nv < 1e9, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_tiles %d,%d gives too many vertices", (int)m, (int)n);
+  N = m * n * p->nv;
+  PetscCall(PetscMalloc5(2 * N, &nbr, N, &deg, N, &order, N, &vis, 3 * N, &x));
+  for (PetscInt i = 0; i < N; i++) deg[i] = vis[i] = 0;
+  for (PetscInt tj = 0; tj < n; tj++)
+    for (PetscInt ti = 0; ti < m; ti++)
+      for (PetscInt k = 0; k < p->ne; k++) {
+        const PetscInt *ed = p->e + 4 * k;
+        PetscInt        ui = ti + ed[2], uj = tj + ed[3], a, b;
+        if (ui < 0 || ui >= m || uj < 0 || uj >= n) continue; /* leaves the patch */
+        a             = (ti + m * tj) * p->nv + ed[0];
+        b             = (ui + m * uj) * p->nv + ed[1];
+        nbr[2 * a + deg[a]++] = b;
+        nbr[2 * b + deg[b]++] = a;
+      }
+  PetscCall(VKCurvesInit(c));
+  if (origin) PetscCall(PetscMalloc1(2 * N + 1, origin));
+  /* open chains from their ends first, then the remaining cycles */
+  for (int pass = 0; pass < 2; pass++)
+    for (PetscInt s = 0; s < N; s++) {
+      PetscInt len = 0, prev = -1, cur = s;
+      if (vis[s] || (pass == 0 && deg[s] != 1) || (pass == 1 && deg[s] != 2)) continue;
+      while (cur >= 0 && !vis[cur]) {
+        PetscInt next = -1;
+        vis[cur]      = 1;
+        order[len++]  = cur;
+        for (PetscInt k = 0; k < deg[cur]; k++)
+          if (nbr[2 * cur + k] != prev && !vis[nbr[2 * cur + k]]) {
+            next = nbr[2 * cur + k];
+            break;
+          }
+        prev = cur;
+        cur  = next;
+      }
+      for (PetscInt k = 0; k < len; k++) {
+        PetscInt id = order[k], t = id / p->nv, v = id % p->nv;
+        x[3 * k]     = p->q[4 * v] + (PetscReal)(t % m) * p->period[0];
+        x[3 * k + 1] = p->q[4 * v + 1] + (PetscReal)(t / m) * p->period[1];
+        x[3 * k + 2] = p->q[4 * v + 2];
+        if (origin) {
+          (*origin)[2 * (nout + k)]     = t;
+          (*origin)[2 * (nout + k) + 1] = v;
+        }
+      }
+      nout += len;
+      PetscCall(VKCurvesAdd(c, len, x, pass == 1 ? PETSC_TRUE : PETSC_FALSE));
+    }
+  PetscCall(PetscFree5(nbr, deg, order, vis, x));
+  PetscCheck(c->n > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Tiling the pattern produced no yarns");
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,446 @@
+/* yarn.c: the yarn model object VKYarn (DESIGN §3): options, set-up from
+ * the chosen source, view and destroy.  Set-up turns any source into rest
+ * polylines resampled to the target segment length (default: the
+ * radius), computes rest frames by parallel transport, and for knit
+ * charts the glue pairs that keep the free edges from unravelling.
+ * Every rank builds the same model (files are read once and broadcast),
+ * so the later stages can distribute it as they need. */
+#include <vkyarn.h>
+#include <vkio.h>
+#include <vklog.h>
+#include <vkutil.h>
+
+const char *const VKYarnSources[] = {"chart", "woven", "bcc", "pyp", "h5", "curves", "VKYarnSource", "VK_YARN_", NULL};
+
+#define DEFAULT_RADIUS  1.0e-3 /* m */
+#define DEFAULT_DENSITY 3.0e-4 /* kg/m: about 300 tex, a worsted-weight yarn */
+
+PetscErrorCode VKYarnCreate(MPI_Comm comm, VKYarn *yarn)
+{
+  VKYarn y;
+
+  PetscFunctionBegin;
+  PetscCall(VKInitializePackage());
+  PetscCall(PetscNew(&y));
+  y->comm    = comm;
+  y->source  = VK_YARN_CHART;
+  y->scale   = 1;
+  y->radius  = DEFAULT_RADIUS;
+  y->density = DEFAULT_DENSITY;
+  y->tiles[0] = y->tiles[1] = 1;
+  y->weave.warps = y->weave.wefts = 10;
+  PetscCall(PetscStrncpy(y->pattern, "stockinette", sizeof(y->pattern)));
+  PetscCall(VKKnitParamsDefault(y->radius, &y->knit));
+  PetscCall(VKCurvesInit(&y->curves));
+  *yarn = y;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnDestroy(VKYarn *yarn)
+{
+  PetscFunctionBegin;
+  if (!*yarn) PetscFunctionReturn(0);
+  PetscCall(VKCurvesFree(&(*yarn)->curves));
+  PetscCall(PetscFree((*yarn)->normal));
+  PetscCall(PetscFree((*yarn)->bind));
+  PetscCall(PetscFree(*yarn));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetKnit(VKYarn y, const char pattern_or_file[], PetscInt wales, PetscInt courses)
+{
+  PetscBool builtin = PETSC_FALSE;
+
+  PetscFunctionBegin;
+  for (const char *const *b = VKKnitBuiltins; *b; b++)
+    if (!strcmp(*b, pattern_or_file)) builtin = PETSC_TRUE;
+  y->source = VK_YARN_CHART;
+  if (builtin) {
+    PetscCall(PetscStrncpy(y->pattern, pattern_or_file, sizeof(y->pattern)));
+    y->file[0] = 0;
+  } else PetscCall(PetscStrncpy(y->file, pattern_or_file, sizeof(y->file)));
+  y->knit.wales   = wales;
+  y->knit.courses = courses;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetRadius(VKYarn y, PetscReal r)
+{
+  PetscFunctionBegin;
+  PetscCheck(r > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Yarn radius must be positive, got %g", (double)r);
+  y->radius     = r;
+  y->radius_set = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetCurves(VKYarn y, const VKCurves *c)
+{
+  PetscFunctionBegin;
+  PetscCall(VKCurvesFree(&y->curves));
+  PetscCall(VKCurvesCopy(c, &y->curves));
+  y->source = VK_YARN_GIVEN;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetFromOptions(VKYarn y)
+{
+  char      buf[PETSC_MAX_PATH_LEN];
+  PetscBool set, chosen[7] = {PETSC_FALSE};
+  PetscInt  n, nsources = 0;
+  const char *names[7] = {"-yarn_pattern", "-yarn_chart", "-yarn_weave", "-yarn_weave_file", "-yarn_bcc", "-yarn_pyp", "-yarn_h5"};
+
+  PetscFunctionBegin;
+  PetscOptionsBegin(y->comm, NULL, "Yarn model options (volknit yarn)", "VKYarn");
+  PetscCall(PetscOptionsString("-yarn_pattern", "Built-in knit pattern: stockinette, garter, rib1x1, rib2x2, seed, basketweave", "VKYarnSetKnit", y->pattern, buf, sizeof(buf), &chosen[0]));
+  if (chosen[0]) {
+    PetscCall(PetscStrncpy(y->pattern, buf, sizeof(y->pattern)));
+    y->source = VK_YARN_CHART;
+  }
+  PetscCall(PetscOptionsString("-yarn_chart", "Knit chart file: rows of K/P, bottom course first (meshes/README)", "VKKnitChartParse", "", buf, sizeof(buf), &chosen[1]));
+  if (chosen[1]) {
+    PetscCall(PetscStrncpy(y->file, buf, sizeof(y->file)));
+    y->source = VK_YARN_CHART;
+  }
+  PetscCall(PetscOptionsString("-yarn_weave", "Built-in weave: plain, twill, basket, satin", "VKWeaveBuiltin", "plain", buf, sizeof(buf), &chosen[2]));
+  if (chosen[2]) {
+    PetscCall(PetscStrncpy(y->pattern, buf, sizeof(y->pattern)));
+    y->source = VK_YARN_WOVEN;
+  }
+  PetscCall(PetscOptionsString("-yarn_weave_file", "Weave matrix file: rows of 0/1, 1 where the weft is over the warp", "VKWeaveParse", "", buf, sizeof(buf), &chosen[3]));
+  if (chosen[3]) {
+    PetscCall(PetscStrncpy(y->file, buf, sizeof(y->file)));
+    y->source = VK_YARN_WOVEN;
+  }
+  PetscCall(PetscOptionsString("-yarn_bcc", "BCC file (binary curve collection, C0 or PL curves)", "VKBCCParse", "", buf, sizeof(buf), &chosen[4]));
+  if (chosen[4]) {
+    PetscCall(PetscStrncpy(y->file, buf, sizeof(y->file)));
+    y->source = VK_YARN_BCC;
+  }
+  PetscCall(PetscOptionsString("-yarn_pyp", "Periodic yarn pattern file (pyp, HYLC)", "VKPypParse", "", buf, sizeof(buf), &chosen[5]));
+  if (chosen[5]) {
+    PetscCall(PetscStrncpy(y->file, buf, sizeof(y->file)));
+    y->source = VK_YARN_PYP;
+  }
+  PetscCall(PetscOptionsString("-yarn_h5", "volknit yarn file (yarn.h5 of an earlier run)", "VKYarnLoadH5", "", buf, sizeof(buf), &chosen[6]));
+  if (chosen[6]) {
+    PetscCall(PetscStrncpy(y->file, buf, sizeof(y->file)));
+    y->source = VK_YARN_H5;
+  }
+  for (int i = 0; i < 7; i++) nsources += chosen[i];
+  if (chosen[2] && chosen[3]) nsources--; /* a weave file needs no built-in name */
+  PetscCheck(nsources <= 1, y->comm, PETSC_ERR_ARG_INCOMP, "Several yarn sources given (%s%s%s%s%s%s%s): choose one", chosen[0] ? names[0] : "", chosen[1] ? " -yarn_chart" : "", chosen[2] ? " -yarn_weave" : "", chosen[3] ? " -yarn_weave_file" : "", chosen[4] ? " -yarn_bcc" : "", chosen[5] ? " -yarn_pyp" : "", chosen[6] ? " -yarn_h5" : "");
+  if (chosen[3]) y->pattern[0] = 0;
+
+  PetscCall(PetscOptionsInt("-yarn_wales", "Knit patch width in stitches", "VKYarnSetKnit", y->knit.wales, &y->knit.wales, NULL));
+  PetscCall(PetscOptionsInt("-yarn_courses", "Knit patch height in courses", "VKYarnSetKnit", y->knit.courses, &y->knit.courses, NULL));
+  PetscCall(PetscOptionsReal("-yarn_stitch_width", "Stitch width w, m (default 9 r)", "VKKnitBuild", y->knit.width, &y->knit.width, &y->knit_set[0]));
+  PetscCall(PetscOptionsReal("-yarn_stitch_height", "Course spacing, m (default 7 r)", "VKKnitBuild", y->knit.height, &y->knit.height, &y->knit_set[1]));
+  PetscCall(PetscOptionsReal("-yarn_loop_height", "Loop height h, m (default 1.7 x course spacing)", "VKKnitBuild", y->knit.loop_height, &y->knit.loop_height, &y->knit_set[2]));
+  PetscCall(PetscOptionsReal("-yarn_loop_bulge", "Sideways bulge a of the loop head, m (default w/4)", "VKKnitBuild", y->knit.bulge, &y->knit.bulge, &y->knit_set[3]));
+  PetscCall(PetscOptionsReal("-yarn_loop_depth", "Out-of-plane amplitude d of the loops, m (default 1.5 r)", "VKKnitBuild", y->knit.depth, &y->knit.depth, &y->knit_set[4]));
+  PetscCall(PetscOptionsInt("-yarn_warps", "Woven patch: number of warp yarns", "VKWeaveBuild", y->weave.warps, &y->weave.warps, NULL));
+  PetscCall(PetscOptionsInt("-yarn_wefts", "Woven patch: number of weft yarns", "VKWeaveBuild", y->weave.wefts, &y->weave.wefts, NULL));
+  PetscCall(PetscOptionsReal("-yarn_weave_spacing", "Woven patch: yarn spacing, m (default 5 r)", "VKWeaveBuild", y->weave.spacing, &y->weave.spacing, &y->weave_set[0]));
+  PetscCall(PetscOptionsReal("-yarn_weave_depth", "Woven patch: height of a yarn over/under a crossing, m (default r)", "VKWeaveBuild", y->weave.depth, &y->weave.depth, &y->weave_set[1]));
+  n = 2;
+  PetscCall(PetscOptionsIntArray("-yarn_weave_params", "Weave parameters: twill a,b (default 2,1); basket m (2); satin n,s (5,2)", "VKWeaveBuiltin", y->weave_param, &n, &y->weave_param_set));
+  if (y->weave_param_set && n == 1) y->weave_param[1] = 0;
+  n = 2;
+  PetscCall(PetscOptionsIntArray("-yarn_tiles", "pyp tiling m,n (one number: m = n)", "VKPypTile", y->tiles, &n, &set));
+  if (set && n == 1) y->tiles[1] = y->tiles[0];
+  PetscCheck(!set || (n >= 1 && y->tiles[0] >= 1 && y->tiles[1] >= 1), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_tiles needs one or two positive counts");
+  PetscCall(PetscOptionsReal("-yarn_scale", "Scale applied to file coordinates to get metres", "VKYarnSetUp", y->scale, &y->scale, NULL));
+  PetscCall(PetscOptionsReal("-yarn_radius", "Yarn radius r, m (default 1e-3; BCC: estimated; pyp: from the file)", "VKYarnSetRadius", y->radius, &y->radius, &set));
+  if (set) y->radius_set = PETSC_TRUE;
+  PetscCall(PetscOptionsReal("-yarn_density", "Linear density, kg/m", "VKYarnSetUp", y->density, &y->density, NULL));
+  PetscCall(PetscOptionsReal("-yarn_segment_length", "Target segment length, m (default r)", "VKCurvesResample", y->seglen, &y->seglen, &y->seglen_set));
+  PetscOptionsEnd();
+
+  PetscCheck(y->radius > 0 && y->radius < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_radius must be positive, got %g", (double)y->radius);
+  PetscCheck(y->density > 0 && y->density < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_density must be positive, got %g", (double)y->density);
+  PetscCheck(y->scale > 0 && y->scale < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_scale must be positive, got %g", (double)y->scale);
+  PetscCheck(!y->seglen_set || (y->seglen > 0 && y->seglen < PETSC_INFINITY), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_segment_length must be positive, got %g", (double)y->seglen);
+  PetscFunctionReturn(0);
+}
+
+/* Knit parameters not given explicitly follow the radius. */
+static PetscErrorCode KnitParams(VKYarn y)
+{
+  VKKnitParams d;
+
+  PetscFunctionBegin;
+  PetscCall(VKKnitParamsDefault(y->radius, &d));
+  if (y->knit_set[0]) d.width = y->knit.width;
+  if (y->knit_set[1]) d.height = y->knit.height;
+  d.loop_height = y->knit_set[2] ? y->knit.loop_height : 1.7 * d.height;
+  d.bulge       = y->knit_set[3] ? y->knit.bulge : 0.25 * d.width;
+  if (y->knit_set[4]) d.depth = y->knit.depth;
+  d.wales   = y->knit.wales;
+  d.courses = y->knit.courses;
+  y->knit   = d;
+  PetscCall(VKKnitParamsCheck(&y->knit));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
+{
+  VKKnitChart    chart = {0, 0, NULL};
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(KnitParams(y));
+  if (y->file[0]) {
+    char  *buf;
+    size_t len;
+    PetscCall(VKReadFileBroadcast(y->comm, y->file, &buf, &len));
+    ierr = VKKnitChartParse(buf, len, y->file, &chart);
+    PetscCall(PetscFree(buf));
+    PetscCall(ierr);
+    PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "knit chart %s (%d x %d), %d wales x %d courses", y->file, (int)chart.rows, (int)chart.cols, (int)y->knit.wales, (int)y->knit.courses));
+  } else {
+    PetscCall(VKKnitChartBuiltin(y->pattern, &chart));
+    PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "knit pattern %s, %d wales x %d courses", y->pattern, (int)y->knit.wales, (int)y->knit.courses));
+  }
+  ierr = VKKnitBuild(&chart, &y->knit, y->seglen, dense);
+  PetscCall(VKKnitChartFree(&chart));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode BuildWoven(VKYarn y, VKCurves *dense)
+{
+  VKWeave        w = {0, 0, NULL};
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  if (!y->weave_set[0]) y->weave.spacing = 5 * y->radius;
+  if (!y->weave_set[1]) y->weave.depth = y->radius;
+  if (y->file[0]) {
+    char  *buf;
+    size_t len;
+    PetscCall(VKReadFileBroadcast(y->comm, y->file, &buf, &len));
+    ierr = VKWeaveParse(buf, len, y->file, &w);
+    PetscCall(PetscFree(buf));
+    PetscCall(ierr);
+    PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "weave matrix %s, %d wefts x %d warps", y->file, (int)y->weave.wefts, (int)y->weave.warps));
+  } else {
+    PetscInt p[2] = {0, 0};
+    if (y->weave_param_set) {
+      p[0] = y->weave_param[0];
+      p[1] = y->weave_param[1];
+    } else if (!strcmp(y->pattern, "twill")) {
+      p[0] = 2;
+      p[1] = 1;
+    } else if (!strcmp(y->pattern, "basket")) p[0] = 2;
+    else if (!strcmp(y->pattern, "satin")) {
+      p[0] = 5;
+      p[1] = 2;
+    }
+    PetscCall(VKWeaveBuiltin(y->pattern, p[0], p[1], &w));
+    PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "weave %s, %d wefts x %d warps", y->pattern, (int)y->weave.wefts, (int)y->weave.warps));
+  }
+  ierr = VKWeaveBuild(&w, &y->weave, y->seglen, dense);
+  PetscCall(VKWeaveFree(&w));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+static int CompareReal(const void *a, const void *b)
+{
+  PetscReal x = *(const PetscReal *)a, z = *(const PetscReal *)b;
+  return (x > z) - (x < z);
+}
+
+/* Median spacing of the control points, the scale of a BCC model. */
+static PetscErrorCode MedianSpacing(const VKCurves *c, PetscReal *m)
+{
+  PetscInt   nseg, *seg;
+  PetscReal *len;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesGetSegments(c, &nseg, &seg));
+  PetscCall(PetscMalloc1(nseg + 1, &len));
+  for (PetscInt s = 0; s < nseg; s++) {
+    const PetscReal *p = c->x + 3 * seg[2 * s], *q = c->x + 3 * seg[2 * s + 1];
+    len[s]             = PetscSqrtReal(PetscSqr(q[0] - p[0]) + PetscSqr(q[1] - p[1]) + PetscSqr(q[2] - p[2]));
+  }
+  qsort(len, (size_t)nseg, sizeof(PetscReal), CompareReal);
+  *m = nseg ? len[nseg / 2] : 0;
+  if (*m == 0) /* many duplicate points: fall back to the largest spacing */
+    *m = nseg ? len[nseg - 1] : 0;
+  PetscCall(PetscFree(len));
+  PetscCall(PetscFree(seg));
+  PetscCheck(*m > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "All control points coincide");
+  PetscFunctionReturn(0);
+}
+
+/* File curves (BCC or tiled pyp) in metres to a dense polyline; the
+ * radius is estimated when neither the file nor the options give one. */
+static PetscErrorCode DenseFromControl(VKYarn y, VKCurves *ctrl, VKCurveType type, VKCurves *dense)
+{
+  PetscReal m = 0;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesScale(ctrl, y->scale));
+  PetscCall(VKCurvesValidate(ctrl, y->file));
+  PetscCall(MedianSpacing(ctrl, &m));
+  if (type == VK_CURVE_CATMULL_ROM) PetscCall(VKCurvesEvaluateCatmullRom(ctrl, 0.25 * m, dense));
+  else PetscCall(VKCurvesCopy(ctrl, dense));
+  if (!y->radius_set) {
+    PetscCall(PetscLogEventBegin(VK_EVENT_YarnRadius, 0, 0, 0, 0));
+    PetscCall(VKCurvesEstimateRadius(dense, &y->radius));
+    PetscCall(PetscLogEventEnd(VK_EVENT_YarnRadius, 0, 0, 0, 0));
+    y->radius_estimated = PETSC_TRUE;
+  }
+  if (!y->seglen_set) y->seglen = y->radius;
+  if (type == VK_CURVE_CATMULL_ROM && 0.25 * y->seglen < 0.25 * m) { /* resample finer than the control net */
+    PetscCall(VKCurvesFree(dense));
+    PetscCall(VKCurvesEvaluateCatmullRom(ctrl, 0.25 * y->seglen, dense));
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode ReadBCC(VKYarn y, VKCurves *dense)
+{
+  char          *buf;
+  size_t         len;
+  VKCurves       ctrl;
+  VKCurveType    type = VK_CURVE_POLYLINE;
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(VKReadFileBroadcast(y->comm, y->file, &buf, &len));
+  ierr = VKBCCParse((const unsigned char *)buf, len, y->file, &type, &ctrl);
+  PetscCall(PetscFree(buf));
+  if (!ierr) ierr = DenseFromControl(y, &ctrl, type, dense);
+  PetscCall(VKCurvesFree(&ctrl));
+  PetscCall(ierr);
+  PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "BCC file %s (%s curves, scale %g)", y->file, type == VK_CURVE_CATMULL_ROM ? "C0 Catmull-Rom" : "PL polyline", (double)y->scale));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
+{
+  char          *buf;
+  size_t         len;
+  VKPyp          pyp;
+  VKCurves       tiled = {0};
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(VKReadFileBroadcast(y->comm, y->file, &buf, &len));
+  ierr = VKPypParse(buf, len, y->file, &pyp);
+  PetscCall(PetscFree(buf));
+  if (!ierr) ierr = VKPypTile(&pyp, y->tiles[0], y->tiles[1], &tiled, NULL);
+  if (!ierr && !y->radius_set) {
+    y->radius     = pyp.radius * y->scale;
+    y->radius_set = PETSC_TRUE;
+  }
+  PetscCall(VKPypFree(&pyp));
+  if (!ierr) ierr = DenseFromControl(y, &tiled, VK_CURVE_POLYLINE, dense);
+  PetscCall(VKCurvesFree(&tiled));
+  PetscCall(ierr);
+  PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "pyp file %s tiled %d x %d (scale %g)", y->file, (int)y->tiles[0], (int)y->tiles[1], (double)y->scale));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetUp(VKYarn y)
+{
+  PetscLogDouble t0 = VKWallTime();
+  VKCurves       dense;
+  PetscInt       nseg;
+
+  PetscFunctionBegin;
+  if (y->setup) PetscFunctionReturn(0);
+  PetscCheck(y->radius > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Yarn radius must be positive");
+  if (!y->seglen_set) y->seglen = y->radius;
+  if (y->source == VK_YARN_H5) {
+    PetscCheck(!y->seglen_set, y->comm, PETSC_ERR_ARG_INCOMP, "-yarn_segment_length cannot be used with -yarn_h5: %s is already resampled", y->file);
+    PetscCall(PetscLogEventBegin(VK_EVENT_YarnRead, 0, 0, 0, 0));
+    PetscCall(VKYarnLoadH5(y, y->file));
+    PetscCall(PetscLogEventEnd(VK_EVENT_YarnRead, 0, 0, 0, 0));
+    {
+      char from[sizeof(y->description)];
+      PetscCall(PetscStrncpy(from, y->description, sizeof(from)));
+      PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "%s (read from %s)", from, y->file));
+    }
+  } else if (y->source == VK_YARN_GIVEN) {
+    PetscCall(VKCurvesValidate(&y->curves, "given curves"));
+    PetscCall(PetscStrncpy(y->description, "polylines given through the API", sizeof(y->description)));
+  } else {
+    PetscCall(PetscLogEventBegin(y->source == VK_YARN_CHART || y->source == VK_YARN_WOVEN ? VK_EVENT_YarnBuild : VK_EVENT_YarnRead, 0, 0, 0, 0));
+    switch (y->source) {
+    case VK_YARN_CHART:
+      PetscCall(BuildChart(y, &dense));
+      break;
+    case VK_YARN_WOVEN:
+      PetscCall(BuildWoven(y, &dense));
+      break;
+    case VK_YARN_BCC:
+      PetscCall(ReadBCC(y, &dense));
+      break;
+    default:
+      PetscCall(ReadPyp(y, &dense));
+      break;
+    }
+    PetscCall(PetscLogEventEnd(y->source == VK_YARN_CHART || y->source == VK_YARN_WOVEN ? VK_EVENT_YarnBuild : VK_EVENT_YarnRead, 0, 0, 0, 0));
+    PetscCall(PetscLogEventBegin(VK_EVENT_YarnResample, 0, 0, 0, 0));
+    PetscCall(VKCurvesFree(&y->curves));
+    {
+      PetscErrorCode ierr = VKCurvesResample(&dense, y->seglen, &y->curves);
+      PetscCall(VKCurvesFree(&dense));
+      PetscCall(ierr);
+    }
+    PetscCall(PetscLogEventEnd(VK_EVENT_YarnResample, 0, 0, 0, 0));
+    PetscCall(VKCurvesValidate(&y->curves, y->description));
+    if (y->source == VK_YARN_CHART) {
+      PetscCall(PetscLogEventBegin(VK_EVENT_YarnBind, 0, 0, 0, 0));
+      PetscCall(VKKnitBind(&y->curves, &y->nbind, &y->bind));
+      PetscCall(PetscLogEventEnd(VK_EVENT_YarnBind, 0, 0, 0, 0));
+    }
+  }
+  if (!y->normal) {
+    nseg = VKCurvesNumSegments(&y->curves);
+    PetscCall(PetscLogEventBegin(VK_EVENT_YarnFrames, 0, 0, 0, 0));
+    PetscCall(PetscMalloc1(3 * (size_t)nseg + 1, &y->normal));
+    PetscCall(VKCurvesTransportFrames(&y->curves, y->normal));
+    PetscCall(PetscLogEventEnd(VK_EVENT_YarnFrames, 0, 0, 0, 0));
+  }
+  y->setup      = PETSC_TRUE;
+  y->time_build = VKWallTime() - t0;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetMass(VKYarn y, PetscReal *mass, PetscReal *length)
+{
+  PetscReal L;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesLength(&y->curves, &L));
+  if (mass) *mass = y->density * L;
+  if (length) *length = L;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnView(VKYarn y, PetscViewer viewer)
+{
+  PetscBool iascii;
+  PetscReal lo[3], hi[3], mass, length;
+  PetscInt  nclosed = 0;
+
+  PetscFunctionBegin;
+  if (!viewer) PetscCall(PetscViewerASCIIGetStdout(y->comm, &viewer));
+  PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &iascii));
+  if (!iascii) PetscFunctionReturn(0);
+  PetscCall(VKYarnGetMass(y, &mass, &length));
+  PetscCall(VKCurvesBoundingBox(&y->curves, lo, hi));
+  for (PetscInt i = 0; i < y->curves.n; i++) nclosed += y->curves.closed[i];
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Yarn model: %s\n", y->description));
+  PetscCall(PetscViewerASCIIPushTab(viewer));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "curves %d (%d closed), vertices %d, segments %d\n", (int)y->curves.n, (int)nclosed, (int)y->curves.nv, (int)VKCurvesNumSegments(&y->curves)));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "total length %g m, bounding box [%g, %g] x [%g, %g] x [%g, %g] m\n", (double)length, (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (double)lo[2], (double)hi[2]));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "radius %g m (%s), linear density %g kg/m, mass %g kg\n", (double)y->radius, y->radius_estimated ? "estimated" : "given", (double)y->density, (double)mass));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "target segment length %g m, glue pairs %d\n", (double)y->seglen, (int)y->nbind));
+  PetscCall(PetscViewerASCIIPopTab(viewer));
+  PetscFunctionReturn(0);
+}
