@@ -1,0 +1,106 @@
+/* vkmesh.h: the volumetric mesh enclosing a yarn model (DESIGN §5, paper
+ * §4): voxels marked by an exact 3-D DDA along every yarn segment, six
+ * conforming Kuhn tetrahedra per voxel, per-tet gradient operators G_e and
+ * rest volumes V_e, lumped nodal masses by exact line integrals (Eq. 2),
+ * the embedding N (x^Y = N x^V, Eq. 4), the element dual graph, METIS
+ * domains, and the distributed PETSc layout that the simulator and the
+ * fitting use.
+ *
+ * The global mesh is built identically on every rank (deterministic, a few
+ * seconds for a million yarn vertices); nodes and tetrahedra are then
+ * renumbered so that each rank owns a contiguous range made of whole
+ * METIS domains, and each rank keeps its local view (owned elements,
+ * ghost nodes, local-to-global map, matrix preallocation). */
+#pragma once
+#include <petscvec.h>
+#include <petscmat.h>
+#include <vkyarn.h>
+#include <stdint.h>
+
+/* Voxel (i,j,k) spans origin + h [i,i+1] x [j,j+1] x [k,k+1]. */
+typedef struct {
+  PetscReal h, origin[3];
+  PetscInt  dims[3];
+} VKGrid;
+
+/* This rank's part of the distributed mesh. */
+typedef struct {
+  PetscInt               nStart, nEnd;  /* owned nodes (global numbering) */
+  PetscInt               eStart, eEnd;  /* owned tetrahedra */
+  PetscInt               nghost, *ghost; /* ghost nodes (global ids, sorted) */
+  PetscInt               nlocal;        /* owned + ghost */
+  PetscInt              *local_tet;     /* 4 per owned tet, local node numbers */
+  PetscInt              *d_nnz, *o_nnz; /* scalar preallocation of owned rows */
+  ISLocalToGlobalMapping l2g;           /* local node -> global node */
+} VKLayout;
+
+typedef struct _n_VKMesh *VKMesh;
+struct _n_VKMesh {
+  MPI_Comm    comm;
+  PetscMPIInt rank, size;
+  VKYarn      yarn; /* the enclosed yarn model (reference) */
+  VKGrid      grid;
+  PetscBool   h_set, setup;
+  /* voxels (Morton order) */
+  PetscInt  nvox;
+  PetscInt *vox;    /* 3 per voxel: grid coordinates */
+  uint64_t *voxkey; /* sorted Morton keys of the voxels */
+  /* nodes */
+  PetscInt   nv;
+  PetscReal *x;        /* 3 per node: rest position */
+  PetscInt  *node_ijk; /* 3 per node: grid coordinates */
+  PetscReal *mass;     /* lumped mass (Eq. 2) */
+  /* tetrahedra */
+  PetscInt   ne;
+  PetscInt  *tet;   /* 4 per tet, positively oriented */
+  PetscReal *G;     /* 12 per tet: G_e (3 x 4, row-major), F_e = [x_0..x_3] G_e^T */
+  PetscReal *vol;   /* rest volume V_e */
+  PetscInt  *tet_of_kuhn; /* 6 v + p (voxel v, Kuhn tet p) -> tet */
+  /* element dual graph (tets sharing a face), CSR */
+  PetscInt *dual_start, *dual_adj;
+  /* embedding: yarn vertex k lies in tet emb_tet[k] with weights emb_w[4k..] */
+  PetscInt   ny;
+  PetscInt  *emb_tet;
+  PetscReal *emb_w;
+  /* domains (contiguous after renumbering) */
+  PetscInt  ndomains;
+  PetscInt *tet_domain, *node_domain, *node_interface;
+  PetscInt *domain_tet_start, *domain_node_start; /* ndomains+1 */
+  PetscInt *rank_tet_start, *rank_node_start;     /* size+1 */
+  VKLayout  layout;
+  /* summary */
+  PetscReal      yarn_mass, mesh_mass;
+  PetscLogDouble time[8]; /* voxelize, tets, lump, embed, dual, partition, layout, total */
+};
+
+PETSC_EXTERN PetscErrorCode VKMeshCreate(MPI_Comm, VKMesh *);
+PETSC_EXTERN PetscErrorCode VKMeshSetYarn(VKMesh, VKYarn);
+PETSC_EXTERN PetscErrorCode VKMeshSetCellSize(VKMesh, PetscReal h);
+PETSC_EXTERN PetscErrorCode VKMeshSetDomains(VKMesh, PetscInt);
+PETSC_EXTERN PetscErrorCode VKMeshSetFromOptions(VKMesh);
+PETSC_EXTERN PetscErrorCode VKMeshSetUp(VKMesh);
+PETSC_EXTERN PetscErrorCode VKMeshView(VKMesh, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKMeshDestroy(VKMesh *);
+
+/* The tet containing point p (which must lie in a mesh voxel) and its
+ * barycentric weights; tet is -1 if p lies outside the mesh. */
+PETSC_EXTERN PetscErrorCode VKMeshLocate(VKMesh, const PetscReal p[], PetscInt *tet, PetscReal w[]);
+/* x^Y = N x^V for a (replicated) array of node positions, 3 per node. */
+PETSC_EXTERN PetscErrorCode VKMeshApplyEmbedding(VKMesh, const PetscReal xv[], PetscReal xy[]);
+/* The face-connected voxel chain (grid coordinates, 3 per voxel) that the
+ * voxelizer walks along curve c of a yarn model. */
+PETSC_EXTERN PetscErrorCode VKMeshYarnVoxelChain(const VKGrid *, const VKCurves *, PetscInt c, PetscInt *n, PetscInt **ijk);
+PETSC_EXTERN PetscInt       VKMeshFindVoxel(VKMesh, const PetscInt ijk[]);
+
+/* Distributed objects over the layout: a ghosted node vector with block
+ * size bs, and an AIJ (bs 1) or BAIJ (bs 3) matrix preallocated for the
+ * node adjacency with the local-to-global map set (MatSetValuesLocal). */
+PETSC_EXTERN PetscErrorCode VKMeshCreateNodeVec(VKMesh, PetscInt bs, Vec *);
+PETSC_EXTERN PetscErrorCode VKMeshCreateNodeMat(VKMesh, PetscInt bs, Mat *);
+
+/* mesh.h5 (with the yarn model inside), mesh.xdmf, mesh.json into dir */
+PETSC_EXTERN PetscErrorCode VKMeshWriteOutputs(VKMesh, const char dir[]);
+/* Read a mesh.h5 written by VKMeshWriteOutputs (partition included) and
+ * rebuild the rank layout; the yarn model inside is loaded into `yarn`
+ * (created here) so the mesh keeps a consistent embedding. */
+PETSC_EXTERN PetscErrorCode VKMeshLoadH5(MPI_Comm, const char path[], VKMesh *, VKYarn *);
