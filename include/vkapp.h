@@ -1,0 +1,18 @@
+/* vkapp.h: the subcommands of bin/volknit (DESIGN §1), one function each,
+ * so the driver stays a thin dispatcher and examples can call them.  Each
+ * reads its options from the PETSc options database and writes into the
+ * output directory (-o DIR, default "out"). */
+#pragma once
+#include <petscsys.h>
+
+typedef struct {
+  const char *name;
+  const char *summary;
+  PetscErrorCode (*run)(MPI_Comm);
+} VKCommand;
+
+PETSC_EXTERN const VKCommand VKCommands[];
+PETSC_EXTERN PetscErrorCode  VKGetOutputDirectory(MPI_Comm, char dir[], size_t size);
+PETSC_EXTERN PetscErrorCode  VKCommandYarn(MPI_Comm);
+PETSC_EXTERN PetscErrorCode  VKCommandMesh(MPI_Comm);
+PETSC_EXTERN PetscErrorCode  VKCommandRun(MPI_Comm);

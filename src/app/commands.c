@@ -1,0 +1,187 @@
+/* commands.c: the subcommands of bin/volknit (DESIGN §1).
+ *   yarn  build or read a yarn model          -> DIR/yarn.h5 .xdmf .json
+ *   mesh  enclose it in a voxel tet mesh      -> DIR/mesh.h5 .xdmf .json
+ *   run   the stages the scene needs, in order (today: yarn, mesh)
+ * Each runs in its own PetscLogStage, so -log_view splits the time by
+ * stage.  With -help a command lists its options and stops. */
+#include <vkapp.h>
+#include <vkmesh.h>
+#include <vkio.h>
+#include <vklog.h>
+#include <vkutil.h>
+
+const VKCommand VKCommands[] = {
+  {"yarn", "build or read a yarn model (knit chart, weave, BCC, pyp, HDF5): DIR/yarn.{h5,xdmf,json}", VKCommandYarn},
+  {"mesh", "enclose the yarn model in a voxel tet mesh with masses, embedding, METIS domains: DIR/mesh.{h5,xdmf,json}", VKCommandMesh},
+  {"run",  "run the stages the scene needs (today: yarn, mesh)", VKCommandRun},
+  {NULL,   NULL, NULL}
+};
+
+PetscErrorCode VKGetOutputDirectory(MPI_Comm comm, char dir[], size_t size)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscStrncpy(dir, "out", size));
+  PetscOptionsBegin(comm, NULL, "Output", "volknit");
+  PetscCall(PetscOptionsString("-o", "Output directory", "volknit", dir, dir, size, NULL));
+  PetscOptionsEnd();
+  PetscCheck(dir[0], comm, PETSC_ERR_ARG_WRONG, "-o needs a directory name");
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode ViewFromOptions(MPI_Comm comm, const char opt[], PetscErrorCode (*view)(void *, PetscViewer), void *obj)
+{
+  PetscViewer       viewer;
+  PetscViewerFormat format;
+  PetscBool         flg;
+
+  PetscFunctionBegin;
+  PetscCall(PetscOptionsGetViewer(comm, NULL, NULL, opt, &viewer, &format, &flg));
+  if (flg) {
+    PetscCall(PetscViewerPushFormat(viewer, format));
+    PetscCall(view(obj, viewer));
+    PetscCall(PetscViewerPopFormat(viewer));
+    PetscCall(PetscViewerDestroy(&viewer));
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode YarnView(void *y, PetscViewer v)
+{
+  return VKYarnView((VKYarn)y, v);
+}
+static PetscErrorCode MeshView(void *m, PetscViewer v)
+{
+  return VKMeshView((VKMesh)m, v);
+}
+
+/* Build the yarn model from the options, write it, report it. */
+static PetscErrorCode YarnStage(MPI_Comm comm, const char dir[], VKYarn *yarn, PetscBool *help)
+{
+  VKYarn    y;
+  char      path[PETSC_MAX_PATH_LEN];
+  PetscBool set;
+  PetscReal mass, length;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogStagePush(VK_STAGE_YARN));
+  PetscCall(VKYarnCreate(comm, &y));
+  *yarn = y;
+  PetscCall(VKYarnSetFromOptions(y));
+  PetscOptionsBegin(comm, NULL, "Yarn outputs", "volknit yarn");
+  PetscCall(PetscOptionsString("-yarn_write_bcc", "Also write the yarn model as a polyline BCC file", "VKBCCWrite", "", path, sizeof(path), &set));
+  PetscCall(PetscOptionsString("-yarn_write_obj", "Also write the yarn model as OBJ polylines", "VKYarnWriteOBJ", "", path, sizeof(path), &set));
+  PetscCall(PetscOptionsName("-yarn_view", "Print the yarn model summary", "VKYarnView", NULL));
+  PetscOptionsEnd();
+  PetscCall(PetscOptionsHasHelp(NULL, help));
+  if (*help) {
+    PetscCall(PetscLogStagePop());
+    PetscFunctionReturn(0);
+  }
+  PetscCall(VKYarnSetUp(y));
+  if (y->radius_estimated) PetscCall(PetscPrintf(comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
+  PetscCall(VKYarnWriteOutputs(y, dir));
+  PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_bcc", path, sizeof(path), &set));
+  if (set) {
+    PetscMPIInt    rank;
+    PetscErrorCode ierr = 0;
+    PetscCallMPI(MPI_Comm_rank(comm, &rank));
+    if (rank == 0) ierr = VKBCCWrite(path, &y->curves);
+    PetscCall(VKCollective(comm, ierr, path));
+  }
+  PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_obj", path, sizeof(path), &set));
+  if (set) PetscCall(VKYarnWriteOBJ(y, path));
+  PetscCall(ViewFromOptions(comm, "-yarn_view", YarnView, y));
+  PetscCall(VKYarnGetMass(y, &mass, &length));
+  PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m -> %s/yarn.h5 (%.2f s)\n", y->description, (int)y->curves.n, (int)y->curves.nv, (double)length, (double)mass, (double)y->radius, dir, y->time_build));
+  PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode MeshStage(MPI_Comm comm, const char dir[], VKYarn yarn, PetscBool *help)
+{
+  VKMesh m;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogStagePush(VK_STAGE_MESH));
+  PetscCall(VKMeshCreate(comm, &m));
+  PetscCall(VKMeshSetYarn(m, yarn));
+  PetscCall(VKMeshSetFromOptions(m));
+  PetscCall(PetscOptionsHasHelp(NULL, help));
+  if (!*help) {
+    PetscCall(VKMeshSetUp(m));
+    PetscCall(VKMeshWriteOutputs(m, dir));
+    PetscCall(ViewFromOptions(comm, "-mesh_view", MeshView, m));
+    PetscCall(PetscPrintf(comm, "volknit mesh: h = %g m, %d voxels, %d nodes, %d tets (n_V/n_Y = %.3f), %d domains, mass error %.1e -> %s/mesh.h5 (%.2f s)\n", (double)m->grid.h, (int)m->nvox, (int)m->nv, (int)m->ne, (double)m->nv / (double)m->ny, (int)m->ndomains, (double)(PetscAbsReal(m->mesh_mass - m->yarn_mass) / m->yarn_mass), dir, m->time[7]));
+  }
+  PetscCall(VKMeshDestroy(&m));
+  PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKCommandYarn(MPI_Comm comm)
+{
+  char      dir[PETSC_MAX_PATH_LEN];
+  VKYarn    y = NULL;
+  PetscBool help;
+
+  PetscFunctionBegin;
+  PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
+  PetscCall(YarnStage(comm, dir, &y, &help));
+  PetscCall(VKYarnDestroy(&y));
+  PetscFunctionReturn(0);
+}
+
+/* Any -yarn_ option on the command line means: build the yarn from the options. */
+static PetscErrorCode HasYarnOptions(PetscBool *has)
+{
+  char *all;
+
+  PetscFunctionBegin;
+  PetscCall(PetscOptionsGetAll(NULL, &all));
+  *has = strstr(all, "-yarn_") ? PETSC_TRUE : PETSC_FALSE;
+  PetscCall(PetscFree(all));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKCommandMesh(MPI_Comm comm)
+{
+  char      dir[PETSC_MAX_PATH_LEN], path[PETSC_MAX_PATH_LEN];
+  VKYarn    y = NULL;
+  PetscBool exists = PETSC_FALSE, yarnopts = PETSC_FALSE, help = PETSC_FALSE;
+
+  PetscFunctionBegin;
+  PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
+  PetscCall(VKPathJoin(dir, "yarn.h5", path, sizeof(path)));
+  PetscCall(VKFileExists(comm, path, &exists));
+  PetscCall(HasYarnOptions(&yarnopts));
+  if (exists && !yarnopts) {
+    PetscCall(PetscLogStagePush(VK_STAGE_YARN));
+    PetscCall(VKYarnCreate(comm, &y));
+    PetscCall(PetscStrncpy(y->file, path, sizeof(y->file)));
+    y->source = VK_YARN_H5;
+    PetscCall(VKYarnSetUp(y));
+    PetscCall(PetscPrintf(comm, "volknit mesh: yarn model read from %s (%d vertices)\n", path, (int)y->curves.nv));
+    PetscCall(PetscLogStagePop());
+  } else {
+    PetscCall(YarnStage(comm, dir, &y, &help));
+  }
+  if (!help) PetscCall(MeshStage(comm, dir, y, &help));
+  PetscCall(VKYarnDestroy(&y));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKCommandRun(MPI_Comm comm)
+{
+  char           dir[PETSC_MAX_PATH_LEN];
+  VKYarn         y = NULL;
+  PetscBool      help;
+  PetscLogDouble t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
+  PetscCall(YarnStage(comm, dir, &y, &help));
+  if (!help) PetscCall(MeshStage(comm, dir, y, &help));
+  PetscCall(VKYarnDestroy(&y));
+  if (!help) PetscCall(PetscPrintf(comm, "volknit run: stages yarn, mesh done in %.2f s; outputs in %s/\n", VKWallTime() - t0, dir));
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,75 @@
+/* volknit.c: the driver, bin/volknit <command> [PETSc options].  A thin
+ * dispatcher over the library's subcommands (include/vkapp.h).  An error
+ * ends the job with a non-zero status: with several ranks through
+ * MPI_Abort, so that no rank is left waiting in a collective. */
+#include <vkapp.h>
+
+static const char help[] = "volknit: volumetric homogenization of knitwear.\n"
+                           "Usage: volknit <command> [options]   (volknit <command> -help lists its options)\n";
+
+static const char *const planned[][2] = {
+  {"yls",    "the yarn-level reference simulator (DESIGN §4)"   },
+  {"fit",    "the material fitting (DESIGN §8)"                 },
+  {"sim",    "the homogenized projective-dynamics simulator (DESIGN §7)"},
+  {"report", "error and run-time reports (DESIGN §11)"          }
+};
+
+static PetscErrorCode Usage(void)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%sCommands:\n", help));
+  for (const VKCommand *c = VKCommands; c->name; c++) PetscCall(PetscPrintf(PETSC_COMM_WORLD, "  %-7s %s\n", c->name, c->summary));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Planned, not in this build:"));
+  for (size_t i = 0; i < sizeof(planned) / sizeof(planned[0]); i++) PetscCall(PetscPrintf(PETSC_COMM_WORLD, " %s", planned[i][0]));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "\nCommon options: -o DIR (output directory, default out), -options_file FILE, -log_view\n"));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Dispatch(const char *name, PetscBool *found)
+{
+  PetscFunctionBegin;
+  *found = PETSC_FALSE;
+  for (const VKCommand *c = VKCommands; c->name; c++)
+    if (!strcmp(c->name, name)) {
+      *found = PETSC_TRUE;
+      PetscCall(c->run(PETSC_COMM_WORLD));
+    }
+  if (!*found)
+    for (size_t i = 0; i < sizeof(planned) / sizeof(planned[0]); i++)
+      PetscCheck(strcmp(planned[i][0], name), PETSC_COMM_WORLD, PETSC_ERR_SUP, "volknit %s, %s, is planned but not part of this build", name, planned[i][1]);
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  const char    *cmd = NULL;
+  PetscErrorCode ierr;
+  PetscBool      found = PETSC_FALSE, hashelp;
+  PetscMPIInt    size;
+
+  if (argc > 1 && argv[1][0] != '-') { /* the command is not a PETSc option */
+    cmd = argv[1];
+    for (int i = 1; i < argc - 1; i++) argv[i] = argv[i + 1];
+    argc--;
+  }
+  PetscCall(PetscInitialize(&argc, &argv, NULL, help));
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  if (!cmd) {
+    PetscCall(PetscOptionsHasHelp(NULL, &hashelp));
+    PetscCall(Usage());
+    PetscCall(PetscFinalize());
+    return hashelp ? 0 : 1;
+  }
+  ierr = Dispatch(cmd, &found);
+  if (!ierr && !found) {
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "volknit: unknown command '%s'\n", cmd));
+    PetscCall(Usage());
+    ierr = PETSC_ERR_ARG_UNKNOWN_TYPE;
+  }
+  if (ierr) {
+    if (size > 1) MPI_Abort(PETSC_COMM_WORLD, 1);
+    PetscFinalize();
+    return 1;
+  }
+  return PetscFinalize();
+}
