@@ -1,0 +1,305 @@
+/* test_curves.c: the polyline kernels of the yarn stage.
+ * ranks: 1
+ * Resampling (uniform segments, end points kept, no zero-length segment
+ * from duplicate points), Catmull-Rom interpolation of the control points,
+ * parallel-transport frames against an independent Rodrigues rotation,
+ * the radius estimate on yarns at a known contact distance, projected
+ * crossings, the radix sort and the spatial hash against brute force. */
+#include <vkcurves.h>
+#include <vkyarn.h>
+#include <vkutil.h>
+#include "vktest.h"
+
+static PetscReal Dist(const PetscReal *a, const PetscReal *b)
+{
+  return PetscSqrtReal(PetscSqr(a[0] - b[0]) + PetscSqr(a[1] - b[1]) + PetscSqr(a[2] - b[2]));
+}
+
+static PetscErrorCode TestResample(void)
+{
+  VKCurves  in, out;
+  PetscReal x[3 * 2001], L = 0.05, lmin = PETSC_MAX_REAL, lmax = 0, lin, lout;
+  PetscInt  nseg, *seg;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&in));
+  for (int i = 0; i < 2000; i++) { /* closed circle, radius 1 */
+    x[3 * i]     = PetscCosReal(2 * PETSC_PI * i / 2000.0);
+    x[3 * i + 1] = PetscSinReal(2 * PETSC_PI * i / 2000.0);
+    x[3 * i + 2] = 0;
+  }
+  PetscCall(VKCurvesAdd(&in, 2000, x, PETSC_TRUE));
+  for (int i = 0; i < 300; i++) { /* open helix with every point doubled */
+    PetscReal t = 0.02 * (i / 2);
+    x[3 * i]     = PetscCosReal(t);
+    x[3 * i + 1] = PetscSinReal(t);
+    x[3 * i + 2] = 0.1 * t;
+  }
+  PetscCall(VKCurvesAdd(&in, 300, x, PETSC_FALSE));
+  PetscCall(VKCurvesResample(&in, L, &out));
+  PetscCall(VKCurvesGetSegments(&out, &nseg, &seg));
+  for (PetscInt s = 0; s < nseg; s++) {
+    PetscReal l = Dist(out.x + 3 * seg[2 * s], out.x + 3 * seg[2 * s + 1]);
+    lmin        = PetscMin(lmin, l);
+    lmax        = PetscMax(lmax, l);
+  }
+  PetscCall(VKTestCheck((PetscBool)(lmin > 0.9 * L && lmax < 1.1 * L), NULL, "resample: segments within 10%% of the target (%.4g..%.4g for %.4g)", (double)lmin, (double)lmax, (double)L));
+  PetscCall(VKTestCheck((PetscBool)(lmax / lmin < 1.001), NULL, "resample: segment lengths uniform to 0.1%% (max/min %.6f), duplicate input points removed", (double)(lmax / lmin)));
+  PetscCall(VKTestCheck((PetscBool)(out.closed[0] && !out.closed[1]), NULL, "resample: open/closed kept"));
+  PetscCall(VKTestClose(Dist(out.x + 3 * out.start[1], in.x + 3 * in.start[1]), 0, 0, "resample: open curve keeps its first point"));
+  PetscCall(VKTestClose(Dist(out.x + 3 * (out.nv - 1), in.x + 3 * (in.nv - 1)), 0, 0, "resample: open curve keeps its last point"));
+  PetscCall(VKCurvesLength(&in, &lin));
+  PetscCall(VKCurvesLength(&out, &lout));
+  PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(lout - lin) < 1e-3 * lin), NULL, "resample: total length kept to chord error (%.8g vs %.8g)", (double)lout, (double)lin));
+  PetscCall(PetscFree(seg));
+  PetscCall(VKCurvesFree(&in));
+  PetscCall(VKCurvesFree(&out));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestCatmullRom(void)
+{
+  VKCurves  ctrl, dense;
+  PetscReal p[3 * 6] = {0, 0, 0, 1, 0.5, 0, 2, 0, 0.3, 3, -1, 0, 4, 0, 0, 5, 1, 1}, worst = 0, line[3 * 4] = {0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3}, off = 0;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&ctrl));
+  PetscCall(VKCurvesAdd(&ctrl, 6, p, PETSC_FALSE));
+  PetscCall(VKCurvesAdd(&ctrl, 6, p, PETSC_TRUE));
+  PetscCall(VKCurvesAdd(&ctrl, 4, line, PETSC_FALSE));
+  PetscCall(VKCurvesEvaluateCatmullRom(&ctrl, 0.01, &dense));
+  for (int c = 0; c < 2; c++)
+    for (int i = 0; i < 6; i++) { /* every control point lies on the curve */
+      PetscReal best = PETSC_MAX_REAL;
+      for (PetscInt v = dense.start[c]; v < dense.start[c + 1]; v++) best = PetscMin(best, Dist(dense.x + 3 * v, p + 3 * i));
+      worst = PetscMax(worst, best);
+    }
+  PetscCall(VKTestClose(worst, 0, 1e-14, "Catmull-Rom: the curve interpolates its control points (open and closed)"));
+  for (PetscInt v = dense.start[2]; v < dense.start[3]; v++) off = PetscMax(off, PetscAbsReal(dense.x[3 * v] - dense.x[3 * v + 1]) + PetscAbsReal(dense.x[3 * v] - dense.x[3 * v + 2]));
+  PetscCall(VKTestClose(off, 0, 1e-14, "Catmull-Rom: collinear control points give a straight line (mirrored end points)"));
+  PetscCall(VKTestCheck((PetscBool)(dense.closed[1] && !dense.closed[0]), NULL, "Catmull-Rom: open/closed kept"));
+  PetscCall(VKCurvesFree(&ctrl));
+  PetscCall(VKCurvesFree(&dense));
+  PetscFunctionReturn(0);
+}
+
+static void Rodrigues(const PetscReal t0[], const PetscReal t1[], const PetscReal v[], PetscReal out[])
+{
+  PetscReal k[3] = {t0[1] * t1[2] - t0[2] * t1[1], t0[2] * t1[0] - t0[0] * t1[2], t0[0] * t1[1] - t0[1] * t1[0]};
+  PetscReal s = PetscSqrtReal(k[0] * k[0] + k[1] * k[1] + k[2] * k[2]), c = t0[0] * t1[0] + t0[1] * t1[1] + t0[2] * t1[2], kv[3], kdv;
+  if (s == 0) {
+    for (int a = 0; a < 3; a++) out[a] = v[a];
+    return;
+  }
+  for (int a = 0; a < 3; a++) k[a] /= s;
+  kv[0] = k[1] * v[2] - k[2] * v[1];
+  kv[1] = k[2] * v[0] - k[0] * v[2];
+  kv[2] = k[0] * v[1] - k[1] * v[0];
+  kdv   = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+  for (int a = 0; a < 3; a++) out[a] = v[a] * c + kv[a] * s + k[a] * kdv * (1 - c);
+}
+
+static PetscErrorCode TestFrames(void)
+{
+  VKCurves  c;
+  PetscReal x[3 * 400], *n, ortho = 0, planar = 0, transport = 0;
+  PetscInt  nseg, *seg;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  for (int i = 0; i < 200; i++) { /* planar sine in the xy plane */
+    x[3 * i]     = 0.01 * i;
+    x[3 * i + 1] = 0.3 * PetscSinReal(0.05 * i);
+    x[3 * i + 2] = 0;
+  }
+  PetscCall(VKCurvesAdd(&c, 200, x, PETSC_FALSE));
+  for (int i = 0; i < 400; i++) { /* helix */
+    x[3 * i]     = PetscCosReal(0.03 * i);
+    x[3 * i + 1] = PetscSinReal(0.03 * i);
+    x[3 * i + 2] = 0.02 * i;
+  }
+  PetscCall(VKCurvesAdd(&c, 400, x, PETSC_FALSE));
+  PetscCall(VKCurvesGetSegments(&c, &nseg, &seg));
+  PetscCall(PetscMalloc1(3 * nseg, &n));
+  PetscCall(VKCurvesTransportFrames(&c, n));
+  for (PetscInt s = 0; s < nseg; s++) {
+    const PetscReal *p = c.x + 3 * seg[2 * s], *q = c.x + 3 * seg[2 * s + 1];
+    PetscReal        t[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]}, l = Dist(p, q);
+    ortho = PetscMax(ortho, PetscAbsReal((t[0] * n[3 * s] + t[1] * n[3 * s + 1] + t[2] * n[3 * s + 2]) / l));
+    ortho = PetscMax(ortho, PetscAbsReal(n[3 * s] * n[3 * s] + n[3 * s + 1] * n[3 * s + 1] + n[3 * s + 2] * n[3 * s + 2] - 1));
+    if (s < 199) planar = PetscMax(planar, PetscAbsReal(n[3 * s + 2]) - 1 < 0 ? 1 - PetscAbsReal(n[3 * s + 2]) : 0);
+    if (s > 0 && s != 199) { /* independent minimal rotation of the previous normal */
+      const PetscReal *p0 = c.x + 3 * seg[2 * (s - 1)], *q0 = c.x + 3 * seg[2 * (s - 1) + 1];
+      PetscReal        t0[3], t1[3], r[3], l0 = Dist(p0, q0);
+      for (int a = 0; a < 3; a++) {
+        t0[a] = (q0[a] - p0[a]) / l0;
+        t1[a] = t[a] / l;
+      }
+      Rodrigues(t0, t1, n + 3 * (s - 1), r);
+      transport = PetscMax(transport, Dist(r, n + 3 * s));
+    }
+  }
+  PetscCall(VKTestClose(ortho, 0, 1e-13, "frames: unit normals orthogonal to the tangents"));
+  PetscCall(VKTestClose(planar, 0, 1e-14, "frames: a planar curve keeps the plane normal"));
+  PetscCall(VKTestClose(transport, 0, 1e-12, "frames: each normal is the previous one rotated by the minimal rotation (Rodrigues)"));
+  PetscCall(PetscFree(n));
+  PetscCall(PetscFree(seg));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestRadius(void)
+{
+  VKCurves  c;
+  PetscReal x[3 * 201], r = 0.7e-3, est;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  for (int y = 0; y < 4; y++) { /* four parallel straight yarns touching (2r apart) */
+    for (int i = 0; i <= 200; i++) {
+      x[3 * i]     = 0.5 * r * i;
+      x[3 * i + 1] = 2 * r * y;
+      x[3 * i + 2] = 0;
+    }
+    PetscCall(VKCurvesAdd(&c, 201, x, PETSC_FALSE));
+  }
+  PetscCall(VKCurvesEstimateRadius(&c, &est));
+  PetscCall(VKTestClose(est, r, 1e-15, "radius estimate: touching parallel yarns give r exactly"));
+  PetscCall(VKCurvesFree(&c));
+  PetscCall(VKCurvesInit(&c));
+  { /* one yarn folded back on itself, 2r apart */
+    PetscInt n = 0;
+    for (int i = 0; i <= 100; i++, n++) { /* straight out */
+      x[3 * n]     = 0.25 * r * i;
+      x[3 * n + 1] = 0;
+      x[3 * n + 2] = 0;
+    }
+    for (int i = 1; i < 20; i++, n++) { /* half turn of radius r */
+      PetscReal a = PETSC_PI * i / 20.0;
+      x[3 * n]     = 25 * r + r * PetscSinReal(a);
+      x[3 * n + 1] = r - r * PetscCosReal(a);
+      x[3 * n + 2] = 0;
+    }
+    for (int i = 0; i <= 80; i++, n++) { /* straight back, 2r from the way out */
+      x[3 * n]     = 25 * r - 0.25 * r * i;
+      x[3 * n + 1] = 2 * r;
+      x[3 * n + 2] = 0;
+    }
+    PetscCall(VKCurvesAdd(&c, n, x, PETSC_FALSE));
+  }
+  PetscCall(VKCurvesEstimateRadius(&c, &est));
+  PetscCall(VKTestClose(est, r, 1e-15, "radius estimate: a yarn folded onto itself counts as touching, its neighbours along the yarn do not"));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestCrossings(void)
+{
+  VKCurves    c;
+  PetscReal   a[6] = {0, 0, 0, 2, 2, 1}, b[9] = {0, 2, 0, 1, 1, 0, 2, 0, 0};
+  PetscInt    n;
+  VKCrossing *xs;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(VKCurvesAdd(&c, 2, a, PETSC_FALSE));
+  PetscCall(VKCurvesAdd(&c, 3, b, PETSC_FALSE)); /* its middle vertex lies on the crossing */
+  PetscCall(VKCurvesProjectedCrossings(&c, 0, 1, &n, &xs));
+  PetscCall(VKTestCheck((PetscBool)(n == 1), NULL, "crossings: a crossing through a vertex is found once (found %d)", (int)n));
+  if (n == 1) {
+    PetscCall(VKTestClose(xs[0].z[0] - xs[0].z[1], 0.5, 1e-15, "crossings: heights of both yarns at the crossing"));
+    PetscCall(VKTestClose(PetscAbsReal(xs[0].p[0] - 1) + PetscAbsReal(xs[0].p[1] - 1), 0, 1e-15, "crossings: position of the crossing"));
+  }
+  PetscCall(PetscFree(xs));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+static int CmpU64(const void *a, const void *b)
+{
+  uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+  return (x > y) - (x < y);
+}
+
+static PetscErrorCode TestSortAndHash(void)
+{
+  enum { N = 20000, B = 400 };
+  uint64_t     *k, *ref;
+  PetscInt     *pay, bad = 0, missed = 0, pairs = 0;
+  PetscReal     lo[3 * B], hi[3 * B];
+  VKSpatialHash h;
+  PetscRandom   rnd;
+
+  PetscFunctionBegin;
+  PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd));
+  PetscCall(PetscRandomSetFromOptions(rnd));
+  PetscCall(PetscMalloc3(N, &k, N, &ref, N, &pay));
+  for (PetscInt i = 0; i < N; i++) {
+    PetscReal r1, r2;
+    PetscCall(PetscRandomGetValueReal(rnd, &r1));
+    PetscCall(PetscRandomGetValueReal(rnd, &r2));
+    k[i]   = ((uint64_t)(r1 * 4294967296.0) << 31) ^ (uint64_t)(r2 * 2147483648.0);
+    ref[i] = k[i];
+    pay[i] = i;
+  }
+  PetscCall(VKSortU64(N, k, pay));
+  qsort(ref, N, sizeof(uint64_t), CmpU64);
+  for (PetscInt i = 0; i < N; i++) bad += (k[i] != ref[i]) || (i > 0 && k[i] == k[i - 1] && pay[i] < pay[i - 1]);
+  PetscCall(VKTestCheck((PetscBool)(bad == 0), NULL, "radix sort: equals qsort and is stable (%d mismatches)", (int)bad));
+  bad = 0;
+  for (PetscInt i = 0; i < 1000; i++) {
+    PetscInt ijk[3] = {(PetscInt)(k[i] % 2097152), (PetscInt)((k[i] >> 21) % 2097152), (PetscInt)((k[i] >> 42) % 2097152)}, back[3];
+    VKMorton3Decode(VKMorton3(ijk[0], ijk[1], ijk[2]), back);
+    bad += back[0] != ijk[0] || back[1] != ijk[1] || back[2] != ijk[2];
+  }
+  PetscCall(VKTestCheck((PetscBool)(bad == 0), NULL, "Morton keys: decode(encode(i,j,k)) = (i,j,k) for 21-bit coordinates"));
+  for (PetscInt b = 0; b < B; b++)
+    for (int a = 0; a < 3; a++) {
+      PetscReal c, w;
+      PetscCall(PetscRandomGetValueReal(rnd, &c));
+      PetscCall(PetscRandomGetValueReal(rnd, &w));
+      lo[3 * b + a] = c;
+      hi[3 * b + a] = c + 0.08 * w;
+    }
+  PetscCall(VKSpatialHashBuild(&h, B, lo, hi, 0.05));
+  for (PetscInt b = 0; b < B; b++)
+    for (PetscInt q = b + 1; q < B; q++) { /* every overlapping pair shares a cell */
+      PetscBool overlap = PETSC_TRUE, shared = PETSC_FALSE;
+      PetscInt  c0[3], c1[3], cc[3];
+      for (int a = 0; a < 3; a++) overlap = (PetscBool)(overlap && lo[3 * b + a] <= hi[3 * q + a] && lo[3 * q + a] <= hi[3 * b + a]);
+      if (!overlap) continue;
+      pairs++;
+      VKSpatialHashCellOf(&h, lo + 3 * b, c0);
+      VKSpatialHashCellOf(&h, hi + 3 * b, c1);
+      for (cc[0] = c0[0]; cc[0] <= c1[0] && !shared; cc[0]++)
+        for (cc[1] = c0[1]; cc[1] <= c1[1] && !shared; cc[1]++)
+          for (cc[2] = c0[2]; cc[2] <= c1[2] && !shared; cc[2]++) {
+            PetscInt begin, end;
+            VKSpatialHashItems(&h, cc, &begin, &end);
+            for (PetscInt it = begin; it < end; it++) shared = (PetscBool)(shared || h.item[it] == q);
+          }
+      missed += !shared;
+    }
+  PetscCall(VKTestCheck((PetscBool)(missed == 0 && pairs > 0), NULL, "spatial hash: all %d overlapping box pairs share a cell", (int)pairs));
+  PetscCall(VKSpatialHashDestroy(&h));
+  PetscCall(PetscFree3(k, ref, pay));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(TestResample());
+  PetscCall(TestCatmullRom());
+  PetscCall(TestFrames());
+  PetscCall(TestRadius());
+  PetscCall(TestCrossings());
+  PetscCall(TestSortAndHash());
+  {
+    int rc = VKTestFinish();
+    PetscCall(PetscFinalize());
+    return rc;
+  }
+}
