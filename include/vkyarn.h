@@ -36,8 +36,9 @@ PETSC_EXTERN PetscErrorCode VKKnitParamsCheck(const VKKnitParams *);
  * two samples per `spacing`); the chart is tiled over the patch. */
 PETSC_EXTERN PetscErrorCode VKKnitBuild(const VKKnitChart *, const VKKnitParams *, PetscReal spacing, VKCurves *);
 /* Glue pairs for knit polylines (curve j = course j): every crossing of the
- * first two and of the last two courses, and both ends of every yarn to
- * the nearest vertex of the neighbouring course; 2 vertices per pair. */
+ * first two and of the last two courses, and both ends of every yarn but
+ * the first to the nearest vertex of the course below; 2 vertices per
+ * pair. */
 PETSC_EXTERN PetscErrorCode VKKnitBind(const VKCurves *, PetscInt *nbind, PetscInt **bind);
 
 /* ---- woven patterns --------------------------------------------------- */

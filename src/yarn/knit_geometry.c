@@ -13,7 +13,9 @@
  *
  * Free edges are glued so a pulled patch cannot unravel: every crossing
  * between the first two and the last two courses, and both ends of every
- * yarn to the nearest vertex of the neighbouring course. */
+ * other yarn to the nearest vertex of the course below (about 2 r away).
+ * The ends of the first course lie a fraction of a stitch from its glued
+ * crossings. */
 #include <vkyarn.h>
 
 #define KNIT_BLEND (PETSC_PI / 8)
@@ -162,8 +164,8 @@ PetscErrorCode VKKnitBind(const VKCurves *c, PetscInt *nbind, PetscInt **bind)
     PetscCall(PetscFree(*bind));
     *bind = grown;
   }
-  for (PetscInt j = 0; j < C; j++) {
-    PetscInt nb = j + 1 < C ? j + 1 : j - 1, ends[2] = {c->start[j], c->start[j + 1] - 1};
+  for (PetscInt j = 1; j < C; j++) { /* course 0's ends sit next to its glued crossings */
+    PetscInt nb = j - 1, ends[2] = {c->start[j], c->start[j + 1] - 1}; /* the course below passes closest */
     for (int e = 0; e < 2; e++, n++) {
       (*bind)[2 * n]     = ends[e];
       (*bind)[2 * n + 1] = NearestVertex(c, nb, c->x + 3 * ends[e]);
