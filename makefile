@@ -27,7 +27,7 @@ LIB_SRC   := $(sort $(wildcard src/util/*.c src/yarn/*.c src/mesh/*.c src/app/*.
 LIB_OBJ   := $(LIB_SRC:src/%.c=build/%.o)
 LIB       := lib/libvolknit.a
 BIN       := bin/volknit
-TEST_SRC  := $(sort $(wildcard tests/test_*.c))
+TEST_SRC  := $(sort $(wildcard tests/test_*.c tests/tool_*.c))
 TEST_BIN  := $(TEST_SRC:tests/%.c=bin/tests/%)
 BENCH_SRC := $(sort $(wildcard tests/bench/bench_*.c))
 BENCH_BIN := $(BENCH_SRC:tests/bench/%.c=bin/bench/%)
@@ -73,7 +73,7 @@ $(BIN): src/volknit.c $(LIB)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $< -o $@ $(LIB) $(LDLIBS)
 
-bin/tests/%: tests/%.c tests/vktest.h $(LIB)
+bin/tests/%: tests/%.c $(wildcard tests/*.h) $(LIB)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) -Itests $< -o $@ $(LIB) $(LDLIBS)
 

@@ -20,6 +20,22 @@ PETSC_EXTERN PetscErrorCode VKPathJoin(const char dir[], const char name[], char
 /* Make an error raised on rank 0 only (`ierr0`, ignored elsewhere) an
  * error on every rank, so output failures never leave ranks waiting. */
 PETSC_EXTERN PetscErrorCode VKCollective(MPI_Comm, PetscErrorCode ierr0, const char what[]);
+/* Run `call`, a step that sees the same input on every rank of `comm`
+ * (so it fails on all ranks alike): its error is caught quietly and raised
+ * once on `comm`, so the message is printed once, by rank 0. */
+#define VKCallCollective(comm, call) \
+  do { \
+    PetscErrorCode ierr_c_; \
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL)); \
+    ierr_c_ = (call); \
+    PetscCall(PetscPopErrorHandler()); \
+    if (ierr_c_) { \
+      const char *text_c_; \
+      char       *spec_c_ = NULL; \
+      PetscErrorMessage(ierr_c_, &text_c_, &spec_c_); \
+      SETERRQ(comm, ierr_c_, "%s", spec_c_ && spec_c_[0] ? spec_c_ : text_c_); \
+    } \
+  } while (0)
 /* Tests for a readable regular file (on rank 0, result on all ranks). */
 PETSC_EXTERN PetscErrorCode VKFileExists(MPI_Comm, const char path[], PetscBool *exists);
 

@@ -80,6 +80,7 @@ PETSC_EXTERN PetscErrorCode VKMeshSetDomains(VKMesh, PetscInt);
 PETSC_EXTERN PetscErrorCode VKMeshSetFromOptions(VKMesh);
 PETSC_EXTERN PetscErrorCode VKMeshSetUp(VKMesh);
 PETSC_EXTERN PetscErrorCode VKMeshView(VKMesh, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKMeshViewDomains(VKMesh, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKMeshDestroy(VKMesh *);
 
 /* The tet containing point p (which must lie in a mesh voxel) and its

@@ -53,67 +53,78 @@ static PetscErrorCode MeshView(void *m, PetscViewer v)
 {
   return VKMeshView((VKMesh)m, v);
 }
-
-/* Build the yarn model from the options, write it, report it. */
-static PetscErrorCode YarnStage(MPI_Comm comm, const char dir[], VKYarn *yarn, PetscBool *help)
+static PetscErrorCode DomainsView(void *m, PetscViewer v)
 {
-  VKYarn    y;
+  return VKMeshViewDomains((VKMesh)m, v);
+}
+
+/* Yarn model object with every yarn option read and checked. */
+static PetscErrorCode YarnFromOptions(MPI_Comm comm, VKYarn *y)
+{
+  char      path[PETSC_MAX_PATH_LEN];
+  PetscBool set;
+
+  PetscFunctionBegin;
+  PetscCall(VKYarnCreate(comm, y));
+  PetscCall(VKYarnSetFromOptions(*y));
+  PetscOptionsBegin(comm, NULL, "Yarn outputs", "volknit yarn");
+  PetscCall(PetscOptionsString("-yarn_write_bcc", "Also write the yarn model as a polyline BCC file", "VKBCCWrite", "", path, sizeof(path), &set));
+  PetscCall(PetscOptionsString("-yarn_write_obj", "Also write the yarn model as OBJ polylines", "VKYarnWriteOBJ", "", path, sizeof(path), &set));
+  PetscCall(PetscOptionsName("-yarn_view", "Print the yarn model summary", "VKYarnView", NULL));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode MeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
+{
+  PetscFunctionBegin;
+  PetscCall(VKMeshCreate(comm, m));
+  PetscCall(VKMeshSetYarn(*m, y));
+  PetscCall(VKMeshSetFromOptions(*m));
+  PetscFunctionReturn(0);
+}
+
+/* Build the yarn model; with `write`, write and report it. */
+static PetscErrorCode YarnStage(VKYarn y, const char dir[], PetscBool write)
+{
+  MPI_Comm  comm = y->comm;
   char      path[PETSC_MAX_PATH_LEN];
   PetscBool set;
   PetscReal mass, length;
 
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_YARN));
-  PetscCall(VKYarnCreate(comm, &y));
-  *yarn = y;
-  PetscCall(VKYarnSetFromOptions(y));
-  PetscOptionsBegin(comm, NULL, "Yarn outputs", "volknit yarn");
-  PetscCall(PetscOptionsString("-yarn_write_bcc", "Also write the yarn model as a polyline BCC file", "VKBCCWrite", "", path, sizeof(path), &set));
-  PetscCall(PetscOptionsString("-yarn_write_obj", "Also write the yarn model as OBJ polylines", "VKYarnWriteOBJ", "", path, sizeof(path), &set));
-  PetscCall(PetscOptionsName("-yarn_view", "Print the yarn model summary", "VKYarnView", NULL));
-  PetscOptionsEnd();
-  PetscCall(PetscOptionsHasHelp(NULL, help));
-  if (*help) {
-    PetscCall(PetscLogStagePop());
-    PetscFunctionReturn(0);
-  }
   PetscCall(VKYarnSetUp(y));
   if (y->radius_estimated) PetscCall(PetscPrintf(comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
-  PetscCall(VKYarnWriteOutputs(y, dir));
-  PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_bcc", path, sizeof(path), &set));
-  if (set) {
-    PetscMPIInt    rank;
-    PetscErrorCode ierr = 0;
-    PetscCallMPI(MPI_Comm_rank(comm, &rank));
-    if (rank == 0) ierr = VKBCCWrite(path, &y->curves);
-    PetscCall(VKCollective(comm, ierr, path));
+  if (write) {
+    PetscCall(VKYarnWriteOutputs(y, dir));
+    PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_bcc", path, sizeof(path), &set));
+    if (set) {
+      PetscMPIInt    rank;
+      PetscErrorCode ierr = 0;
+      PetscCallMPI(MPI_Comm_rank(comm, &rank));
+      if (rank == 0) ierr = VKBCCWrite(path, &y->curves);
+      PetscCall(VKCollective(comm, ierr, path));
+    }
+    PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_obj", path, sizeof(path), &set));
+    if (set) PetscCall(VKYarnWriteOBJ(y, path));
   }
-  PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_obj", path, sizeof(path), &set));
-  if (set) PetscCall(VKYarnWriteOBJ(y, path));
   PetscCall(ViewFromOptions(comm, "-yarn_view", YarnView, y));
   PetscCall(VKYarnGetMass(y, &mass, &length));
-  PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m -> %s/yarn.h5 (%.2f s)\n", y->description, (int)y->curves.n, (int)y->curves.nv, (double)length, (double)mass, (double)y->radius, dir, y->time_build));
+  PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m%s%s%s (%.2f s)\n", y->description, (int)y->curves.n, (int)y->curves.nv, (double)length, (double)mass, (double)y->radius, write ? " -> " : "", write ? dir : "", write ? "/yarn.h5" : "", y->time_build));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode MeshStage(MPI_Comm comm, const char dir[], VKYarn yarn, PetscBool *help)
+static PetscErrorCode MeshStage(VKMesh m, const char dir[])
 {
-  VKMesh m;
-
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_MESH));
-  PetscCall(VKMeshCreate(comm, &m));
-  PetscCall(VKMeshSetYarn(m, yarn));
-  PetscCall(VKMeshSetFromOptions(m));
-  PetscCall(PetscOptionsHasHelp(NULL, help));
-  if (!*help) {
-    PetscCall(VKMeshSetUp(m));
-    PetscCall(VKMeshWriteOutputs(m, dir));
-    PetscCall(ViewFromOptions(comm, "-mesh_view", MeshView, m));
-    PetscCall(PetscPrintf(comm, "volknit mesh: h = %g m, %d voxels, %d nodes, %d tets (n_V/n_Y = %.3f), %d domains, mass error %.1e -> %s/mesh.h5 (%.2f s)\n", (double)m->grid.h, (int)m->nvox, (int)m->nv, (int)m->ne, (double)m->nv / (double)m->ny, (int)m->ndomains, (double)(PetscAbsReal(m->mesh_mass - m->yarn_mass) / m->yarn_mass), dir, m->time[7]));
-  }
-  PetscCall(VKMeshDestroy(&m));
+  PetscCall(VKMeshSetUp(m));
+  PetscCall(VKMeshWriteOutputs(m, dir));
+  PetscCall(ViewFromOptions(m->comm, "-mesh_view", MeshView, m));
+  PetscCall(ViewFromOptions(m->comm, "-dd_view", DomainsView, m));
+  PetscCall(PetscPrintf(m->comm, "volknit mesh: h = %g m, %d voxels, %d nodes, %d tets (n_V/n_Y = %.3f), %d domains, mass error %.1e -> %s/mesh.h5 (%.2f s)\n", (double)m->grid.h, (int)m->nvox, (int)m->nv, (int)m->ne, (double)m->nv / (double)m->ny, (int)m->ndomains, (double)(PetscAbsReal(m->mesh_mass - m->yarn_mass) / m->yarn_mass), dir, m->time[7]));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
@@ -121,12 +132,14 @@ static PetscErrorCode MeshStage(MPI_Comm comm, const char dir[], VKYarn yarn, Pe
 PetscErrorCode VKCommandYarn(MPI_Comm comm)
 {
   char      dir[PETSC_MAX_PATH_LEN];
-  VKYarn    y = NULL;
+  VKYarn    y;
   PetscBool help;
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
-  PetscCall(YarnStage(comm, dir, &y, &help));
+  PetscCall(YarnFromOptions(comm, &y));
+  PetscCall(PetscOptionsHasHelp(NULL, &help));
+  if (!help) PetscCall(YarnStage(y, dir, PETSC_TRUE));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
 }
@@ -143,45 +156,58 @@ static PetscErrorCode HasYarnOptions(PetscBool *has)
   PetscFunctionReturn(0);
 }
 
+/* mesh: the yarn model comes from DIR/yarn.h5 when it exists and no -yarn_
+ * option is given, otherwise from the options; only mesh.* is written
+ * (mesh.h5 carries the yarn model). */
 PetscErrorCode VKCommandMesh(MPI_Comm comm)
 {
   char      dir[PETSC_MAX_PATH_LEN], path[PETSC_MAX_PATH_LEN];
-  VKYarn    y = NULL;
-  PetscBool exists = PETSC_FALSE, yarnopts = PETSC_FALSE, help = PETSC_FALSE;
+  VKYarn    y;
+  VKMesh    m;
+  PetscBool exists = PETSC_FALSE, yarnopts = PETSC_FALSE, help;
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
   PetscCall(VKPathJoin(dir, "yarn.h5", path, sizeof(path)));
   PetscCall(VKFileExists(comm, path, &exists));
   PetscCall(HasYarnOptions(&yarnopts));
+  PetscCall(YarnFromOptions(comm, &y));
   if (exists && !yarnopts) {
-    PetscCall(PetscLogStagePush(VK_STAGE_YARN));
-    PetscCall(VKYarnCreate(comm, &y));
     PetscCall(PetscStrncpy(y->file, path, sizeof(y->file)));
     y->source = VK_YARN_H5;
-    PetscCall(VKYarnSetUp(y));
-    PetscCall(PetscPrintf(comm, "volknit mesh: yarn model read from %s (%d vertices)\n", path, (int)y->curves.nv));
-    PetscCall(PetscLogStagePop());
-  } else {
-    PetscCall(YarnStage(comm, dir, &y, &help));
   }
-  if (!help) PetscCall(MeshStage(comm, dir, y, &help));
+  PetscCall(MeshFromOptions(comm, y, &m));
+  PetscCall(PetscOptionsHasHelp(NULL, &help));
+  if (!help) {
+    if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit mesh: yarn model read from %s\n", y->file));
+    PetscCall(YarnStage(y, dir, PETSC_FALSE));
+    PetscCall(MeshStage(m, dir));
+  }
+  PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
 }
 
+/* run: every stage the scene needs, options of all stages checked first. */
 PetscErrorCode VKCommandRun(MPI_Comm comm)
 {
   char           dir[PETSC_MAX_PATH_LEN];
-  VKYarn         y = NULL;
+  VKYarn         y;
+  VKMesh         m;
   PetscBool      help;
   PetscLogDouble t0 = VKWallTime();
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
-  PetscCall(YarnStage(comm, dir, &y, &help));
-  if (!help) PetscCall(MeshStage(comm, dir, y, &help));
+  PetscCall(YarnFromOptions(comm, &y));
+  PetscCall(MeshFromOptions(comm, y, &m));
+  PetscCall(PetscOptionsHasHelp(NULL, &help));
+  if (!help) {
+    PetscCall(YarnStage(y, dir, PETSC_TRUE));
+    PetscCall(MeshStage(m, dir));
+    PetscCall(PetscPrintf(comm, "volknit run: stages yarn, mesh done in %.2f s; outputs in %s/\n", VKWallTime() - t0, dir));
+  }
+  PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
-  if (!help) PetscCall(PetscPrintf(comm, "volknit run: stages yarn, mesh done in %.2f s; outputs in %s/\n", VKWallTime() - t0, dir));
   PetscFunctionReturn(0);
 }

@@ -148,3 +148,26 @@ PetscErrorCode VKMeshView(VKMesh m, PetscViewer viewer)
   PetscCall(PetscViewerASCIIPopTab(viewer));
   PetscFunctionReturn(0);
 }
+
+PetscErrorCode VKMeshViewDomains(VKMesh m, PetscViewer viewer)
+{
+  PetscBool iascii;
+
+  PetscFunctionBegin;
+  if (!viewer) PetscCall(PetscViewerASCIIGetStdout(m->comm, &viewer));
+  PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &iascii));
+  if (!iascii) PetscFunctionReturn(0);
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Domains: %d METIS parts of the element dual graph on %d ranks\n", (int)m->ndomains, (int)m->size));
+  PetscCall(PetscViewerASCIIPushTab(viewer));
+  for (PetscInt d = 0; d < m->ndomains; d++) {
+    PetscInt nif = 0;
+    for (PetscInt i = m->domain_node_start[d]; i < m->domain_node_start[d + 1]; i++) nif += m->node_interface[i];
+    PetscCall(PetscViewerASCIIPrintf(viewer, "domain %d on rank %d: tets [%d, %d), owned nodes [%d, %d), of which %d on the interface\n", (int)d, (int)((d * m->size) / m->ndomains), (int)m->domain_tet_start[d], (int)m->domain_tet_start[d + 1], (int)m->domain_node_start[d], (int)m->domain_node_start[d + 1], (int)nif));
+  }
+  PetscCall(PetscViewerASCIIPushSynchronized(viewer));
+  PetscCall(PetscViewerASCIISynchronizedPrintf(viewer, "  rank %d: tets [%d, %d), nodes [%d, %d), %d ghost nodes\n", (int)m->rank, (int)m->layout.eStart, (int)m->layout.eEnd, (int)m->layout.nStart, (int)m->layout.nEnd, (int)m->layout.nghost));
+  PetscCall(PetscViewerFlush(viewer));
+  PetscCall(PetscViewerASCIIPopSynchronized(viewer));
+  PetscCall(PetscViewerASCIIPopTab(viewer));
+  PetscFunctionReturn(0);
+}

@@ -326,11 +326,22 @@ static PetscErrorCode LoadMesh(VKMesh m, VKYarn y, VKH5 *h)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKMeshLoadH5(MPI_Comm comm, const char path[], VKMesh *mesh, VKYarn *yarn)
+static PetscErrorCode LoadMeshFile(VKMesh m, VKYarn y, const char path[])
 {
-  VKMesh         m;
   VKH5           h;
   PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(VKH5Open(path, &h));
+  ierr = LoadMesh(m, y, &h);
+  VKH5Close(&h);
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMeshLoadH5(MPI_Comm comm, const char path[], VKMesh *mesh, VKYarn *yarn)
+{
+  VKMesh m;
 
   PetscFunctionBegin;
   PetscCall(VKMeshCreate(comm, &m));
@@ -339,10 +350,7 @@ PetscErrorCode VKMeshLoadH5(MPI_Comm comm, const char path[], VKMesh *mesh, VKYa
   (*yarn)->source = VK_YARN_H5;
   m->yarn         = *yarn;
   *mesh           = m;
-  PetscCall(VKH5Open(path, &h));
-  ierr = LoadMesh(m, *yarn, &h);
-  VKH5Close(&h);
-  PetscCall(ierr);
+  VKCallCollective(comm, LoadMeshFile(m, *yarn, path));
   PetscCall(VKMeshComputeGeometry(m));
   PetscCall(VKMeshBuildDualGraph(m));
   PetscCall(VKMeshFinishDomains(m));

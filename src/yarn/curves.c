@@ -145,5 +145,11 @@ PetscErrorCode VKCurvesValidate(const VKCurves *c, const char what[])
   }
   for (PetscInt v = 0; v < c->nv; v++)
     for (int a = 0; a < 3; a++) PetscCheck(isfinite(c->x[3 * v + a]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: point %d has a non-finite coordinate (%g)", what, (int)v, (double)c->x[3 * v + a]);
+  for (PetscInt i = 0; i < c->n; i++) {
+    PetscBool moves = PETSC_FALSE;
+    for (PetscInt v = c->start[i] + 1; v < c->start[i + 1] && !moves; v++)
+      for (int a = 0; a < 3; a++) moves = (PetscBool)(moves || c->x[3 * v + a] != c->x[3 * c->start[i] + a]);
+    PetscCheck(moves, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curve %d has zero length (all its %d points coincide)", what, (int)i, (int)VKCurveSize(c, i));
+  }
   PetscFunctionReturn(0);
 }

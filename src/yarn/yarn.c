@@ -128,7 +128,15 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   }
   for (int i = 0; i < 7; i++) nsources += chosen[i];
   if (chosen[2] && chosen[3]) nsources--; /* a weave file needs no built-in name */
-  PetscCheck(nsources <= 1, y->comm, PETSC_ERR_ARG_INCOMP, "Several yarn sources given (%s%s%s%s%s%s%s): choose one", chosen[0] ? names[0] : "", chosen[1] ? " -yarn_chart" : "", chosen[2] ? " -yarn_weave" : "", chosen[3] ? " -yarn_weave_file" : "", chosen[4] ? " -yarn_bcc" : "", chosen[5] ? " -yarn_pyp" : "", chosen[6] ? " -yarn_h5" : "");
+  if (nsources > 1) {
+    char list[256] = "";
+    for (int i = 0; i < 7; i++)
+      if (chosen[i]) {
+        PetscCall(PetscStrlcat(list, " ", sizeof(list)));
+        PetscCall(PetscStrlcat(list, names[i], sizeof(list)));
+      }
+    SETERRQ(y->comm, PETSC_ERR_ARG_INCOMP, "Several yarn sources given (%s ): choose one", list);
+  }
   if (chosen[3]) y->pattern[0] = 0;
 
   PetscCall(PetscOptionsInt("-yarn_wales", "Knit patch width in stitches", "VKYarnSetKnit", y->knit.wales, &y->knit.wales, NULL));
@@ -270,7 +278,7 @@ static PetscErrorCode MedianSpacing(const VKCurves *c, PetscReal *m)
     *m = nseg ? len[nseg - 1] : 0;
   PetscCall(PetscFree(len));
   PetscCall(PetscFree(seg));
-  PetscCheck(*m > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "All control points coincide");
+  PetscCheck(*m > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "All control points coincide");  /* unreachable after VKCurvesValidate */
   PetscFunctionReturn(0);
 }
 
@@ -344,18 +352,17 @@ static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKYarnSetUp(VKYarn y)
+/* The whole model from its source; identical on every rank. */
+static PetscErrorCode SetUpModel(VKYarn y)
 {
-  PetscLogDouble t0 = VKWallTime();
-  VKCurves       dense;
-  PetscInt       nseg;
+  VKCurves dense;
+  PetscInt nseg;
 
   PetscFunctionBegin;
-  if (y->setup) PetscFunctionReturn(0);
-  PetscCheck(y->radius > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Yarn radius must be positive");
+  PetscCheck(y->radius > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Yarn radius must be positive");
   if (!y->seglen_set) y->seglen = y->radius;
   if (y->source == VK_YARN_H5) {
-    PetscCheck(!y->seglen_set, y->comm, PETSC_ERR_ARG_INCOMP, "-yarn_segment_length cannot be used with -yarn_h5: %s is already resampled", y->file);
+    PetscCheck(!y->seglen_set, PETSC_COMM_SELF, PETSC_ERR_ARG_INCOMP, "-yarn_segment_length cannot be used with -yarn_h5: %s is already resampled", y->file);
     PetscCall(PetscLogEventBegin(VK_EVENT_YarnRead, 0, 0, 0, 0));
     PetscCall(VKYarnLoadH5(y, y->file));
     PetscCall(PetscLogEventEnd(VK_EVENT_YarnRead, 0, 0, 0, 0));
@@ -368,7 +375,8 @@ PetscErrorCode VKYarnSetUp(VKYarn y)
     PetscCall(VKCurvesValidate(&y->curves, "given curves"));
     PetscCall(PetscStrncpy(y->description, "polylines given through the API", sizeof(y->description)));
   } else {
-    PetscCall(PetscLogEventBegin(y->source == VK_YARN_CHART || y->source == VK_YARN_WOVEN ? VK_EVENT_YarnBuild : VK_EVENT_YarnRead, 0, 0, 0, 0));
+    PetscLogEvent ev = y->source == VK_YARN_CHART || y->source == VK_YARN_WOVEN ? VK_EVENT_YarnBuild : VK_EVENT_YarnRead;
+    PetscCall(PetscLogEventBegin(ev, 0, 0, 0, 0));
     switch (y->source) {
     case VK_YARN_CHART:
       PetscCall(BuildChart(y, &dense));
@@ -383,7 +391,7 @@ PetscErrorCode VKYarnSetUp(VKYarn y)
       PetscCall(ReadPyp(y, &dense));
       break;
     }
-    PetscCall(PetscLogEventEnd(y->source == VK_YARN_CHART || y->source == VK_YARN_WOVEN ? VK_EVENT_YarnBuild : VK_EVENT_YarnRead, 0, 0, 0, 0));
+    PetscCall(PetscLogEventEnd(ev, 0, 0, 0, 0));
     PetscCall(PetscLogEventBegin(VK_EVENT_YarnResample, 0, 0, 0, 0));
     PetscCall(VKCurvesFree(&y->curves));
     {
@@ -406,6 +414,16 @@ PetscErrorCode VKYarnSetUp(VKYarn y)
     PetscCall(VKCurvesTransportFrames(&y->curves, y->normal));
     PetscCall(PetscLogEventEnd(VK_EVENT_YarnFrames, 0, 0, 0, 0));
   }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetUp(VKYarn y)
+{
+  PetscLogDouble t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  if (y->setup) PetscFunctionReturn(0);
+  VKCallCollective(y->comm, SetUpModel(y));
   y->setup      = PETSC_TRUE;
   y->time_build = VKWallTime() - t0;
   PetscFunctionReturn(0);
