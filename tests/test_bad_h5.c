@@ -142,6 +142,7 @@ int main(int argc, char **argv)
     {"mesh.h5", "/embedding/tet",       NULL,       SET_INT,     0,  -5,         "/embedding/tet[0]"                     },
     {"mesh.h5", "/embedding/weights",   NULL,       SET_REAL,    3,  INFINITY,   "non-finite embedding weight"           },
     {"mesh.h5", "/mesh/domain_tet_start", NULL,     SET_INT,     1,  1e8,        "domain ranges"                         },
+    {"mesh.h5", "/mesh/domain_node_start", NULL,    SET_INT,     0,  -3,         "domain ranges"                         },
     {"mesh.h5", "/mesh/voxels",         NULL,       DROP,        0,  0,          "dataset /mesh/voxels is missing"       },
     {"mesh.h5", "/mesh/node_ijk",       NULL,       RESHAPE,     3,  0,          "node_ijk has 4 rows"                   },
     {"mesh.h5", "/mesh",                "h",        ATTR_REAL,   0,  0,          "grid size h"                           },

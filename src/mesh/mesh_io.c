@@ -306,8 +306,9 @@ static PetscErrorCode CheckMesh(VKMesh m, VKYarn y, const char path[])
   }
   for (PetscInt i = 0; i < 4 * m->ny; i++) PetscCheck(isfinite(m->emb_w[i]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: non-finite embedding weight", path);
   PetscCheck(m->domain_tet_start[0] == 0 && m->domain_tet_start[m->ndomains] == m->ne && m->domain_node_start[0] == 0 && m->domain_node_start[m->ndomains] == m->nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: domain ranges do not cover the mesh", path);
-  for (PetscInt d = 0; d < m->ndomains; d++) {
+  for (PetscInt d = 0; d < m->ndomains; d++) /* ranges first: the loops below walk them */
     PetscCheck(m->domain_tet_start[d] <= m->domain_tet_start[d + 1] && m->domain_node_start[d] <= m->domain_node_start[d + 1], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: domain ranges decrease", path);
+  for (PetscInt d = 0; d < m->ndomains; d++) {
     for (PetscInt e = m->domain_tet_start[d]; e < m->domain_tet_start[d + 1]; e++) PetscCheck(m->tet_domain[e] == d, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: tet %d is in domain %d but listed in domain %d", path, (int)e, (int)m->tet_domain[e], (int)d);
     for (PetscInt i = m->domain_node_start[d]; i < m->domain_node_start[d + 1]; i++) PetscCheck(m->node_domain[i] == d, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: node %d is owned by domain %d but listed in domain %d", path, (int)i, (int)m->node_domain[i], (int)d);
   }
