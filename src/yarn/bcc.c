@@ -36,12 +36,48 @@ static float GetF32(const unsigned char *p)
   return f;
 }
 
+/* The curves after the header; `x` is a scratch buffer the caller frees. */
+static PetscErrorCode ParseCurves(const unsigned char buf[], size_t len, const char fname[], uint64_t ncurves, uint64_t npoints, VKCurves *curves, PetscReal **x)
+{
+  uint64_t seen = 0;
+  size_t   pos  = BCC_HEADER;
+  int32_t  cap  = 0;
+
+  PetscFunctionBegin;
+  for (uint64_t c = 0; c < ncurves; c++) {
+    int32_t n, m;
+    PetscCheck(len - pos >= 4, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: truncated: curve %llu of %llu starts past the end of the file", fname, (unsigned long long)c, (unsigned long long)ncurves);
+    n = GetI32(buf + pos);
+    pos += 4;
+    PetscCheck(n != 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curve %llu has 0 control points", fname, (unsigned long long)c);
+    PetscCheck(n != INT32_MIN, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curve %llu has an invalid control point count", fname, (unsigned long long)c);
+    m = n < 0 ? -n : n;
+    PetscCheck((uint64_t)m <= (len - pos) / 12, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: truncated: curve %llu declares %d control points, only %zu bytes remain", fname, (unsigned long long)c, (int)m, len - pos);
+    PetscCheck(seen + (uint64_t)m <= npoints, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curves hold more control points than the header's total %llu", fname, (unsigned long long)npoints);
+    if (m > cap) {
+      PetscCall(PetscFree(*x));
+      cap = PetscMax(m, 2 * cap);
+      PetscCall(PetscMalloc1(3 * (size_t)cap, x));
+    }
+    for (int32_t k = 0; k < 3 * m; k++) {
+      float f = GetF32(buf + pos + 4 * (size_t)k);
+      PetscCheck(isfinite(f), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curve %llu, control point %d has a non-finite coordinate (%g)", fname, (unsigned long long)c, (int)(k / 3), (double)f);
+      (*x)[k] = f;
+    }
+    pos += 12 * (size_t)m;
+    seen += (uint64_t)m;
+    PetscCall(VKCurvesAdd(curves, m, *x, n < 0 ? PETSC_TRUE : PETSC_FALSE));
+  }
+  PetscCheck(seen == npoints, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curves hold %llu control points, the header says %llu", fname, (unsigned long long)seen, (unsigned long long)npoints);
+  PetscCheck(pos == len, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: %zu unexpected bytes after the last curve", fname, len - pos);
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKBCCParse(const unsigned char buf[], size_t len, const char fname[], VKCurveType *type, VKCurves *curves)
 {
-  uint64_t   ncurves, npoints, seen = 0;
-  size_t     pos = BCC_HEADER;
-  PetscReal *x   = NULL;
-  int32_t    cap = 0;
+  uint64_t       ncurves, npoints;
+  PetscReal     *x = NULL;
+  PetscErrorCode ierr;
 
   PetscFunctionBegin;
   PetscCall(VKCurvesInit(curves));
@@ -57,40 +93,9 @@ PetscErrorCode VKBCCParse(const unsigned char buf[], size_t len, const char fnam
   PetscCheck(ncurves > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: the BCC file contains no curves (curve count 0)", fname);
   PetscCheck(ncurves <= (len - BCC_HEADER) / 4, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: header declares %llu curves but the file has only %zu bytes of data (truncated or corrupt)", fname, (unsigned long long)ncurves, len - BCC_HEADER);
   PetscCheck(npoints <= (len - BCC_HEADER) / 12 && npoints <= (uint64_t)PETSC_MAX_INT, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: header declares %llu control points but the file has only %zu bytes of data (truncated or corrupt)", fname, (unsigned long long)npoints, len - BCC_HEADER);
-  for (uint64_t c = 0; c < ncurves; c++) {
-    int32_t n, m;
-    PetscCheck(len - pos >= 4, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: truncated: curve %llu of %llu starts past the end of the file", fname, (unsigned long long)c, (unsigned long long)ncurves);
-    n = GetI32(buf + pos);
-    pos += 4;
-    PetscCheck(n != 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curve %llu has 0 control points", fname, (unsigned long long)c);
-    PetscCheck(n != INT32_MIN, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curve %llu has an invalid control point count", fname, (unsigned long long)c);
-    m = n < 0 ? -n : n;
-    PetscCheck((uint64_t)m <= (len - pos) / 12, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: truncated: curve %llu declares %d control points, only %zu bytes remain", fname, (unsigned long long)c, (int)m, len - pos);
-    PetscCheck(seen + (uint64_t)m <= npoints, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curves hold more control points than the header's total %llu", fname, (unsigned long long)npoints);
-    if (m > cap) {
-      PetscCall(PetscFree(x));
-      cap = PetscMax(m, 2 * cap);
-      PetscCall(PetscMalloc1(3 * (size_t)cap, &x));
-    }
-    for (int32_t k = 0; k < 3 * m; k++) {
-      float f = GetF32(buf + pos + 4 * (size_t)k);
-      if (!isfinite(f)) {
-        PetscCall(PetscFree(x));
-        SETERRQ(PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curve %llu, control point %d has a non-finite coordinate (%g)", fname, (unsigned long long)c, (int)(k / 3), (double)f);
-      }
-      x[k] = f;
-    }
-    pos += 12 * (size_t)m;
-    seen += (uint64_t)m;
-    {
-      PetscErrorCode ierr = VKCurvesAdd(curves, m, x, n < 0 ? PETSC_TRUE : PETSC_FALSE);
-      if (ierr) PetscCall(PetscFree(x));
-      PetscCall(ierr);
-    }
-  }
+  ierr = ParseCurves(buf, len, fname, ncurves, npoints, curves, &x);
   PetscCall(PetscFree(x));
-  PetscCheck(seen == npoints, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: curves hold %llu control points, the header says %llu", fname, (unsigned long long)seen, (unsigned long long)npoints);
-  PetscCheck(pos == len, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: %zu unexpected bytes after the last curve", fname, len - pos);
+  PetscCall(ierr);
   PetscCall(VKCurvesValidate(curves, fname));
   PetscFunctionReturn(0);
 }
