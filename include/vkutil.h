@@ -68,6 +68,23 @@ PETSC_EXTERN void VKSpatialHashCellOf(const VKSpatialHash *, const PetscReal p[]
 /* Items of cell c: item[*begin .. *end) (empty if the cell is absent). */
 PETSC_EXTERN void VKSpatialHashItems(const VKSpatialHash *, const PetscInt c[], PetscInt *begin, PetscInt *end);
 
+/* Compensated (Kahan-Babuska) summation, for totals over millions of terms
+ * that are compared to 1e-12 (mesh mass against yarn mass). */
+typedef struct {
+  PetscReal sum, c;
+} VKSum;
+static inline void VKSumAdd(VKSum *s, PetscReal v)
+{
+  PetscReal t = s->sum + v;
+  if (PetscAbsReal(s->sum) >= PetscAbsReal(v)) s->c += (s->sum - t) + v;
+  else s->c += (v - t) + s->sum;
+  s->sum = t;
+}
+static inline PetscReal VKSumValue(const VKSum *s)
+{
+  return s->sum + s->c;
+}
+
 PETSC_EXTERN PetscLogDouble VKWallTime(void);
 /* Peak resident set size of this process in bytes. */
 PETSC_EXTERN PetscErrorCode VKPeakMemory(PetscLogDouble *);

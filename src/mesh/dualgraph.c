@@ -64,3 +64,25 @@ PetscErrorCode VKMeshBuildDualGraph(VKMesh m)
     }
   PetscFunctionReturn(0);
 }
+
+/* The graph in a new tet numbering: row k of the result is row order[k] of
+ * the old graph, with neighbours renamed by tnew. */
+PetscErrorCode VKMeshPermuteDualGraph(VKMesh m, const PetscInt order[], const PetscInt tnew[])
+{
+  PetscInt *start, *adj;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(m->ne + 1, &start));
+  PetscCall(PetscMalloc1(m->dual_start[m->ne] + 1, &adj));
+  start[0] = 0;
+  for (PetscInt k = 0; k < m->ne; k++) {
+    PetscInt e = order[k], n = m->dual_start[e + 1] - m->dual_start[e];
+    for (PetscInt i = 0; i < n; i++) adj[start[k] + i] = tnew[m->dual_adj[m->dual_start[e] + i]];
+    start[k + 1] = start[k] + n;
+  }
+  PetscCall(PetscFree(m->dual_start));
+  PetscCall(PetscFree(m->dual_adj));
+  m->dual_start = start;
+  m->dual_adj   = adj;
+  PetscFunctionReturn(0);
+}

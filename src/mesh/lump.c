@@ -94,3 +94,13 @@ PetscErrorCode VKMeshLump(VKMesh m)
   PetscCall(VKGridWalkFree(&walk));
   PetscFunctionReturn(0);
 }
+
+PetscErrorCode VKMeshTotalMass(VKMesh m, PetscReal *total)
+{
+  VKSum sum = {0, 0};
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < m->nv; i++) VKSumAdd(&sum, m->mass[i]);
+  *total = VKSumValue(&sum);
+  PetscFunctionReturn(0);
+}

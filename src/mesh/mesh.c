@@ -122,8 +122,7 @@ PetscErrorCode VKMeshSetUp(VKMesh m)
   TIMED(1, VK_EVENT_Tets, VKMeshComputeGeometry(m));
   TIMED(6, VK_EVENT_Layout, VKMeshBuildLayout(m));
   PetscCall(VKYarnGetMass(m->yarn, &m->yarn_mass, NULL));
-  m->mesh_mass = 0;
-  for (PetscInt i = 0; i < m->nv; i++) m->mesh_mass += m->mass[i];
+  PetscCall(VKMeshTotalMass(m, &m->mesh_mass));
   m->time[7] = VKWallTime() - t0;
   m->setup   = PETSC_TRUE;
   PetscFunctionReturn(0);

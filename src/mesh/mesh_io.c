@@ -357,8 +357,7 @@ PetscErrorCode VKMeshLoadH5(MPI_Comm comm, const char path[], VKMesh *mesh, VKYa
   PetscCall(VKMeshFinishDomains(m));
   PetscCall(VKMeshBuildLayout(m));
   PetscCall(VKYarnGetMass(*yarn, &m->yarn_mass, NULL));
-  m->mesh_mass = 0;
-  for (PetscInt i = 0; i < m->nv; i++) m->mesh_mass += m->mass[i];
+  PetscCall(VKMeshTotalMass(m, &m->mesh_mass));
   m->h_set = PETSC_TRUE;
   m->setup = PETSC_TRUE;
   PetscFunctionReturn(0);

@@ -49,6 +49,8 @@ PETSC_INTERN PetscErrorCode VKMeshVoxelize(VKMesh);
 PETSC_INTERN PetscErrorCode VKMeshBuildTets(VKMesh);
 PETSC_INTERN PetscErrorCode VKMeshComputeGeometry(VKMesh);
 PETSC_INTERN PetscErrorCode VKMeshLump(VKMesh);
+PETSC_INTERN PetscErrorCode VKMeshTotalMass(VKMesh, PetscReal *);
+PETSC_INTERN PetscErrorCode VKMeshPermuteDualGraph(VKMesh, const PetscInt order[], const PetscInt tnew[]);
 PETSC_INTERN PetscErrorCode VKMeshEmbed(VKMesh);
 PETSC_INTERN PetscErrorCode VKMeshBuildDualGraph(VKMesh);
 PETSC_INTERN PetscErrorCode VKMeshPartition(VKMesh);

@@ -108,6 +108,7 @@ PetscErrorCode VKMeshPartition(VKMesh m)
   PetscCall(PermuteInt(m->ne, 4, torder, &m->tet));
   for (PetscInt k = 0; k < 6 * m->nvox; k++) m->tet_of_kuhn[k] = tnew[m->tet_of_kuhn[k]];
   for (PetscInt k = 0; k < m->ny; k++) m->emb_tet[k] = tnew[m->emb_tet[k]];
+  PetscCall(VKMeshPermuteDualGraph(m, torder, tnew));
   PetscCall(PermuteReal(m->nv, 3, norder, &m->x));
   PetscCall(PermuteInt(m->nv, 3, norder, &m->node_ijk));
   PetscCall(PermuteReal(m->nv, 1, norder, &m->mass));
@@ -124,7 +125,6 @@ PetscErrorCode VKMeshPartition(VKMesh m)
   }
   PetscCall(PetscFree4(part, torder, tnew, owner));
   PetscCall(PetscFree3(norder, nnew, iface));
-  PetscCall(VKMeshBuildDualGraph(m));
   PetscCall(VKMeshFinishDomains(m));
   PetscFunctionReturn(0);
 }

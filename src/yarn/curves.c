@@ -2,6 +2,7 @@
  * open or closed) with its bookkeeping: growth, segments, length,
  * bounding box, validation of untrusted coordinates. */
 #include <vkcurves.h>
+#include <vkutil.h>
 #include <math.h>
 
 PetscErrorCode VKCurvesInit(VKCurves *c)
@@ -101,15 +102,17 @@ PetscErrorCode VKCurvesGetSegmentCurves(const VKCurves *c, PetscInt **curve)
 
 PetscErrorCode VKCurvesLength(const VKCurves *c, PetscReal *len)
 {
+  VKSum sum = {0, 0};
+
   PetscFunctionBegin;
-  *len = 0;
   for (PetscInt i = 0; i < c->n; i++) {
     PetscInt b = c->start[i], m = VKCurveSize(c, i), ns = VKCurveNumSegments(c, i);
     for (PetscInt k = 0; k < ns; k++) {
       const PetscReal *p = c->x + 3 * (b + k), *q = c->x + 3 * (b + (k + 1) % m);
-      *len += PetscSqrtReal(PetscSqr(q[0] - p[0]) + PetscSqr(q[1] - p[1]) + PetscSqr(q[2] - p[2]));
+      VKSumAdd(&sum, PetscSqrtReal(PetscSqr(q[0] - p[0]) + PetscSqr(q[1] - p[1]) + PetscSqr(q[2] - p[2])));
     }
   }
+  *len = VKSumValue(&sum);
   PetscFunctionReturn(0);
 }
 
