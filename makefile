@@ -95,6 +95,7 @@ bin/fuzz/%: tests/fuzz/%.c $(LIB_SRC)
 	clang $(FUZZ_CFLAGS) $< $(LIB_SRC) -o $@ $(FUZZ_LIBS)
 
 fuzz: deps
+	@command -v clang >/dev/null || { echo "make fuzz needs clang: apt-get install -y clang" >&2; exit 1; }
 	@$(MAKE) --no-print-directory $(FUZZ_BIN)
 	@tests/fuzz/run_fuzz.sh $(FUZZ_TIME)
 

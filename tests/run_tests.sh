@@ -91,5 +91,17 @@ for d in 1 2; do
 done
 printf '%-22s       : %4d passed, %d failed\n' "mesh, 1 vs 2 ranks" "$((passed - cmp_passed))" "$((failed - cmp_failed))"
 
+# 4. the example program: its printed mass balance and reproduction error
+for n in 1 2; do
+  log="$out/ex1.n$n.log"
+  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/examples/ex1_chart_mesh -ex_chart meshes/moss_rib.knit -ex_wales 9 -ex_courses 7 -o "$out/ex1.n$n" > "$log" 2>&1
+  rc=$?
+  dm=$(sed -n 's/.*(relative difference \([^)]*\)).*/\1/p' "$log" | tail -n 1)
+  dx=$(sed -n 's/.*reproduces the rest yarn to \([^ ]*\) m.*/\1/p' "$log")
+  if [ "$rc" -eq 0 ] && [ -n "$dm" ] && [ -n "$dx" ] && awk -v a="$dm" -v b="$dx" 'BEGIN { exit !(a < 1e-12 && b < 3e-15) }'; then ok
+  else not_ok "ex1_chart_mesh -n $n: status $rc, mass difference '$dm' (< 1e-12), reproduction '$dx' m (< 3e-15 = 1e-12 h) (see $log)"; fi
+done
+printf '%-22s       : example ex1_chart_mesh with 1 and 2 ranks\n' "examples"
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
