@@ -49,6 +49,8 @@ typedef struct {
 PETSC_EXTERN PetscErrorCode VKOutputBegin(const char path[], PetscBool text, VKOutput *);
 PETSC_EXTERN PetscErrorCode VKOutputCommit(VKOutput *);
 PETSC_EXTERN PetscErrorCode VKOutputAbandon(VKOutput *);
+/* Begin, write(ctx, out), then commit, or abandon if write fails. */
+PETSC_EXTERN PetscErrorCode VKOutputWrite(const char path[], PetscBool text, PetscErrorCode (*write)(void *ctx, VKOutput *out), void *ctx);
 
 /* HDF5 file handle that remembers its name for error messages. */
 typedef struct {

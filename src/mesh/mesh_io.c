@@ -58,8 +58,10 @@ static PetscErrorCode WriteMeshH5(VKMesh m, const char path[])
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WriteMeshXdmf(VKMesh m, FILE *fp)
+static PetscErrorCode WriteMeshXdmf(void *ctx, VKOutput *out)
 {
+  VKMesh   m    = (VKMesh)ctx;
+  FILE    *fp   = out->fp;
   PetscInt nseg = VKCurvesNumSegments(&m->yarn->curves);
 
   PetscFunctionBegin;
@@ -104,8 +106,16 @@ static PetscErrorCode DomainInterfaceCounts(VKMesh m, PetscInt count[])
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WriteMeshJSON(VKMesh m, FILE *fp, PetscLogDouble twrite)
+typedef struct {
+  VKMesh         m;
+  PetscLogDouble twrite;
+} JSONCtx;
+
+static PetscErrorCode WriteMeshJSON(void *ctx, VKOutput *out)
 {
+  VKMesh         m      = ((JSONCtx *)ctx)->m;
+  PetscLogDouble twrite = ((JSONCtx *)ctx)->twrite;
+  FILE          *fp     = out->fp;
   VKJSON    j;
   PetscInt *iface, ninterface = 0;
   PetscReal vol = 0;
@@ -151,32 +161,26 @@ static PetscErrorCode WriteMeshJSON(VKMesh m, FILE *fp, PetscLogDouble twrite)
   PetscFunctionReturn(0);
 }
 
+static PetscErrorCode WriteMeshH5Output(void *m, VKOutput *out)
+{
+  return WriteMeshH5((VKMesh)m, out->tmp);
+}
+
 static PetscErrorCode WriteAll(VKMesh m, const char dir[])
 {
   char           path[PETSC_MAX_PATH_LEN];
-  VKOutput       out;
-  PetscErrorCode ierr;
   PetscLogDouble t0 = VKWallTime();
+  JSONCtx        json;
 
   PetscFunctionBegin;
   PetscCall(VKPathJoin(dir, "mesh.h5", path, sizeof(path)));
-  PetscCall(VKOutputBegin(path, PETSC_FALSE, &out));
-  ierr = WriteMeshH5(m, out.tmp);
-  if (ierr) VKOutputAbandon(&out);
-  PetscCall(ierr);
-  PetscCall(VKOutputCommit(&out));
+  PetscCall(VKOutputWrite(path, PETSC_FALSE, WriteMeshH5Output, m));
   PetscCall(VKPathJoin(dir, "mesh.xdmf", path, sizeof(path)));
-  PetscCall(VKOutputBegin(path, PETSC_TRUE, &out));
-  ierr = WriteMeshXdmf(m, out.fp);
-  if (ierr) VKOutputAbandon(&out);
-  PetscCall(ierr);
-  PetscCall(VKOutputCommit(&out));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteMeshXdmf, m));
+  json.m      = m;
+  json.twrite = VKWallTime() - t0;
   PetscCall(VKPathJoin(dir, "mesh.json", path, sizeof(path)));
-  PetscCall(VKOutputBegin(path, PETSC_TRUE, &out));
-  ierr = WriteMeshJSON(m, out.fp, VKWallTime() - t0);
-  if (ierr) VKOutputAbandon(&out);
-  PetscCall(ierr);
-  PetscCall(VKOutputCommit(&out));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteMeshJSON, &json));
   PetscFunctionReturn(0);
 }
 

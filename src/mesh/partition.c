@@ -8,6 +8,7 @@
  * range of tets and one of nodes. */
 #include "meshimpl.h"
 #include <metis.h>
+#include <string.h>
 
 static PetscErrorCode MetisParts(VKMesh m, PetscInt *part)
 {
@@ -44,27 +45,14 @@ static PetscErrorCode CountingOrder(PetscInt n, const PetscInt key[], PetscInt n
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode PermuteReal(PetscInt n, PetscInt bs, const PetscInt order[], PetscReal **a)
+/* Rows of `rowbytes` bytes in the new order: row k is old row order[k]. */
+static PetscErrorCode PermuteRows(PetscInt n, size_t rowbytes, const PetscInt order[], void *array)
 {
-  PetscReal *b;
+  char **a = (char **)array, *b;
 
   PetscFunctionBegin;
-  PetscCall(PetscMalloc1((size_t)n * bs + 1, &b));
-  for (PetscInt i = 0; i < n; i++)
-    for (PetscInt c = 0; c < bs; c++) b[i * bs + c] = (*a)[order[i] * bs + c];
-  PetscCall(PetscFree(*a));
-  *a = b;
-  PetscFunctionReturn(0);
-}
-
-static PetscErrorCode PermuteInt(PetscInt n, PetscInt bs, const PetscInt order[], PetscInt **a)
-{
-  PetscInt *b;
-
-  PetscFunctionBegin;
-  PetscCall(PetscMalloc1((size_t)n * bs + 1, &b));
-  for (PetscInt i = 0; i < n; i++)
-    for (PetscInt c = 0; c < bs; c++) b[i * bs + c] = (*a)[order[i] * bs + c];
+  PetscCall(PetscMalloc((size_t)n * rowbytes + 1, &b));
+  for (PetscInt i = 0; i < n; i++) memcpy(b + i * rowbytes, *a + order[i] * rowbytes, rowbytes);
   PetscCall(PetscFree(*a));
   *a = b;
   PetscFunctionReturn(0);
@@ -105,13 +93,13 @@ PetscErrorCode VKMeshPartition(VKMesh m)
 
   /* renumber everything */
   for (PetscInt i = 0; i < 4 * m->ne; i++) m->tet[i] = nnew[m->tet[i]];
-  PetscCall(PermuteInt(m->ne, 4, torder, &m->tet));
+  PetscCall(PermuteRows(m->ne, 4 * sizeof(PetscInt), torder, &m->tet));
   for (PetscInt k = 0; k < 6 * m->nvox; k++) m->tet_of_kuhn[k] = tnew[m->tet_of_kuhn[k]];
   for (PetscInt k = 0; k < m->ny; k++) m->emb_tet[k] = tnew[m->emb_tet[k]];
   PetscCall(VKMeshPermuteDualGraph(m, torder, tnew));
-  PetscCall(PermuteReal(m->nv, 3, norder, &m->x));
-  PetscCall(PermuteInt(m->nv, 3, norder, &m->node_ijk));
-  PetscCall(PermuteReal(m->nv, 1, norder, &m->mass));
+  PetscCall(PermuteRows(m->nv, 3 * sizeof(PetscReal), norder, &m->x));
+  PetscCall(PermuteRows(m->nv, 3 * sizeof(PetscInt), norder, &m->node_ijk));
+  PetscCall(PermuteRows(m->nv, sizeof(PetscReal), norder, &m->mass));
   PetscCall(PetscFree(m->tet_domain));
   PetscCall(PetscFree(m->node_domain));
   PetscCall(PetscFree(m->node_interface));

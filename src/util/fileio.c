@@ -163,6 +163,20 @@ PetscErrorCode VKOutputCommit(VKOutput *out)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKOutputWrite(const char path[], PetscBool text, PetscErrorCode (*write)(void *, VKOutput *), void *ctx)
+{
+  VKOutput       out;
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(VKOutputBegin(path, text, &out));
+  ierr = write(ctx, &out);
+  if (ierr) PetscCall(VKOutputAbandon(&out));
+  PetscCall(ierr);
+  PetscCall(VKOutputCommit(&out));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKOutputAbandon(VKOutput *out)
 {
   PetscFunctionBegin;

@@ -105,8 +105,10 @@ static void PutU64(unsigned char *p, uint64_t v)
   for (int i = 0; i < 8; i++) p[i] = (unsigned char)(v >> (8 * i));
 }
 
-static PetscErrorCode WriteBCC(FILE *fp, const VKCurves *c)
+static PetscErrorCode WriteBCC(void *ctx, VKOutput *out)
 {
+  const VKCurves *c  = (const VKCurves *)ctx;
+  FILE           *fp = out->fp;
   unsigned char head[BCC_HEADER] = {'B', 'C', 'C', 0x44, 'P', 'L', 3, 1};
 
   PetscFunctionBegin;
@@ -134,14 +136,7 @@ static PetscErrorCode WriteBCC(FILE *fp, const VKCurves *c)
 
 PetscErrorCode VKBCCWrite(const char path[], const VKCurves *c)
 {
-  VKOutput       out;
-  PetscErrorCode ierr;
-
   PetscFunctionBegin;
-  PetscCall(VKOutputBegin(path, PETSC_TRUE, &out));
-  ierr = WriteBCC(out.fp, c);
-  if (ierr) PetscCall(VKOutputAbandon(&out));
-  PetscCall(ierr);
-  PetscCall(VKOutputCommit(&out));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteBCC, (void *)c));
   PetscFunctionReturn(0);
 }

@@ -214,8 +214,11 @@ PetscErrorCode VKPypParse(const char buf[], size_t len, const char fname[], VKPy
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WritePyp(FILE *fp, const VKPyp *p)
+static PetscErrorCode WritePyp(void *ctx, VKOutput *out)
 {
+  const VKPyp *p  = (const VKPyp *)ctx;
+  FILE        *fp = out->fp;
+
   PetscFunctionBegin;
   fprintf(fp, "# periodic yarn pattern written by volknit\n*pattern\n%.17g %.17g %.17g %d\n*Q\n", (double)p->period[0], (double)p->period[1], (double)p->radius, (int)p->nv);
   for (PetscInt i = 0; i < p->nv; i++) fprintf(fp, "%.17g %.17g %.17g %.17g\n", (double)p->q[4 * i], (double)p->q[4 * i + 1], (double)p->q[4 * i + 2], (double)p->q[4 * i + 3]);
@@ -231,15 +234,8 @@ static PetscErrorCode WritePyp(FILE *fp, const VKPyp *p)
 
 PetscErrorCode VKPypWrite(const char path[], const VKPyp *p)
 {
-  VKOutput       out;
-  PetscErrorCode ierr;
-
   PetscFunctionBegin;
-  PetscCall(VKOutputBegin(path, PETSC_TRUE, &out));
-  ierr = WritePyp(out.fp, p);
-  if (ierr) PetscCall(VKOutputAbandon(&out));
-  PetscCall(ierr);
-  PetscCall(VKOutputCommit(&out));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WritePyp, (void *)p));
   PetscFunctionReturn(0);
 }
 

@@ -59,30 +59,22 @@ static PetscErrorCode WriteH5File(VKYarn y, const char path[])
   PetscFunctionReturn(0);
 }
 
-/* Run `write(y, tmp)` on rank 0 into a temporary file, rename on success. */
-static PetscErrorCode Rank0Output(VKYarn y, const char path[], PetscBool text, PetscErrorCode (*write)(VKYarn, VKOutput *), const char what[])
+/* `write` runs on rank 0 into a temporary file renamed when complete. */
+static PetscErrorCode Rank0Output(VKYarn y, const char path[], PetscBool text, PetscErrorCode (*write)(void *, VKOutput *), const char what[])
 {
   PetscMPIInt    rank;
   PetscErrorCode ierr = 0;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
-  if (rank == 0) {
-    VKOutput out;
-    ierr = VKOutputBegin(path, text, &out);
-    if (!ierr) {
-      ierr = write(y, &out);
-      if (ierr) VKOutputAbandon(&out);
-      else ierr = VKOutputCommit(&out);
-    }
-  }
+  if (rank == 0) ierr = VKOutputWrite(path, text, write, y);
   PetscCall(VKCollective(y->comm, ierr, what));
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WriteH5Output(VKYarn y, VKOutput *out)
+static PetscErrorCode WriteH5Output(void *y, VKOutput *out)
 {
-  return WriteH5File(y, out->tmp);
+  return WriteH5File((VKYarn)y, out->tmp);
 }
 
 PetscErrorCode VKYarnWriteH5(VKYarn y, const char path[])
@@ -92,8 +84,10 @@ PetscErrorCode VKYarnWriteH5(VKYarn y, const char path[])
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WriteOBJOutput(VKYarn y, VKOutput *out)
+static PetscErrorCode WriteOBJOutput(void *ctx, VKOutput *out)
 {
+  VKYarn y = (VKYarn)ctx;
+
   PetscFunctionBegin;
   fprintf(out->fp, "# volknit yarn polylines (m): %s\n", y->description);
   for (PetscInt v = 0; v < y->curves.nv; v++) fprintf(out->fp, "v %.9g %.9g %.9g\n", (double)y->curves.x[3 * v], (double)y->curves.x[3 * v + 1], (double)y->curves.x[3 * v + 2]);
@@ -113,8 +107,9 @@ PetscErrorCode VKYarnWriteOBJ(VKYarn y, const char path[])
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WriteXdmfOutput(VKYarn y, VKOutput *out)
+static PetscErrorCode WriteXdmfOutput(void *ctx, VKOutput *out)
 {
+  VKYarn   y    = (VKYarn)ctx;
   PetscInt nseg = VKCurvesNumSegments(&y->curves);
 
   PetscFunctionBegin;
@@ -129,8 +124,9 @@ static PetscErrorCode WriteXdmfOutput(VKYarn y, VKOutput *out)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WriteJSONOutput(VKYarn y, VKOutput *out)
+static PetscErrorCode WriteJSONOutput(void *ctx, VKOutput *out)
 {
+  VKYarn    y = (VKYarn)ctx;
   VKJSON    j;
   PetscReal lo[3], hi[3], mass, length;
 
