@@ -94,7 +94,8 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   PetscCall(PetscOptionsString("-yarn_pattern", "Built-in knit pattern: stockinette, garter, rib1x1, rib2x2, seed, basketweave", "VKYarnSetKnit", y->pattern, buf, sizeof(buf), &chosen[0]));
   if (chosen[0]) {
     PetscCall(PetscStrncpy(y->pattern, buf, sizeof(y->pattern)));
-    y->source = VK_YARN_CHART;
+    y->file[0] = 0; /* a built-in, not a chart file set before */
+    y->source  = VK_YARN_CHART;
   }
   PetscCall(PetscOptionsString("-yarn_chart", "Knit chart file: rows of K/P, bottom course first (meshes/README)", "VKKnitChartParse", "", buf, sizeof(buf), &chosen[1]));
   if (chosen[1]) {
@@ -104,7 +105,8 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   PetscCall(PetscOptionsString("-yarn_weave", "Built-in weave: plain, twill, basket, satin", "VKWeaveBuiltin", "plain", buf, sizeof(buf), &chosen[2]));
   if (chosen[2]) {
     PetscCall(PetscStrncpy(y->pattern, buf, sizeof(y->pattern)));
-    y->source = VK_YARN_WOVEN;
+    y->file[0] = 0;
+    y->source  = VK_YARN_WOVEN;
   }
   PetscCall(PetscOptionsString("-yarn_weave_file", "Weave matrix file: rows of 0/1, 1 where the weft is over the warp", "VKWeaveParse", "", buf, sizeof(buf), &chosen[3]));
   if (chosen[3]) {
@@ -135,7 +137,7 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
         PetscCall(PetscStrlcat(list, " ", sizeof(list)));
         PetscCall(PetscStrlcat(list, names[i], sizeof(list)));
       }
-    SETERRQ(y->comm, PETSC_ERR_ARG_INCOMP, "Several yarn sources given (%s ): choose one", list);
+    SETERRQ(y->comm, PETSC_ERR_ARG_INCOMP, "Several yarn sources given:%s; choose one", list);
   }
   if (chosen[3]) y->pattern[0] = 0;
 
