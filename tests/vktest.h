@@ -59,6 +59,22 @@ static inline PetscErrorCode VKTestClose(PetscReal a, PetscReal b, PetscReal tol
   PetscFunctionReturn(0);
 }
 
+/* Observed order of a Taylor remainder sequence r_k = r(h0 2^-k): the
+ * smallest log2(r_k / r_k+1) over the pairs whose r_k+1 is above `floor`
+ * (round-off).  *pairs counts them; with none, every remainder sat at
+ * round-off (an exact linear relation). */
+static inline PetscReal VKTestTaylorOrder(int n, const PetscReal r[], PetscReal floor, int *pairs)
+{
+  PetscReal order = PETSC_MAX_REAL;
+  *pairs          = 0;
+  for (int k = 0; k + 1 < n; k++)
+    if (r[k + 1] > floor && r[k] > 0) {
+      order = PetscMin(order, PetscLog2Real(r[k] / r[k + 1]));
+      (*pairs)++;
+    }
+  return *pairs ? order : 0;
+}
+
 static inline int VKTestFinish(void)
 {
   PetscMPIInt rank;

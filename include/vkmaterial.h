@@ -1,0 +1,86 @@
+/* vkmaterial.h: the homogenized material (DESIGN §6, paper Eq. 7-8, 26).
+ * Per tet  E_e = V_e psi(F_e),  psi = g_s |F - R(F)|^2 + g_v |F - V(F)|^2
+ * with F = U Sigma W^T the signed SVD (U, W rotations, s1 >= s2 >= |s3|,
+ * s3 < 0 for an inverted tet), R = U W^T and V = U diag(shat) W^T, shat the
+ * closest point to Sigma on {s1 s2 s3 = 1, s_i >= 0.01}.  Point kernels
+ * (one F), element kernels (one tet) and assembly over the distributed
+ * mesh into PETSc Vec/Mat objects.  Matrices are row-major, vec(F) index
+ * 3 r + c. */
+#pragma once
+#include <vkmesh.h>
+
+#define VK_SHAT_MIN 0.01 /* clamp of the volume-preserving projection */
+
+/* ---- point kernels ------------------------------------------------------ */
+typedef struct {
+  PetscReal U[9], W[9], s[3]; /* signed SVD */
+} VKSVD3;
+PETSC_EXTERN void VKSVD3Compute(const PetscReal F[], VKSVD3 *);
+/* Eigen-decomposition of a symmetric 3x3 matrix: A = Q diag(l) Q^T. */
+PETSC_EXTERN void VKSymEig3(const PetscReal A[], PetscReal l[], PetscReal Q[]);
+
+/* Closest point shat to s on {shat1 shat2 shat3 = 1, shat_i >= VK_SHAT_MIN},
+ * its Lagrange multiplier, and J = d shat / d s (optional). */
+typedef struct {
+  PetscReal shat[3], lambda, J[9];
+  PetscInt  nfixed; /* components held at VK_SHAT_MIN */
+  PetscBool fixed[3];
+} VKVolumeProjection;
+PETSC_EXTERN PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *);
+
+/* Everything psi needs at one F. */
+typedef struct {
+  VKSVD3             svd;
+  VKVolumeProjection proj;
+  PetscReal          R[9], V[9];
+  PetscReal          psi_s, psi_v; /* |F - R|^2, |F - V|^2 */
+} VKPsiState;
+PETSC_EXTERN PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *);
+/* dpsi/dF = 2 g_s (F - R) + 2 g_v (F - V) */
+PETSC_EXTERN void VKPsiGradient(const VKPsiState *, const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[]);
+/* d2psi/dF2 (81 entries) from the analytic eigensystem of isotropic
+ * energies; with psd the negative eigenvalues are clamped to zero. */
+PETSC_EXTERN void VKPsiHessian(const VKPsiState *, PetscReal gs, PetscReal gv, PetscBool psd, PetscReal H[]);
+
+/* ---- element kernels ---------------------------------------------------- */
+/* F = X G^T for the tet's node positions X (3 x 4, column a = node a). */
+PETSC_EXTERN void VKTetDeformation(const PetscReal G[], const PetscReal X[], PetscReal F[]);
+/* Element energy V psi, gradient (12: node a, coordinate r at 3 a + r),
+ * Hessian (144, optional), and the gradient's derivatives by g_s and g_v
+ * (12 x 2, column-major: dgdg[0..11] for g_s, [12..23] for g_v; optional). */
+PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[]);
+
+/* ---- the material over a mesh ------------------------------------------ */
+typedef struct _n_VKMaterial *VKMaterial;
+struct _n_VKMaterial {
+  MPI_Comm  comm;
+  VKMesh    mesh;
+  PetscReal gamma_s, gamma_v;            /* uniform values */
+  char      file[PETSC_MAX_PATH_LEN];    /* per-element values (-mat_file) */
+  PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v */
+  PetscBool setup;
+};
+PETSC_EXTERN PetscErrorCode VKMaterialCreate(VKMesh, VKMaterial *);
+PETSC_EXTERN PetscErrorCode VKMaterialSetUniform(VKMaterial, PetscReal gs, PetscReal gv);
+PETSC_EXTERN PetscErrorCode VKMaterialSetFromOptions(VKMaterial);
+PETSC_EXTERN PetscErrorCode VKMaterialSetUp(VKMaterial);
+PETSC_EXTERN PetscErrorCode VKMaterialView(VKMaterial, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKMaterialDestroy(VKMaterial *);
+/* material.h5: g_s, g_v per tet with the tet's voxel and Kuhn index, so a
+ * file written for one partition reads into any other. */
+PETSC_EXTERN PetscErrorCode VKMaterialWriteH5(VKMaterial, const char path[]);
+PETSC_EXTERN PetscErrorCode VKMaterialLoadH5(VKMaterial, const char path[]);
+
+/* Assembly over owned tets.  x is a ghosted node vector of block size 3
+ * (VKMeshCreateNodeVec(mesh, 3, &x)) holding positions; its ghost values
+ * are updated here. */
+PETSC_EXTERN PetscErrorCode VKMaterialEnergy(VKMaterial, Vec x, PetscReal *E);
+PETSC_EXTERN PetscErrorCode VKMaterialGradient(VKMaterial, Vec x, Vec g);
+/* H = d2E/dx2 into a BAIJ matrix from VKMeshCreateNodeMat(mesh, 3, &H). */
+PETSC_EXTERN PetscErrorCode VKMaterialHessian(VKMaterial, Vec x, PetscBool psd, Mat H);
+/* J = dg/dgamma: 3 n_V rows (node vector layout), 2 n_E columns (tet e:
+ * columns 2e for g_s and 2e+1 for g_v, owned with the tet). */
+PETSC_EXTERN PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial, Mat *J);
+PETSC_EXTERN PetscErrorCode VKMaterialGammaJacobian(VKMaterial, Vec x, Mat J);
+/* A node vector of block size 3 with the rest positions. */
+PETSC_EXTERN PetscErrorCode VKMeshGetRestPositions(VKMesh, Vec x);

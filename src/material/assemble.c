@@ -1,0 +1,179 @@
+/* assemble.c: the material over the distributed mesh (DESIGN §6): total
+ * elastic energy E(x) = sum_e V_e psi_e(F_e(x)), its gradient (a node
+ * vector), its Hessian (a 3x3-block BAIJ matrix over the node layout) and
+ * dg/dgamma (a sparse AIJ matrix, 3 n_V rows by 2 n_E columns).  Each rank
+ * evaluates its own tets from the ghosted positions; contributions to
+ * nodes owned elsewhere travel by the ghost scatter (vectors) or by
+ * MatAssembly (matrices). */
+#include <vkmaterial.h>
+#include <vkutil.h>
+#include <vklog.h>
+
+PetscErrorCode VKMeshGetRestPositions(VKMesh mesh, Vec x)
+{
+  PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(x, &a));
+  for (PetscInt i = 3 * mesh->layout.nStart; i < 3 * mesh->layout.nEnd; i++) a[i - 3 * mesh->layout.nStart] = mesh->x[i];
+  PetscCall(VecRestoreArray(x, &a));
+  PetscFunctionReturn(0);
+}
+
+/* Positions of the owned and ghost nodes (3 per local node). */
+static PetscErrorCode LocalPositions(Vec x, Vec *local, const PetscScalar **a)
+{
+  PetscFunctionBegin;
+  PetscCall(VecGhostUpdateBegin(x, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGhostUpdateEnd(x, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGhostGetLocalForm(x, local));
+  PetscCall(VecGetArrayRead(*local, a));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode RestoreLocalPositions(Vec x, Vec *local, const PetscScalar **a)
+{
+  PetscFunctionBegin;
+  PetscCall(VecRestoreArrayRead(*local, a));
+  PetscCall(VecGhostRestoreLocalForm(x, local));
+  PetscFunctionReturn(0);
+}
+
+static inline void GatherTet(const VKLayout *L, PetscInt e, const PetscScalar *a, PetscReal X[])
+{
+  const PetscInt *t = L->local_tet + 4 * e;
+  for (int k = 0; k < 4; k++)
+    for (int r = 0; r < 3; r++) X[3 * k + r] = a[3 * t[k] + r];
+}
+
+PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
+{
+  VKMesh             mesh = m->mesh;
+  VKLayout          *L    = &mesh->layout;
+  Vec                local;
+  const PetscScalar *a;
+  VKSum              sum = {0, 0};
+  PetscReal          mine;
+
+  PetscFunctionBegin;
+  PetscCall(LocalPositions(x, &local, &a));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    PetscReal X[12], Ee;
+    GatherTet(L, e, a, X);
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, &Ee, NULL, NULL, NULL));
+    VKSumAdd(&sum, Ee);
+  }
+  PetscCall(RestoreLocalPositions(x, &local, &a));
+  mine = VKSumValue(&sum);
+  PetscCallMPI(MPI_Allreduce(&mine, E, 1, MPIU_REAL, MPIU_SUM, m->comm));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGradient(VKMaterial m, Vec x, Vec g)
+{
+  VKMesh             mesh = m->mesh;
+  VKLayout          *L    = &mesh->layout;
+  Vec                local, glocal;
+  const PetscScalar *a;
+  PetscScalar       *ga;
+
+  PetscFunctionBegin;
+  PetscCall(LocalPositions(x, &local, &a));
+  PetscCall(VecGhostGetLocalForm(g, &glocal));
+  PetscCall(VecSet(glocal, 0));
+  PetscCall(VecGetArray(glocal, &ga));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    PetscReal       X[12], ge[12];
+    const PetscInt *t = L->local_tet + 4 * e;
+    GatherTet(L, e, a, X);
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, ge, NULL, NULL));
+    for (int k = 0; k < 4; k++)
+      for (int r = 0; r < 3; r++) ga[3 * t[k] + r] += ge[3 * k + r];
+  }
+  PetscCall(VecRestoreArray(glocal, &ga));
+  PetscCall(VecGhostRestoreLocalForm(g, &glocal));
+  PetscCall(RestoreLocalPositions(x, &local, &a));
+  PetscCall(VecGhostUpdateBegin(g, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecGhostUpdateEnd(g, ADD_VALUES, SCATTER_REVERSE));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
+{
+  VKMesh             mesh = m->mesh;
+  VKLayout          *L    = &mesh->layout;
+  Vec                local;
+  const PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(MatZeroEntries(H));
+  PetscCall(LocalPositions(x, &local, &a));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    PetscReal X[12], He[144];
+    GatherTet(L, e, a, X);
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], psd, NULL, NULL, He, NULL));
+    PetscCall(MatSetValuesBlockedLocal(H, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, He, ADD_VALUES));
+  }
+  PetscCall(RestoreLocalPositions(x, &local, &a));
+  PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+/* Rows: 3 per node in the node layout; columns: 2 per tet in the tet layout.
+ * Every tet touching an owned node fills 2 entries of each of its rows. */
+PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial m, Mat *J)
+{
+  VKMesh    mesh = m->mesh;
+  VKLayout *L    = &mesh->layout;
+  PetscInt  nown = L->nEnd - L->nStart, *d_nnz, *o_nnz;
+
+  PetscFunctionBegin;
+  PetscCall(PetscCalloc2(3 * nown + 1, &d_nnz, 3 * nown + 1, &o_nnz));
+  for (PetscInt e = 0; e < mesh->ne; e++)
+    for (int k = 0; k < 4; k++) {
+      PetscInt g = mesh->tet[4 * e + k];
+      if (g < L->nStart || g >= L->nEnd) continue;
+      for (int r = 0; r < 3; r++) {
+        if (e >= L->eStart && e < L->eEnd) d_nnz[3 * (g - L->nStart) + r] += 2;
+        else o_nnz[3 * (g - L->nStart) + r] += 2;
+      }
+    }
+  PetscCall(MatCreate(m->comm, J));
+  PetscCall(MatSetSizes(*J, 3 * nown, 2 * (L->eEnd - L->eStart), 3 * mesh->nv, 2 * mesh->ne));
+  PetscCall(MatSetType(*J, MATAIJ));
+  PetscCall(MatSeqAIJSetPreallocation(*J, 0, d_nnz));
+  PetscCall(MatMPIAIJSetPreallocation(*J, 0, d_nnz, 0, o_nnz));
+  PetscCall(MatSetOption(*J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  PetscCall(PetscFree2(d_nnz, o_nnz));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
+{
+  VKMesh             mesh = m->mesh;
+  VKLayout          *L    = &mesh->layout;
+  Vec                local;
+  const PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(MatZeroEntries(J));
+  PetscCall(LocalPositions(x, &local, &a));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    PetscReal X[12], dgdg[24], vals[24];
+    PetscInt  rows[12], cols[2] = {2 * (L->eStart + e), 2 * (L->eStart + e) + 1};
+    GatherTet(L, e, a, X);
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
+    for (int k = 0; k < 4; k++)
+      for (int r = 0; r < 3; r++) {
+        rows[3 * k + r]         = 3 * mesh->tet[4 * (L->eStart + e) + k] + r;
+        vals[2 * (3 * k + r)]     = dgdg[3 * k + r];
+        vals[2 * (3 * k + r) + 1] = dgdg[12 + 3 * k + r];
+      }
+    PetscCall(MatSetValues(J, 12, rows, 2, cols, vals, INSERT_VALUES));
+  }
+  PetscCall(RestoreLocalPositions(x, &local, &a));
+  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,231 @@
+/* material.c: the VKMaterial object (DESIGN §6): g_s and g_v per owned
+ * tet, uniform (-mat_gamma_s, -mat_gamma_v) or read from material.h5
+ * (-mat_file), the format the fitting writes:
+ *   /material/gamma   n_E x 2   g_s, g_v (Pa) in mesh.h5's tet order
+ *   /material/voxel   n_E x 3   grid coordinates of the tet's voxel
+ *   /material/kuhn    n_E x 1   Kuhn tet 0..5 inside the voxel
+ * Tets are matched through (voxel, Kuhn index), so a file written with one
+ * partition reads into a mesh with any other. */
+#include <vkmaterial.h>
+#include <vkio.h>
+#include <math.h>
+
+#define MATERIAL_FORMAT "volknit-material 1"
+#define NOMINAL_GAMMA   1.0e3 /* Pa: a soft knit, about 25 N/m areal stiffness at h = 3 mm */
+
+PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
+{
+  VKMaterial m;
+
+  PetscFunctionBegin;
+  PetscCall(PetscNew(&m));
+  m->comm    = mesh->comm;
+  m->mesh    = mesh;
+  m->gamma_s = NOMINAL_GAMMA;
+  m->gamma_v = NOMINAL_GAMMA;
+  *mat       = m;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialDestroy(VKMaterial *mat)
+{
+  PetscFunctionBegin;
+  if (!*mat) PetscFunctionReturn(0);
+  PetscCall(PetscFree((*mat)->gamma));
+  PetscCall(PetscFree(*mat));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialSetUniform(VKMaterial m, PetscReal gs, PetscReal gv)
+{
+  PetscFunctionBegin;
+  PetscCheck(gs >= 0 && gv >= 0 && gs < PETSC_INFINITY && gv < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_gamma_s %g and -mat_gamma_v %g must be finite and non-negative", (double)gs, (double)gv);
+  m->gamma_s = gs;
+  m->gamma_v = gv;
+  m->file[0] = 0;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
+{
+  PetscReal gs = m->gamma_s, gv = m->gamma_v;
+  PetscBool set;
+
+  PetscFunctionBegin;
+  PetscOptionsBegin(m->comm, NULL, "Material options (DESIGN section 6)", "VKMaterial");
+  PetscCall(PetscOptionsReal("-mat_gamma_s", "Uniform stretch stiffness g_s of psi = g_s |F-R|^2 + g_v |F-V|^2, Pa", "VKMaterialSetUniform", gs, &gs, NULL));
+  PetscCall(PetscOptionsReal("-mat_gamma_v", "Uniform volume stiffness g_v, Pa", "VKMaterialSetUniform", gv, &gv, NULL));
+  PetscCall(VKMaterialSetUniform(m, gs, gv));
+  PetscCall(PetscOptionsString("-mat_file", "Per-element material (material.h5 of volknit fit)", "VKMaterialLoadH5", m->file, m->file, sizeof(m->file), &set));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialSetUp(VKMaterial m)
+{
+  VKLayout *L = &m->mesh->layout;
+
+  PetscFunctionBegin;
+  if (m->setup) PetscFunctionReturn(0);
+  PetscCall(PetscFree(m->gamma));
+  PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->gamma));
+  if (m->file[0]) PetscCall(VKMaterialLoadH5(m, m->file));
+  else
+    for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+      m->gamma[2 * e]     = m->gamma_s;
+      m->gamma[2 * e + 1] = m->gamma_v;
+    }
+  m->setup = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialView(VKMaterial m, PetscViewer viewer)
+{
+  VKLayout *L = &m->mesh->layout;
+  PetscReal lo[2] = {PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[2] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL}, glo[2], ghi[2];
+
+  PetscFunctionBegin;
+  if (!viewer) PetscCall(PetscViewerASCIIGetStdout(m->comm, &viewer));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++)
+    for (int k = 0; k < 2; k++) {
+      lo[k] = PetscMin(lo[k], m->gamma[2 * e + k]);
+      hi[k] = PetscMax(hi[k], m->gamma[2 * e + k]);
+    }
+  PetscCallMPI(MPI_Allreduce(lo, glo, 2, MPIU_REAL, MPI_MIN, m->comm));
+  PetscCallMPI(MPI_Allreduce(hi, ghi, 2, MPIU_REAL, MPI_MAX, m->comm));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Material: psi = g_s |F - R|^2 + g_v |F - V|^2, %s\n", m->file[0] ? m->file : "uniform"));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  g_s in [%g, %g] Pa, g_v in [%g, %g] Pa\n", (double)glo[0], (double)ghi[0], (double)glo[1], (double)ghi[1]));
+  PetscFunctionReturn(0);
+}
+
+/* (voxel, Kuhn index) of every tet, from the mesh's (voxel, Kuhn) -> tet map. */
+static PetscErrorCode TetVoxels(VKMesh mesh, PetscInt voxel[], PetscInt kuhn[])
+{
+  PetscFunctionBegin;
+  for (PetscInt k = 0; k < 6 * mesh->nvox; k++) {
+    PetscInt e = mesh->tet_of_kuhn[k];
+    for (int a = 0; a < 3; a++) voxel[3 * e + a] = mesh->vox[3 * (k / 6) + a];
+    kuhn[e] = k % 6;
+  }
+  PetscFunctionReturn(0);
+}
+
+typedef struct {
+  VKMesh           mesh;
+  const PetscReal *gamma; /* all tets, rank 0 */
+} WriteCtx;
+
+static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
+{
+  WriteCtx      *w = (WriteCtx *)ctx;
+  VKH5           h;
+  PetscInt      *voxel, *kuhn;
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc2(3 * w->mesh->ne, &voxel, w->mesh->ne, &kuhn));
+  PetscCall(TetVoxels(w->mesh, voxel, kuhn));
+  PetscCall(VKH5Create(out->tmp, &h));
+  ierr = VKH5WriteReal(&h, "/material/gamma", w->mesh->ne, 2, w->gamma);
+  if (!ierr) ierr = VKH5WriteInt(&h, "/material/voxel", w->mesh->ne, 3, voxel);
+  if (!ierr) ierr = VKH5WriteInt(&h, "/material/kuhn", w->mesh->ne, 1, kuhn);
+  if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
+  if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "units", "Pa");
+  if (!ierr) ierr = VKH5WriteAttrReal(&h, "/material", "h", w->mesh->grid.h);
+  {
+    PetscErrorCode cerr = VKH5Close(&h);
+    if (!ierr) ierr = cerr;
+  }
+  PetscCall(PetscFree2(voxel, kuhn));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
+{
+  VKMesh         mesh = m->mesh;
+  PetscMPIInt    rank, size, *counts = NULL, *displs = NULL, n = (PetscMPIInt)(2 * (mesh->layout.eEnd - mesh->layout.eStart));
+  PetscReal     *all  = NULL;
+  PetscErrorCode ierr = 0;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(m->comm, &rank));
+  PetscCallMPI(MPI_Comm_size(m->comm, &size));
+  if (rank == 0) {
+    PetscCall(PetscMalloc2(size, &counts, size, &displs));
+    PetscCall(PetscMalloc1(2 * mesh->ne + 1, &all));
+    for (PetscMPIInt r = 0; r < size; r++) {
+      counts[r] = (PetscMPIInt)(2 * (mesh->rank_tet_start[r + 1] - mesh->rank_tet_start[r]));
+      displs[r] = (PetscMPIInt)(2 * mesh->rank_tet_start[r]);
+    }
+  }
+  PetscCallMPI(MPI_Gatherv(m->gamma, n, MPIU_REAL, all, counts, displs, MPIU_REAL, 0, m->comm));
+  if (rank == 0) {
+    WriteCtx w = {mesh, all};
+    ierr       = VKOutputWrite(path, PETSC_FALSE, WriteMaterial, &w);
+    PetscCall(PetscFree2(counts, displs));
+    PetscCall(PetscFree(all));
+  }
+  PetscCall(VKCollective(m->comm, ierr, path));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
+{
+  VKMesh     mesh = m->mesh;
+  VKLayout  *L    = &mesh->layout;
+  VKH5       h;
+  PetscInt   n, nv = 0, nk = 0, *voxel = NULL, *kuhn = NULL, *seen = NULL;
+  PetscReal *gamma = NULL;
+  char       format[64];
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(VKH5Open(path, &h));
+  ierr = VKH5ReadAttrString(&h, "/material", "format", format, sizeof(format));
+  if (!ierr && strcmp(format, MATERIAL_FORMAT)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: format '%s', expected '%s'", path, format, MATERIAL_FORMAT);
+  if (!ierr) ierr = VKH5ReadReal(&h, "/material/gamma", 2, &n, &gamma);
+  if (!ierr) ierr = VKH5ReadInt(&h, "/material/voxel", 3, &nv, &voxel);
+  if (!ierr) ierr = VKH5ReadInt(&h, "/material/kuhn", 1, &nk, &kuhn);
+  VKH5Close(&h);
+  if (!ierr && !(n == mesh->ne && nv == n && nk == n)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s holds %d tets (voxels %d, Kuhn indices %d); the mesh has %d", path, (int)n, (int)nv, (int)nk, (int)mesh->ne);
+  if (!ierr) ierr = PetscCalloc1(mesh->ne, &seen);
+  for (PetscInt i = 0; i < n && !ierr; i++) {
+    PetscInt vi = VKMeshFindVoxel(mesh, voxel + 3 * i), e;
+    if (vi < 0 || kuhn[i] < 0 || kuhn[i] > 5) {
+      ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d names voxel (%d,%d,%d), Kuhn tet %d, which this mesh does not have", path, (int)i, (int)voxel[3 * i], (int)voxel[3 * i + 1], (int)voxel[3 * i + 2], (int)kuhn[i]);
+      break;
+    }
+    if (!(isfinite(gamma[2 * i]) && isfinite(gamma[2 * i + 1]) && gamma[2 * i] >= 0 && gamma[2 * i + 1] >= 0)) {
+      ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d has g_s = %g, g_v = %g; both must be finite and non-negative", path, (int)i, (double)gamma[2 * i], (double)gamma[2 * i + 1]);
+      break;
+    }
+    e = mesh->tet_of_kuhn[6 * vi + kuhn[i]];
+    if (seen[e]++) {
+      ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d repeats a tet", path, (int)i);
+      break;
+    }
+    if (e >= L->eStart && e < L->eEnd) {
+      m->gamma[2 * (e - L->eStart)]     = gamma[2 * i];
+      m->gamma[2 * (e - L->eStart) + 1] = gamma[2 * i + 1];
+    }
+  }
+  PetscCall(PetscFree(seen));
+  PetscCall(PetscFree(gamma));
+  PetscCall(PetscFree(voxel));
+  PetscCall(PetscFree(kuhn));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialLoadH5(VKMaterial m, const char path[])
+{
+  VKLayout *L = &m->mesh->layout;
+
+  PetscFunctionBegin;
+  if (!m->gamma) PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->gamma));
+  VKCallCollective(m->comm, LoadMaterial(m, path));
+  PetscCall(PetscStrncpy(m->file, path, sizeof(m->file)));
+  m->setup = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,57 @@
+/* tet.c: element kernels of the material (DESIGN §6).  For a tet with
+ * gradient operator G (3 x 4, row-major: G[4c + a] = d N_a / d x_c), rest
+ * volume V and node positions X (node a, coordinate r at X[3a + r]):
+ *   F_rc = sum_a X_ar G_ca,        E = V psi(F),
+ *   dE/dX_ar = V sum_c P_rc G_ca   (P = dpsi/dF),
+ *   d2E/dX_ar dX_bq = V sum_cd H_(rc)(qd) G_ca G_db,
+ * and the columns of dg/dgamma (paper Eq. 15-16): the gradient with
+ * P replaced by 2 (F - R) for g_s and by 2 (F - V) for g_v. */
+#include <vkmaterial.h>
+
+void VKTetDeformation(const PetscReal G[], const PetscReal X[], PetscReal F[])
+{
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) F[3 * r + c] = X[r] * G[4 * c] + X[3 + r] * G[4 * c + 1] + X[6 + r] * G[4 * c + 2] + X[9 + r] * G[4 * c + 3];
+}
+
+/* out[3a + r] = V sum_c P_rc G_ca */
+static void NodalForce(const PetscReal G[], PetscReal vol, const PetscReal P[], PetscReal out[])
+{
+  for (int a = 0; a < 4; a++)
+    for (int r = 0; r < 3; r++) out[3 * a + r] = vol * (P[3 * r] * G[a] + P[3 * r + 1] * G[4 + a] + P[3 * r + 2] * G[8 + a]);
+}
+
+PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[])
+{
+  PetscReal  F[9], P[9];
+  VKPsiState st;
+
+  PetscFunctionBegin;
+  VKTetDeformation(G, X, F);
+  PetscCall(VKPsiEvaluate(F, &st));
+  if (E) *E = vol * (gs * st.psi_s + gv * st.psi_v);
+  if (g) {
+    VKPsiGradient(&st, F, gs, gv, P);
+    NodalForce(G, vol, P, g);
+  }
+  if (H) {
+    PetscReal Hf[81], GH[9 * 12];
+    VKPsiHessian(&st, gs, gv, psd, Hf);
+    for (int x = 0; x < 9; x++) /* GH[x][(b,q)] = sum_d Hf[x][(q,d)] G_db */
+      for (int b = 0; b < 4; b++)
+        for (int q = 0; q < 3; q++) GH[12 * x + 3 * b + q] = Hf[9 * x + 3 * q] * G[b] + Hf[9 * x + 3 * q + 1] * G[4 + b] + Hf[9 * x + 3 * q + 2] * G[8 + b];
+    for (int a = 0; a < 4; a++)
+      for (int r = 0; r < 3; r++)
+        for (int col = 0; col < 12; col++) H[12 * (3 * a + r) + col] = vol * (GH[12 * (3 * r) + col] * G[a] + GH[12 * (3 * r + 1) + col] * G[4 + a] + GH[12 * (3 * r + 2) + col] * G[8 + a]);
+  }
+  if (dgdg) {
+    PetscReal Ps[9], Pv[9];
+    for (int i = 0; i < 9; i++) {
+      Ps[i] = 2 * (F[i] - st.R[i]);
+      Pv[i] = 2 * (F[i] - st.V[i]);
+    }
+    NodalForce(G, vol, Ps, dgdg);
+    NodalForce(G, vol, Pv, dgdg + 12);
+  }
+  PetscFunctionReturn(0);
+}

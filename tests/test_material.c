@@ -1,0 +1,301 @@
+/* test_material.c: the point kernels of the material (DESIGN §6).
+ * ranks: 1
+ * Signed SVD (reconstruction, rotations, ordering, sign of s3 = sign of
+ * det F, rank-deficient F); the volume projection (det V = 1, KKT
+ * residual, bound respected, global optimality against a brute-force
+ * search of the constraint surface, V = F when F preserves volume); R = F
+ * for rotations; psi = 0 and P = 0 for rotations; Taylor tests (second-
+ * order remainders) of psi -> P and P -> H on random, near-degenerate,
+ * exactly degenerate, inverted, clamped and strongly inflated F; H
+ * symmetric; the PSD projection leaves a PSD H alone and makes any H PSD;
+ * P is linear in (g_s, g_v). */
+#include <vkmaterial.h>
+#include "vktest.h"
+
+static PetscRandom rnd;
+
+static PetscReal Rand(void)
+{
+  PetscReal v;
+  PetscRandomGetValueReal(rnd, &v);
+  return 2 * v - 1;
+}
+
+static void RandomRotation(PetscReal Q[])
+{
+  PetscReal q[4], n = 0;
+  for (int i = 0; i < 4; i++) {
+    q[i] = Rand();
+    n += q[i] * q[i];
+  }
+  n = PetscSqrtReal(n);
+  for (int i = 0; i < 4; i++) q[i] /= n;
+  Q[0] = 1 - 2 * (q[2] * q[2] + q[3] * q[3]);
+  Q[1] = 2 * (q[1] * q[2] - q[0] * q[3]);
+  Q[2] = 2 * (q[1] * q[3] + q[0] * q[2]);
+  Q[3] = 2 * (q[1] * q[2] + q[0] * q[3]);
+  Q[4] = 1 - 2 * (q[1] * q[1] + q[3] * q[3]);
+  Q[5] = 2 * (q[2] * q[3] - q[0] * q[1]);
+  Q[6] = 2 * (q[1] * q[3] - q[0] * q[2]);
+  Q[7] = 2 * (q[2] * q[3] + q[0] * q[1]);
+  Q[8] = 1 - 2 * (q[1] * q[1] + q[2] * q[2]);
+}
+
+/* F = A diag(s) B^T with random rotations A, B */
+static void WithSingularValues(PetscReal s0, PetscReal s1, PetscReal s2, PetscReal F[])
+{
+  PetscReal A[9], B[9], s[3] = {s0, s1, s2};
+  RandomRotation(A);
+  RandomRotation(B);
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) F[3 * r + c] = A[3 * r] * s[0] * B[3 * c] + A[3 * r + 1] * s[1] * B[3 * c + 1] + A[3 * r + 2] * s[2] * B[3 * c + 2];
+}
+
+static PetscReal Det3(const PetscReal A[])
+{
+  return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) + A[2] * (A[3] * A[7] - A[4] * A[6]);
+}
+
+static PetscErrorCode TestSVD(void)
+{
+  PetscReal recon = 0, orth = 0, order = 0, sign = 0;
+
+  PetscFunctionBegin;
+  for (int t = 0; t < 2000; t++) {
+    PetscReal F[9], scale = 0;
+    VKSVD3    svd;
+    if (t % 4 == 0) WithSingularValues(1 + Rand(), 0.5 + Rand(), 0.3 * Rand(), F); /* often inverted */
+    else if (t % 4 == 1) WithSingularValues(1.0, 1.0, t % 8 == 1 ? 0 : 1e-9, F); /* degenerate, rank 2 */
+    else if (t % 4 == 2) WithSingularValues(2.0, 0, 0, F);                     /* rank 1 */
+    else
+      for (int i = 0; i < 9; i++) F[i] = Rand();
+    VKSVD3Compute(F, &svd);
+    for (int i = 0; i < 9; i++) scale = PetscMax(scale, PetscAbsReal(F[i]));
+    for (int r = 0; r < 3; r++)
+      for (int c = 0; c < 3; c++) {
+        PetscReal v = 0, uu = 0, ww = 0;
+        for (int k = 0; k < 3; k++) {
+          v += svd.U[3 * r + k] * svd.s[k] * svd.W[3 * c + k];
+          uu += svd.U[3 * k + r] * svd.U[3 * k + c];
+          ww += svd.W[3 * k + r] * svd.W[3 * k + c];
+        }
+        recon = PetscMax(recon, PetscAbsReal(v - F[3 * r + c]) / PetscMax(scale, 1e-300));
+        orth  = PetscMax(orth, PetscAbsReal(uu - (r == c)) + PetscAbsReal(ww - (r == c)));
+      }
+    orth  = PetscMax(orth, PetscAbsReal(Det3(svd.U) - 1) + PetscAbsReal(Det3(svd.W) - 1));
+    order = PetscMax(order, PetscMax(svd.s[1] - svd.s[0], PetscAbsReal(svd.s[2]) - svd.s[1]));
+    if (PetscAbsReal(Det3(F)) > 1e-12 && (Det3(F) > 0) != (svd.s[2] > 0)) sign += 1;
+  }
+  PetscCall(VKTestClose(recon, 0, 1e-14, "signed SVD: U diag(s) W^T reproduces F (relative)"));
+  PetscCall(VKTestClose(orth, 0, 1e-13, "signed SVD: U, W orthogonal with determinant +1"));
+  PetscCall(VKTestCheck((PetscBool)(order <= 1e-14), NULL, "signed SVD: s1 >= s2 >= |s3|"));
+  PetscCall(VKTestCheck((PetscBool)(sign == 0), NULL, "signed SVD: s3 < 0 exactly when det F < 0"));
+  PetscFunctionReturn(0);
+}
+
+/* Brute force: the closest point of {prod = 1, s_i >= 0.01} on a fine grid in log coordinates. */
+static PetscReal BruteForce(const PetscReal s[])
+{
+  PetscReal best = PETSC_MAX_REAL, lo = PetscLogReal(VK_SHAT_MIN), hi = PetscLogReal(1 / (VK_SHAT_MIN * VK_SHAT_MIN));
+  const int N = 800;
+  for (int i = 0; i <= N; i++)
+    for (int j = 0; j <= N; j++) {
+      PetscReal a = PetscExpReal(lo + (hi - lo) * i / N), b = PetscExpReal(lo + (hi - lo) * j / N), c = 1 / (a * b);
+      if (c < VK_SHAT_MIN || c > 1 / (VK_SHAT_MIN * VK_SHAT_MIN)) continue;
+      best = PetscMin(best, PetscSqr(a - s[0]) + PetscSqr(b - s[1]) + PetscSqr(c - s[2]));
+    }
+  return best;
+}
+
+static PetscErrorCode TestProjection(void)
+{
+  PetscReal det = 0, kkt = 0, bound = 0, worse = 0, repro = 0, rot = 0;
+  PetscInt  clamped = 0, brute = 0;
+
+  PetscFunctionBegin;
+  for (int t = 0; t < 3000; t++) {
+    PetscReal          s[3], scale;
+    VKVolumeProjection p;
+    int                kind = t % 5;
+    if (kind == 0) { s[0] = 1 + 0.5 * Rand(); s[1] = 1 + 0.4 * Rand(); s[2] = 1 + 0.3 * Rand(); }           /* near identity */
+    else if (kind == 1) { s[0] = 3 + 2 * Rand(); s[1] = 2 + Rand(); s[2] = 1.5 + Rand(); }                 /* inflated */
+    else if (kind == 2) { s[0] = 1 + 0.5 * Rand(); s[1] = 0.7 + 0.3 * Rand(); s[2] = -0.5 + 0.4 * Rand(); } /* inverted */
+    else if (kind == 3) { s[0] = 30 + 10 * Rand(); s[1] = 20 + 5 * Rand(); s[2] = 0.002 * (1 + Rand()); }   /* clamp */
+    else { s[0] = 0.3 + 0.2 * Rand(); s[1] = 0.2 + 0.1 * Rand(); s[2] = 0.1 * Rand(); }                    /* crushed */
+    { /* sort like singular values */
+      PetscReal a[3] = {PetscAbsReal(s[0]), PetscAbsReal(s[1]), PetscAbsReal(s[2])}, neg = s[2] < 0 ? -1 : 1;
+      for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 2 - i; j++)
+          if (a[j] < a[j + 1]) { PetscReal x = a[j]; a[j] = a[j + 1]; a[j + 1] = x; }
+      s[0] = a[0]; s[1] = a[1]; s[2] = neg * a[2];
+    }
+    scale = 1 + PetscAbsReal(s[0]);
+    PetscCall(VKProjectVolume(s, &p));
+    det = PetscMax(det, PetscAbsReal(p.shat[0] * p.shat[1] * p.shat[2] - 1));
+    for (int i = 0; i < 3; i++) {
+      bound = PetscMax(bound, VK_SHAT_MIN - p.shat[i]);
+      if (!p.fixed[i]) {
+        PetscReal others = 1;
+        for (int j = 0; j < 3; j++)
+          if (j != i && !p.fixed[j]) others *= p.shat[j];
+        kkt = PetscMax(kkt, PetscAbsReal(p.shat[i] - s[i] + p.lambda * others) / scale);
+      }
+    }
+    clamped += p.nfixed > 0;
+    if (t % 40 < 5) { /* global optimality, every kind of s */
+      PetscReal d = PetscSqr(p.shat[0] - s[0]) + PetscSqr(p.shat[1] - s[1]) + PetscSqr(p.shat[2] - s[2]);
+      worse       = PetscMax(worse, (d - BruteForce(s)) / (1 + d));
+      brute++;
+    }
+  }
+  PetscCall(VKTestClose(det, 0, 1e-13, "volume projection: shat1 shat2 shat3 = 1 (det V = 1)"));
+  PetscCall(VKTestClose(kkt, 0, 1e-12, "volume projection: KKT conditions of the free components"));
+  PetscCall(VKTestCheck((PetscBool)(bound <= 1e-15 && clamped > 0), NULL, "volume projection: every shat_i >= 0.01 (bound active in %d cases)", (int)clamped));
+  PetscCall(VKTestCheck((PetscBool)(worse <= 1e-9), NULL, "volume projection: never farther than a brute-force search of the surface (%d cases, worst excess %.1e)", (int)brute, (double)worse));
+  for (int t = 0; t < 200; t++) {
+    PetscReal  F[9], a = 0.6 + 0.8 * (Rand() + 1), b = 0.5 + Rand() * 0.3 + 0.5;
+    VKPsiState st;
+    WithSingularValues(a, b, 1 / (a * b), F);
+    PetscCall(VKPsiEvaluate(F, &st));
+    for (int i = 0; i < 9; i++) repro = PetscMax(repro, PetscAbsReal(st.V[i] - F[i]));
+    WithSingularValues(1, 1, 1, F);
+    PetscCall(VKPsiEvaluate(F, &st));
+    for (int i = 0; i < 9; i++) rot = PetscMax(rot, PetscAbsReal(st.R[i] - F[i]) + PetscAbsReal(st.V[i] - F[i]));
+    rot = PetscMax(rot, st.psi_s + st.psi_v);
+  }
+  PetscCall(VKTestClose(repro, 0, 1e-12, "V reproduces a volume-preserving F"));
+  PetscCall(VKTestClose(rot, 0, 1e-12, "R and V reproduce a rotation F, psi = 0 there"));
+  PetscFunctionReturn(0);
+}
+
+static PetscReal Psi(const PetscReal F[], PetscReal gs, PetscReal gv)
+{
+  VKPsiState st;
+  VKPsiEvaluate(F, &st);
+  return gs * st.psi_s + gv * st.psi_v;
+}
+
+static void Grad(const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[])
+{
+  VKPsiState st;
+  VKPsiEvaluate(F, &st);
+  VKPsiGradient(&st, F, gs, gv, P);
+}
+
+static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal h0)
+{
+  PetscReal  dF[9], P[9], H[81], Hp[81], e[8], g[8], psi0 = Psi(F, gs, gv), dpsi = 0, asym = 0, hn = 0, Fn = 0;
+  VKPsiState st;
+  int        pe, pg;
+  PetscReal  oe, og;
+
+  PetscFunctionBegin;
+  for (int i = 0; i < 9; i++) {
+    dF[i] = Rand();
+    Fn    = PetscMax(Fn, PetscAbsReal(F[i]));
+  }
+  PetscCall(VKPsiEvaluate(F, &st));
+  VKPsiGradient(&st, F, gs, gv, P);
+  VKPsiHessian(&st, gs, gv, PETSC_FALSE, H);
+  for (int i = 0; i < 9; i++) dpsi += P[i] * dF[i];
+  for (int k = 0; k < 8; k++) {
+    PetscReal h = h0 * PetscPowReal(2, -k), Fh[9], Ph[9], r = 0;
+    for (int i = 0; i < 9; i++) Fh[i] = F[i] + h * dF[i];
+    e[k] = PetscAbsReal(Psi(Fh, gs, gv) - psi0 - h * dpsi);
+    Grad(Fh, gs, gv, Ph);
+    for (int i = 0; i < 9; i++) {
+      PetscReal HdF = 0;
+      for (int j = 0; j < 9; j++) HdF += H[9 * i + j] * dF[j];
+      r = PetscMax(r, PetscAbsReal(Ph[i] - P[i] - h * HdF));
+    }
+    g[k] = r;
+  }
+  for (int i = 0; i < 81; i++) {
+    asym = PetscMax(asym, PetscAbsReal(H[i] - H[9 * (i % 9) + i / 9]));
+    hn   = PetscMax(hn, PetscAbsReal(H[i]));
+  }
+  oe = VKTestTaylorOrder(8, e, 1e-13 * (gs + gv) * (1 + Fn * Fn), &pe);
+  og = VKTestTaylorOrder(8, g, 1e-12 * (gs + gv) * (1 + Fn), &pg);
+  PetscCall(VKTestCheck((PetscBool)(pe >= 3 && oe > 1.8), NULL, "%s: Taylor psi -> P, remainder order %.2f (%d pairs)", name, (double)oe, pe));
+  PetscCall(VKTestCheck((PetscBool)(pg >= 3 && og > 1.8), NULL, "%s: Taylor P -> H (exact Hessian), remainder order %.2f (%d pairs)", name, (double)og, pg));
+  PetscCall(VKTestCheck((PetscBool)(asym <= 1e-12 * hn), NULL, "%s: H symmetric", name));
+  VKPsiHessian(&st, gs, gv, PETSC_TRUE, Hp);
+  { /* smallest eigenvalue of the projected Hessian by Rayleigh quotients over random directions */
+    PetscReal worst = 0;
+    for (int t = 0; t < 200; t++) {
+      PetscReal v[9], vHv = 0, vv = 0;
+      for (int i = 0; i < 9; i++) v[i] = Rand();
+      for (int i = 0; i < 9; i++)
+        for (int j = 0; j < 9; j++) vHv += v[i] * Hp[9 * i + j] * v[j];
+      for (int i = 0; i < 9; i++) vv += v[i] * v[i];
+      worst = PetscMin(worst, vHv / vv);
+    }
+    PetscCall(VKTestCheck((PetscBool)(worst >= -1e-12 * hn), NULL, "%s: the PSD projection of H has no negative direction", name));
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestDerivatives(void)
+{
+  PetscReal F[9], gs = 1.3e3, gv = 0.7e3;
+
+  PetscFunctionBegin;
+  for (int t = 0; t < 3; t++) {
+    for (int i = 0; i < 9; i++) F[i] = (i % 4 == 0) + 0.3 * Rand();
+    PetscCall(TaylorAt("random F", F, gs, gv, 1e-2));
+  }
+  WithSingularValues(1.3, 1.3 + 1e-7, 0.8, F);
+  PetscCall(TaylorAt("near-degenerate F (s1 - s2 = 1e-7)", F, gs, gv, 1e-3));
+  WithSingularValues(1.2, 1.2, 1.2, F);
+  PetscCall(TaylorAt("degenerate F (s1 = s2 = s3)", F, gs, gv, 1e-3));
+  WithSingularValues(1.1, 0.9, 0.9, F);
+  PetscCall(TaylorAt("degenerate F (s2 = s3)", F, gs, gv, 1e-3));
+  WithSingularValues(1.1, 0.9, -0.4, F);
+  PetscCall(TaylorAt("inverted F (s3 < 0)", F, gs, gv, 1e-3));
+  WithSingularValues(30, 20, 0.002, F);
+  PetscCall(TaylorAt("crushed F (projection clamp active)", F, gs, gv, 1e-3));
+  WithSingularValues(2.5, 2.0, 1.8, F);
+  PetscCall(TaylorAt("strongly inflated F", F, gs, gv, 1e-3));
+  { /* a stretched F has a PSD Hessian: the projection leaves it alone */
+    PetscReal  H[81], Hp[81], d = 0, n = 0;
+    VKPsiState st;
+    WithSingularValues(1.3, 1.2, 1.1, F);
+    PetscCall(VKPsiEvaluate(F, &st));
+    VKPsiHessian(&st, gs, gv, PETSC_FALSE, H);
+    VKPsiHessian(&st, gs, gv, PETSC_TRUE, Hp);
+    for (int i = 0; i < 81; i++) {
+      d = PetscMax(d, PetscAbsReal(H[i] - Hp[i]));
+      n = PetscMax(n, PetscAbsReal(H[i]));
+    }
+    PetscCall(VKTestCheck((PetscBool)(d <= 1e-13 * n), NULL, "PSD projection leaves the (PSD) Hessian of a stretched F unchanged"));
+  }
+  { /* dP/dgamma: P is linear in (g_s, g_v) with columns 2 (F - R), 2 (F - V) */
+    PetscReal  P0[9], P1[9], err = 0, dgs = 0.37, dgv = -0.21, h = 10;
+    VKPsiState st;
+    WithSingularValues(1.4, 0.8, 0.6, F);
+    PetscCall(VKPsiEvaluate(F, &st));
+    VKPsiGradient(&st, F, gs, gv, P0);
+    VKPsiGradient(&st, F, gs + h * dgs, gv + h * dgv, P1);
+    for (int i = 0; i < 9; i++) err = PetscMax(err, PetscAbsReal(P1[i] - P0[i] - h * (dgs * 2 * (F[i] - st.R[i]) + dgv * 2 * (F[i] - st.V[i]))));
+    PetscCall(VKTestClose(err, 0, 1e-12 * (gs + gv), "P(g + h dg) - P(g) = h dP/dg dg exactly (P linear in g_s, g_v)"));
+  }
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd));
+  PetscCall(PetscRandomSetSeed(rnd, 20261121));
+  PetscCall(PetscRandomSeed(rnd));
+  PetscCall(TestSVD());
+  PetscCall(TestProjection());
+  PetscCall(TestDerivatives());
+  PetscCall(PetscRandomDestroy(&rnd));
+  {
+    int rc = VKTestFinish();
+    PetscCall(PetscFinalize());
+    return rc;
+  }
+}
