@@ -1,0 +1,236 @@
+/* test_material_mesh.c: the material assembled over the distributed mesh
+ * (DESIGN §6).
+ * ranks: 1 2
+ * On a knit patch mesh with a heterogeneous material and a smooth large
+ * deformation: Taylor tests (second-order remainders) of E -> g and of
+ * g -> H (the exact assembled Hessian), and g(gamma + t dgamma) - g(gamma)
+ * = t J dgamma to round-off (g is linear in gamma); rigid motions give
+ * zero energy and zero force; internal forces sum to zero (momentum); the
+ * PSD-projected Hessian has no negative direction; energy and gradient
+ * norm equal those of a one-rank, one-domain build; material.h5 written
+ * from this partition reads back tet by tet into the one-rank mesh. */
+#include <vkmaterial.h>
+#include <vkio.h>
+#include "vktest.h"
+
+/* gamma of a tet from its voxel and Kuhn index, so every partition agrees */
+static void CanonicalGamma(const PetscInt v[], PetscInt p, PetscReal g[])
+{
+  PetscReal t = (PetscReal)(v[0] + 2 * v[1] + 3 * v[2] + 5 * p);
+  g[0]        = 1e3 * (1 + 0.6 * PetscSinReal(t));
+  g[1]        = 2e3 * (1 + 0.5 * PetscCosReal(0.7 * t));
+}
+
+static PetscErrorCode SetCanonicalGamma(VKMaterial mat)
+{
+  VKMesh    m = mat->mesh;
+  VKLayout *L = &m->layout;
+
+  PetscFunctionBegin;
+  for (PetscInt k = 0; k < 6 * m->nvox; k++) {
+    PetscInt e = m->tet_of_kuhn[k];
+    if (e >= L->eStart && e < L->eEnd) CanonicalGamma(m->vox + 3 * (k / 6), k % 6, mat->gamma + 2 * (e - L->eStart));
+  }
+  PetscFunctionReturn(0);
+}
+
+/* x = A x_rest + b + bumps(x_rest), a smooth large deformation; mode 1: a
+ * second smooth field for directions; mode 2: a rigid motion. */
+static PetscErrorCode Field(VKMesh m, int mode, Vec x)
+{
+  PetscScalar    *a;
+  const PetscReal h = m->grid.h, A[9] = {1.15, 0.1, 0.0, -0.05, 0.9, 0.08, 0.02, 0.0, 1.05};
+  const PetscReal Q[9] = {0.36, 0.48, -0.8, -0.8, 0.6, 0, 0.48, 0.64, 0.6}; /* a rotation */
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(x, &a));
+  for (PetscInt i = m->layout.nStart; i < m->layout.nEnd; i++) {
+    const PetscReal *p = m->x + 3 * i;
+    PetscScalar     *o = a + 3 * (i - m->layout.nStart);
+    for (int r = 0; r < 3; r++) {
+      if (mode == 0) o[r] = A[3 * r] * p[0] + A[3 * r + 1] * p[1] + A[3 * r + 2] * p[2] + 0.3 * h * PetscSinReal(p[0] / (2 * h) + 1.3 * r) * PetscCosReal(p[1] / (3 * h));
+      else if (mode == 1) o[r] = h * PetscCosReal(p[1] / (1.7 * h) + r) * PetscSinReal(p[2] / h + 0.5 * p[0] / h);
+      else o[r] = Q[3 * r] * p[0] + Q[3 * r + 1] * p[1] + Q[3 * r + 2] * p[2] + 0.01 * (r + 1);
+    }
+  }
+  PetscCall(VecRestoreArray(x, &a));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Build(MPI_Comm comm, PetscInt domains, VKYarn *y, VKMesh *m, VKMaterial *mat)
+{
+  PetscFunctionBegin;
+  PetscCall(VKYarnCreate(comm, y));
+  PetscCall(VKYarnSetKnit(*y, "rib1x1", 4, 3));
+  PetscCall(VKMeshCreate(comm, m));
+  PetscCall(VKMeshSetYarn(*m, *y));
+  PetscCall(VKMeshSetDomains(*m, domains));
+  PetscCall(VKMeshSetUp(*m));
+  PetscCall(VKMaterialCreate(*m, mat));
+  PetscCall(VKMaterialSetUp(*mat));
+  PetscCall(SetCanonicalGamma(*mat));
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  VKYarn      y, ys;
+  VKMesh      m, ms;
+  VKMaterial  mat, mats;
+  Vec         x, dx, xt, g, gt, Hdx, xs, gs;
+  Mat         H, J;
+  PetscReal   E, Et, gdx, re[8], rg[8], order, Es, gn, gsn, Escale;
+  PetscMPIInt size;
+  int         pairs;
+  char        dir[PETSC_MAX_PATH_LEN] = "tests/out/material_mesh", path[PETSC_MAX_PATH_LEN];
+
+  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(Build(PETSC_COMM_WORLD, size, &y, &m, &mat));
+  PetscCall(VKMeshCreateNodeVec(m, 3, &x));
+  PetscCall(VecDuplicate(x, &dx));
+  PetscCall(VecDuplicate(x, &xt));
+  PetscCall(VecDuplicate(x, &g));
+  PetscCall(VecDuplicate(x, &gt));
+  PetscCall(VecDuplicate(x, &Hdx));
+  PetscCall(Field(m, 0, x));
+  PetscCall(Field(m, 1, dx));
+  PetscCall(VKMeshCreateNodeMat(m, 3, &H));
+
+  /* Taylor: E -> g and g -> H */
+  PetscCall(VKMaterialEnergy(mat, x, &E));
+  PetscCall(VKMaterialGradient(mat, x, g));
+  PetscCall(VKMaterialHessian(mat, x, PETSC_FALSE, H));
+  PetscCall(VecDot(g, dx, &gdx));
+  PetscCall(MatMult(H, dx, Hdx));
+  for (int k = 0; k < 8; k++) {
+    PetscReal t = 0.05 * PetscPowReal(2, -k);
+    PetscCall(VecWAXPY(xt, t, dx, x));
+    PetscCall(VKMaterialEnergy(mat, xt, &Et));
+    re[k] = PetscAbsReal(Et - E - t * gdx);
+    PetscCall(VKMaterialGradient(mat, xt, gt));
+    PetscCall(VecAXPY(gt, -1, g));
+    PetscCall(VecAXPY(gt, -t, Hdx));
+    PetscCall(VecNorm(gt, NORM_INFINITY, &rg[k]));
+  }
+  PetscCall(VecNorm(g, NORM_INFINITY, &gn));
+  order = VKTestTaylorOrder(8, re, 1e-13 * PetscAbsReal(E), &pairs);
+  PetscCall(VKTestCheck((PetscBool)(pairs >= 4 && order > 1.8), NULL, "assembled Taylor E -> g: remainder order %.2f (%d pairs)", (double)order, pairs));
+  order = VKTestTaylorOrder(8, rg, 1e-12 * gn, &pairs);
+  PetscCall(VKTestCheck((PetscBool)(pairs >= 4 && order > 1.8), NULL, "assembled Taylor g -> H (exact Hessian): remainder order %.2f (%d pairs)", (double)order, pairs));
+
+  { /* gamma -> dg/dgamma: exact, g is linear in gamma */
+    Vec       dgam, Jd;
+    PetscReal err, *save;
+    VKLayout *L = &m->layout;
+    PetscCall(VKMaterialCreateGammaJacobian(mat, &J));
+    PetscCall(VKMaterialGammaJacobian(mat, x, J));
+    PetscCall(MatCreateVecs(J, &dgam, &Jd));
+    PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &save));
+    {
+      PetscScalar *d;
+      PetscCall(VecGetArray(dgam, &d));
+      for (PetscInt e = 0; e < 2 * (L->eEnd - L->eStart); e++) {
+        d[e]    = 100 * PetscSinReal(0.37 * (PetscReal)(e + 2 * L->eStart));
+        save[e] = mat->gamma[e];
+        mat->gamma[e] += 3 * d[e];
+      }
+      PetscCall(VecRestoreArray(dgam, &d));
+    }
+    PetscCall(VKMaterialGradient(mat, x, gt));
+    PetscCall(PetscArraycpy(mat->gamma, save, 2 * (L->eEnd - L->eStart)));
+    PetscCall(MatMult(J, dgam, Jd));
+    PetscCall(VecAXPY(gt, -1, g));
+    PetscCall(VecAXPY(gt, -3, Jd));
+    PetscCall(VecNorm(gt, NORM_INFINITY, &err));
+    PetscCall(VKTestCheck((PetscBool)(err <= 1e-12 * gn), NULL, "g(gamma + t dgamma) - g(gamma) = t (dg/dgamma) dgamma to round-off (%.1e |g|)", (double)(err / gn)));
+    PetscCall(PetscFree(save));
+    PetscCall(VecDestroy(&dgam));
+    PetscCall(VecDestroy(&Jd));
+  }
+  { /* internal forces sum to zero: no momentum from elasticity */
+    const PetscScalar *a;
+    PetscReal          sum[3] = {0, 0, 0}, all[3], abs = 0, absall;
+    PetscInt           n;
+    PetscCall(VecGetLocalSize(g, &n));
+    PetscCall(VecGetArrayRead(g, &a));
+    for (PetscInt i = 0; i < n; i++) {
+      sum[i % 3] += a[i];
+      abs += PetscAbsReal(a[i]);
+    }
+    PetscCall(VecRestoreArrayRead(g, &a));
+    PetscCallMPI(MPI_Allreduce(sum, all, 3, MPIU_REAL, MPIU_SUM, PETSC_COMM_WORLD));
+    PetscCallMPI(MPI_Allreduce(&abs, &absall, 1, MPIU_REAL, MPIU_SUM, PETSC_COMM_WORLD));
+    PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(all[0]) + PetscAbsReal(all[1]) + PetscAbsReal(all[2]) <= 1e-13 * absall), NULL, "elastic forces sum to zero (total %.1e of sum |g| %.1e)", (double)(PetscAbsReal(all[0]) + PetscAbsReal(all[1]) + PetscAbsReal(all[2])), (double)absall));
+  }
+  { /* rigid motion: zero energy, zero force */
+    PetscReal Er, gr;
+    Escale = E;
+    PetscCall(Field(m, 2, xt));
+    PetscCall(VKMaterialEnergy(mat, xt, &Er));
+    PetscCall(VKMaterialGradient(mat, xt, gt));
+    PetscCall(VecNorm(gt, NORM_INFINITY, &gr));
+    PetscCall(VKTestCheck((PetscBool)(Er <= 1e-24 * Escale + 1e-30 && gr <= 1e-12 * gn), NULL, "a rigid motion of the rest mesh gives zero energy (%.1e) and zero force (%.1e |g|)", (double)Er, (double)(gr / gn)));
+  }
+  { /* the PSD-projected Hessian */
+    PetscReal worst = PETSC_MAX_REAL, vHv, vv, hn;
+    PetscCall(VKMaterialHessian(mat, x, PETSC_TRUE, H));
+    PetscCall(MatNorm(H, NORM_INFINITY, &hn));
+    for (int t = 0; t < 3; t++) { /* a smooth field, the positions, a rigid motion minus the positions */
+      PetscCall(Field(m, t == 0 ? 1 : (t == 1 ? 0 : 2), xt));
+      if (t == 2) PetscCall(VecAXPY(xt, -1, x));
+      PetscCall(MatMult(H, xt, gt));
+      PetscCall(VecDot(xt, gt, &vHv));
+      PetscCall(VecDot(xt, xt, &vv));
+      worst = PetscMin(worst, vHv / vv);
+    }
+    PetscCall(VKTestCheck((PetscBool)(worst >= -1e-13 * hn), NULL, "v^T H_psd v >= 0 for the assembled PSD Hessian (min Rayleigh quotient %.2e, |H| %.2e)", (double)worst, (double)hn));
+  }
+  /* one rank, one domain */
+  PetscCall(Build(PETSC_COMM_SELF, 1, &ys, &ms, &mats));
+  PetscCall(VKMeshCreateNodeVec(ms, 3, &xs));
+  PetscCall(VecDuplicate(xs, &gs));
+  PetscCall(Field(ms, 0, xs));
+  PetscCall(VKMaterialEnergy(mats, xs, &Es));
+  PetscCall(VKMaterialGradient(mats, xs, gs));
+  PetscCall(VecNorm(g, NORM_2, &gn));
+  PetscCall(VecNorm(gs, NORM_2, &gsn));
+  PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(E - Es) <= 1e-12 * Es && PetscAbsReal(gn - gsn) <= 1e-12 * gsn), NULL, "energy and |g| equal those of one rank with one domain (%.15g vs %.15g)", (double)E, (double)Es));
+  { /* material.h5 from this partition into the one-rank mesh */
+    PetscReal bad = 0;
+    PetscCall(VKMakeDirectory(PETSC_COMM_WORLD, dir));
+    PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
+    PetscCall(VKMaterialWriteH5(mat, path));
+    PetscCall(PetscArrayzero(mats->gamma, 2 * ms->ne));
+    PetscCall(VKMaterialLoadH5(mats, path));
+    for (PetscInt k = 0; k < 6 * ms->nvox; k++) {
+      PetscReal ref[2];
+      CanonicalGamma(ms->vox + 3 * (k / 6), k % 6, ref);
+      bad = PetscMax(bad, PetscAbsReal(ref[0] - mats->gamma[2 * ms->tet_of_kuhn[k]]) + PetscAbsReal(ref[1] - mats->gamma[2 * ms->tet_of_kuhn[k] + 1]));
+    }
+    PetscCall(VKTestCheck((PetscBool)(bad == 0), NULL, "material.h5 written with %d domains reads back tet by tet into a one-domain mesh", (int)m->ndomains));
+  }
+  PetscCall(VecDestroy(&xs));
+  PetscCall(VecDestroy(&gs));
+  PetscCall(VKMaterialDestroy(&mats));
+  PetscCall(VKMeshDestroy(&ms));
+  PetscCall(VKYarnDestroy(&ys));
+  PetscCall(MatDestroy(&H));
+  PetscCall(MatDestroy(&J));
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&dx));
+  PetscCall(VecDestroy(&xt));
+  PetscCall(VecDestroy(&g));
+  PetscCall(VecDestroy(&gt));
+  PetscCall(VecDestroy(&Hdx));
+  PetscCall(VKMaterialDestroy(&mat));
+  PetscCall(VKMeshDestroy(&m));
+  PetscCall(VKYarnDestroy(&y));
+  {
+    int rc = VKTestFinish();
+    PetscCall(PetscFinalize());
+    return rc;
+  }
+}
