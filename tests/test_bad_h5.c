@@ -1,12 +1,13 @@
 /* test_bad_h5.c: the readers of volknit's own HDF5 files refuse broken
  * files (DESIGN §12).
  * ranks: 1 2
- * A valid yarn.h5 and mesh.h5 are written, then copies with one dataset or
+ * A valid yarn.h5, mesh.h5 and material.h5 are written, then copies with one dataset or
  * attribute broken (missing, wrong shape, NaN, indices out of range,
  * inconsistent counts, tets that are not Kuhn tets of their voxel, ...).
  * Each must be refused with an error whose message names the problem; the
  * untouched copies must load. */
 #include <vkmesh.h>
+#include <vkmaterial.h>
 #include <vkio.h>
 #include "vktest.h"
 #include <math.h>
@@ -103,12 +104,28 @@ static PetscErrorCode Load(const char file[], const char path[], PetscErrorCode 
     *ierr = VKYarnLoadH5(y, path);
     PetscCall(PetscPopErrorHandler());
     PetscCall(VKYarnDestroy(&y));
-  } else {
+  } else if (!strcmp(file, "mesh.h5")) {
     VKMesh m = NULL;
     VKYarn y = NULL;
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
     *ierr = VKMeshLoadH5(PETSC_COMM_WORLD, path, &m, &y);
     PetscCall(PetscPopErrorHandler());
+    PetscCall(VKMeshDestroy(&m));
+    PetscCall(VKYarnDestroy(&y));
+  } else { /* material.h5 for the mesh of mesh.h5 */
+    VKMesh     m;
+    VKYarn     y;
+    VKMaterial mat;
+    char       meshpath[PETSC_MAX_PATH_LEN];
+    PetscCall(PetscStrncpy(meshpath, path, sizeof(meshpath)));
+    *strrchr(meshpath, '/') = 0;
+    PetscCall(PetscStrlcat(meshpath, "/mesh.h5", sizeof(meshpath)));
+    PetscCall(VKMeshLoadH5(PETSC_COMM_WORLD, meshpath, &m, &y));
+    PetscCall(VKMaterialCreate(m, &mat));
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    *ierr = VKMaterialLoadH5(mat, path);
+    PetscCall(PetscPopErrorHandler());
+    PetscCall(VKMaterialDestroy(&mat));
     PetscCall(VKMeshDestroy(&m));
     PetscCall(VKYarnDestroy(&y));
   }
@@ -147,7 +164,15 @@ int main(int argc, char **argv)
     {"mesh.h5", "/mesh/node_ijk",       NULL,       RESHAPE,     3,  0,          "node_ijk has 4 rows"                   },
     {"mesh.h5", "/mesh",                "h",        ATTR_REAL,   0,  0,          "grid size h"                           },
     {"mesh.h5", "/mesh",                "format",   ATTR_STRING, 0,  0,          "expected 'volknit-mesh 1'"             },
-    {"mesh.h5", "/yarn/x",              NULL,       DROP,        0,  0,          "dataset /yarn/x is missing"            }
+    {"mesh.h5", "/yarn/x",              NULL,       DROP,        0,  0,          "dataset /yarn/x is missing"            },
+    {"material.h5", "/material/gamma",  NULL,       SET_REAL,    3,  -5,         "must be finite and non-negative"       },
+    {"material.h5", "/material/gamma",  NULL,       SET_REAL,    0,  NAN,        "must be finite and non-negative"       },
+    {"material.h5", "/material/voxel",  NULL,       SET_INT,     0,  1e6,        "which this mesh does not have"         },
+    {"material.h5", "/material/kuhn",   NULL,       SET_INT,     2,  7,          "which this mesh does not have"         },
+    {"material.h5", "/material/kuhn",   NULL,       SET_INT,     0,  -1,         "which this mesh does not have"         },
+    {"material.h5", "/material/gamma",  NULL,       RESHAPE,     2,  0,          "holds 4 tets"                          },
+    {"material.h5", "/material/voxel",  NULL,       DROP,        0,  0,          "dataset /material/voxel is missing"    },
+    {"material.h5", "/material",        "format",   ATTR_STRING, 0,  0,          "expected 'volknit-material 1'"         }
   };
 
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
@@ -161,6 +186,14 @@ int main(int argc, char **argv)
   PetscCall(VKMeshSetUp(m));
   PetscCall(VKYarnWriteOutputs(y, dir));
   PetscCall(VKMeshWriteOutputs(m, dir));
+  {
+    VKMaterial mat;
+    PetscCall(VKMaterialCreate(m, &mat));
+    PetscCall(VKMaterialSetUp(mat));
+    PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
+    PetscCall(VKMaterialWriteH5(mat, path));
+    PetscCall(VKMaterialDestroy(&mat));
+  }
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
   for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
@@ -184,11 +217,12 @@ int main(int argc, char **argv)
     }
     PetscCall(VKTestCheck((PetscBool)(ierr && strstr(msg, c->expect)), msg, "%s with %s%s%s broken is refused: '%s'", c->file, c->name, c->attr ? "@" : "", c->attr ? c->attr : "", c->expect));
   }
-  for (int f = 0; f < 2; f++) { /* the untouched files load */
+  for (int f = 0; f < 3; f++) { /* the untouched files load */
+    const char    *name[3] = {"yarn.h5", "mesh.h5", "material.h5"};
     PetscErrorCode ierr;
-    PetscCall(VKPathJoin(dir, f ? "mesh.h5" : "yarn.h5", path, sizeof(path)));
-    PetscCall(Load(f ? "mesh.h5" : "yarn.h5", path, &ierr));
-    PetscCall(VKTestCheck((PetscBool)(ierr == 0), NULL, "the valid %s loads", f ? "mesh.h5" : "yarn.h5"));
+    PetscCall(VKPathJoin(dir, name[f], path, sizeof(path)));
+    PetscCall(Load(name[f], path, &ierr));
+    PetscCall(VKTestCheck((PetscBool)(ierr == 0), NULL, "the valid %s loads", name[f]));
   }
   {
     int rc = VKTestFinish();
