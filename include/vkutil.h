@@ -68,6 +68,28 @@ PETSC_EXTERN void VKSpatialHashCellOf(const VKSpatialHash *, const PetscReal p[]
 /* Items of cell c: item[*begin .. *end) (empty if the cell is absent). */
 PETSC_EXTERN void VKSpatialHashItems(const VKSpatialHash *, const PetscInt c[], PetscInt *begin, PetscInt *end);
 
+/* Unit vector along v (left alone if zero). */
+static inline void VKNormalize3(PetscReal v[])
+{
+  PetscReal n = PetscSqrtReal(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  if (n > 0)
+    for (int a = 0; a < 3; a++) v[a] /= n;
+}
+
+/* A unit vector orthogonal to the unit vector u. */
+static inline void VKOrthogonal3(const PetscReal u[], PetscReal v[])
+{
+  int       a = 0;
+  PetscReal d;
+  for (int i = 1; i < 3; i++)
+    if (PetscAbsReal(u[i]) < PetscAbsReal(u[a])) a = i;
+  v[0] = v[1] = v[2] = 0;
+  v[a]               = 1;
+  d                  = u[a];
+  for (int i = 0; i < 3; i++) v[i] -= d * u[i];
+  VKNormalize3(v);
+}
+
 /* Compensated (Kahan-Babuska) summation, for totals over millions of terms
  * that are compared to 1e-12 (mesh mass against yarn mass). */
 typedef struct {

@@ -6,37 +6,14 @@
  * orthogonal, which keeps high relative accuracy for small singular
  * values), two-sided on symmetric matrices. */
 #include <vkmaterial.h>
-
-static void Normalize3(PetscReal v[])
-{
-  PetscReal n = PetscSqrtReal(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  if (n > 0)
-    for (int a = 0; a < 3; a++) v[a] /= n;
-}
-
-/* A unit vector orthogonal to u (unit). */
-static void Orthogonal3(const PetscReal u[], PetscReal v[])
-{
-  int       a = 0;
-  PetscReal d;
-  for (int i = 1; i < 3; i++)
-    if (PetscAbsReal(u[i]) < PetscAbsReal(u[a])) a = i;
-  v[0] = v[1] = v[2] = 0;
-  v[a]               = 1;
-  d                  = u[a];
-  for (int i = 0; i < 3; i++) v[i] -= d * u[i];
-  Normalize3(v);
-}
+#include <vkutil.h>
 
 void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
 {
-  PetscReal A[9], W[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, norm[3], u[3][3], w[3][3], scale = 0;
+  PetscReal A[9], W[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, norm[3], u[3][3], w[3][3];
   int       order[3] = {0, 1, 2};
 
-  for (int i = 0; i < 9; i++) {
-    A[i] = F[i];
-    scale = PetscMax(scale, PetscAbsReal(F[i]));
-  }
+  for (int i = 0; i < 9; i++) A[i] = F[i];
   for (int sweep = 0; sweep < 30; sweep++) {
     PetscBool rotated = PETSC_FALSE;
     for (int p = 0; p < 2; p++)
@@ -77,7 +54,7 @@ void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
       w[k][i] = W[3 * i + order[k]];
     }
   /* U: first two columns from F W, the third their cross product */
-  if (norm[order[0]] > 1e-300 * PetscMax(scale, 1e-300)) Normalize3(u[0]);
+  if (norm[order[0]] > 0) VKNormalize3(u[0]);
   else {
     u[0][0] = 1;
     u[0][1] = u[0][2] = 0;
@@ -85,8 +62,8 @@ void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
   {
     PetscReal d = u[1][0] * u[0][0] + u[1][1] * u[0][1] + u[1][2] * u[0][2];
     for (int i = 0; i < 3; i++) u[1][i] -= d * u[0][i];
-    if (norm[order[1]] > 1e-15 * norm[order[0]] && (u[1][0] * u[1][0] + u[1][1] * u[1][1] + u[1][2] * u[1][2]) > 0) Normalize3(u[1]);
-    else Orthogonal3(u[0], u[1]);
+    if (norm[order[1]] > 1e-15 * norm[order[0]] && (u[1][0] * u[1][0] + u[1][1] * u[1][1] + u[1][2] * u[1][2]) > 0) VKNormalize3(u[1]);
+    else VKOrthogonal3(u[0], u[1]);
   }
   u[2][0] = u[0][1] * u[1][2] - u[0][2] * u[1][1];
   u[2][1] = u[0][2] * u[1][0] - u[0][0] * u[1][2];

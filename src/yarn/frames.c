@@ -5,26 +5,7 @@
  * then re-orthonormalised against round-off.  The shape fit (DESIGN §8)
  * builds per-segment deformation gradients from these frames. */
 #include <vkcurves.h>
-
-static void Normalize(PetscReal v[])
-{
-  PetscReal n = PetscSqrtReal(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  if (n > 0)
-    for (int a = 0; a < 3; a++) v[a] /= n;
-}
-
-static void AnyPerpendicular(const PetscReal t[], PetscReal n[])
-{
-  int       axis = 0;
-  PetscReal d;
-  for (int a = 1; a < 3; a++)
-    if (PetscAbsReal(t[a]) < PetscAbsReal(t[axis])) axis = a;
-  n[0] = n[1] = n[2] = 0;
-  n[axis]            = 1;
-  d                  = t[axis];
-  for (int a = 0; a < 3; a++) n[a] -= d * t[a];
-  Normalize(n);
-}
+#include <vkutil.h>
 
 PetscErrorCode VKCurvesTransportFrames(const VKCurves *c, PetscReal n1[])
 {
@@ -40,8 +21,8 @@ PetscErrorCode VKCurvesTransportFrames(const VKCurves *c, PetscReal n1[])
       const PetscReal *p = x + 3 * k, *q = x + 3 * ((k + 1) % m);
       PetscReal        t1[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]}, d;
 
-      Normalize(t1);
-      if (k == 0) AnyPerpendicular(t1, n);
+      VKNormalize3(t1);
+      if (k == 0) VKOrthogonal3(t1, n);
       else {
         PetscReal c01 = t0[0] * t1[0] + t0[1] * t1[1] + t0[2] * t1[2];
         if (1 + c01 > 1e-12) {
@@ -51,8 +32,8 @@ PetscErrorCode VKCurvesTransportFrames(const VKCurves *c, PetscReal n1[])
       }
       d = n[0] * t1[0] + n[1] * t1[1] + n[2] * t1[2];
       for (int a = 0; a < 3; a++) n[a] -= d * t1[a];
-      if (n[0] * n[0] + n[1] * n[1] + n[2] * n[2] < 1e-24) AnyPerpendicular(t1, n);
-      Normalize(n);
+      if (n[0] * n[0] + n[1] * n[1] + n[2] * n[2] < 1e-24) VKOrthogonal3(t1, n);
+      VKNormalize3(n);
       for (int a = 0; a < 3; a++) {
         n1[3 * s + a] = n[a];
         t0[a]         = t1[a];
