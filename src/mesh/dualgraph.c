@@ -10,14 +10,6 @@
  * checks it against a generic face matching). */
 #include "meshimpl.h"
 
-static int KuhnIndex(int a, int b, int c)
-{
-  const VKKuhnTable *K = VKKuhn();
-  for (int p = 0; p < 6; p++)
-    if (K->perm[p][0] == a && K->perm[p][1] == b && K->perm[p][2] == c) return p;
-  return -1;
-}
-
 /* Neighbour tets of Kuhn tet (vi, p); -1 where the face is on the boundary. */
 static void Neighbours(VKMesh m, PetscInt vi, int p, PetscInt nb[])
 {
@@ -28,16 +20,16 @@ static void Neighbours(VKMesh m, PetscInt vi, int p, PetscInt nb[])
   V[q[0]]++;
   {
     PetscInt vj = VKMeshFindVoxel(m, V);
-    nb[0]       = vj < 0 ? -1 : m->tet_of_kuhn[6 * vj + KuhnIndex(q[1], q[2], q[0])];
+    nb[0]       = vj < 0 ? -1 : m->tet_of_kuhn[6 * vj + VKKuhnIndex(q[1], q[2], q[0])];
   }
   V[q[0]]--;
   V[q[2]]--;
   {
     PetscInt vj = VKMeshFindVoxel(m, V);
-    nb[1]       = vj < 0 ? -1 : m->tet_of_kuhn[6 * vj + KuhnIndex(q[2], q[0], q[1])];
+    nb[1]       = vj < 0 ? -1 : m->tet_of_kuhn[6 * vj + VKKuhnIndex(q[2], q[0], q[1])];
   }
-  nb[2] = m->tet_of_kuhn[6 * vi + KuhnIndex(q[1], q[0], q[2])];
-  nb[3] = m->tet_of_kuhn[6 * vi + KuhnIndex(q[0], q[2], q[1])];
+  nb[2] = m->tet_of_kuhn[6 * vi + VKKuhnIndex(q[1], q[0], q[2])];
+  nb[3] = m->tet_of_kuhn[6 * vi + VKKuhnIndex(q[0], q[2], q[1])];
 }
 
 PetscErrorCode VKMeshBuildDualGraph(VKMesh m)

@@ -43,16 +43,21 @@ const VKKuhnTable *VKKuhn(void)
   return &kuhn;
 }
 
-int VKKuhnLocate(const PetscReal u[])
+int VKKuhnIndex(int a, int b, int c)
 {
   const VKKuhnTable *K = VKKuhn();
-  int                a = 0, b = 1, c = 2, t;
+  for (int p = 0; p < 6; p++)
+    if (K->perm[p][0] == a && K->perm[p][1] == b && K->perm[p][2] == c) return p;
+  return -1;
+}
+
+int VKKuhnLocate(const PetscReal u[])
+{
+  int a = 0, b = 1, c = 2, t;
   if (u[a] < u[b]) { t = a; a = b; b = t; }
   if (u[b] < u[c]) { t = b; b = c; c = t; }
   if (u[a] < u[b]) { t = a; a = b; b = t; }
-  for (int p = 0; p < 6; p++)
-    if (K->perm[p][0] == a && K->perm[p][1] == b && K->perm[p][2] == c) return p;
-  return 0; /* unreachable: every order is a permutation */
+  return VKKuhnIndex(a, b, c); /* every order is a permutation */
 }
 
 void VKKuhnWeights(int p, const PetscReal u[], PetscReal w[])

@@ -16,6 +16,8 @@ typedef struct {
 PETSC_INTERN const VKKuhnTable *VKKuhn(void);
 /* Kuhn tet of local coordinates u in [0,1]^3 and its barycentric weights
  * in stored vertex order (weights are affine in u, valid outside too). */
+/* Index p of the Kuhn tet with perm[p] = (a, b, c), -1 if none. */
+PETSC_INTERN int  VKKuhnIndex(int a, int b, int c);
 PETSC_INTERN int  VKKuhnLocate(const PetscReal u[]);
 PETSC_INTERN void VKKuhnWeights(int p, const PetscReal u[], PetscReal w[]);
 
