@@ -15,4 +15,5 @@ PETSC_EXTERN const VKCommand VKCommands[];
 PETSC_EXTERN PetscErrorCode  VKGetOutputDirectory(MPI_Comm, char dir[], size_t size);
 PETSC_EXTERN PetscErrorCode  VKCommandYarn(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandMesh(MPI_Comm);
+PETSC_EXTERN PetscErrorCode  VKCommandSim(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandRun(MPI_Comm);

@@ -98,6 +98,11 @@ PETSC_EXTERN PetscErrorCode VKXdmfBegin(FILE *);
 PETSC_EXTERN PetscErrorCode VKXdmfEnd(FILE *);
 PETSC_EXTERN PetscErrorCode VKXdmfGridBegin(FILE *, const char name[]);
 PETSC_EXTERN PetscErrorCode VKXdmfGridEnd(FILE *);
+/* A temporal collection of grids (time series), and the time of a grid
+ * inside it (right after VKXdmfGridBegin). */
+PETSC_EXTERN PetscErrorCode VKXdmfCollectionBegin(FILE *, const char name[]);
+PETSC_EXTERN PetscErrorCode VKXdmfCollectionEnd(FILE *);
+PETSC_EXTERN PetscErrorCode VKXdmfTime(FILE *, PetscReal t);
 /* topology: "Tetrahedron" (4 nodes) or "Polyline" (2 nodes per segment) */
 PETSC_EXTERN PetscErrorCode VKXdmfTopology(FILE *, const char type[], PetscInt ncells, PetscInt nper, const char h5name[], const char dataset[]);
 PETSC_EXTERN PetscErrorCode VKXdmfGeometry(FILE *, PetscInt npoints, const char h5name[], const char dataset[]);

@@ -50,6 +50,11 @@ PETSC_EXTERN void VKTetDeformation(const PetscReal G[], const PetscReal X[], Pet
  * (12 x 2, column-major: dgdg[0..11] for g_s, [12..23] for g_v; optional). */
 PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[]);
 
+/* The local step of projective dynamics (DESIGN §7) for one tet: the
+ * energy V psi and the tet's share of the global right-hand side,
+ * rhs[3a + r] = 2 V sum_c (g_s R + g_v V)_rc G_ca, and det F. */
+PETSC_EXTERN PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal *E, PetscReal rhs[], PetscReal *det);
+
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;
 struct _n_VKMaterial {

@@ -10,7 +10,6 @@ static const char help[] = "volknit: volumetric homogenization of knitwear.\n"
 static const char *const planned[][2] = {
   {"yls",    "the yarn-level reference simulator (DESIGN §4)"   },
   {"fit",    "the material fitting (DESIGN §8)"                 },
-  {"sim",    "the homogenized projective-dynamics simulator (DESIGN §7)"},
   {"report", "error and run-time reports (DESIGN §11)"          }
 };
 

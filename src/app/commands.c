@@ -1,11 +1,13 @@
 /* commands.c: the subcommands of bin/volknit (DESIGN §1).
  *   yarn  build or read a yarn model          -> DIR/yarn.h5 .xdmf .json
  *   mesh  enclose it in a voxel tet mesh      -> DIR/mesh.h5 .xdmf .json
- *   run   the stages the scene needs, in order (today: yarn, mesh)
+ *   sim   simulate the homogenized model over a scene -> DIR/sim.h5 .xdmf .json
+ *   run   the stages the scene needs, in order (today: yarn, mesh, sim)
  * Each runs in its own PetscLogStage, so -log_view splits the time by
  * stage.  With -help a command lists its options and stops. */
 #include <vkapp.h>
 #include <vkmesh.h>
+#include <vksim.h>
 #include <vkio.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -13,7 +15,8 @@
 const VKCommand VKCommands[] = {
   {"yarn", "build or read a yarn model (knit chart, weave, BCC, pyp, HDF5): DIR/yarn.{h5,xdmf,json}", VKCommandYarn},
   {"mesh", "enclose the yarn model in a voxel tet mesh with masses, embedding, METIS domains: DIR/mesh.{h5,xdmf,json}", VKCommandMesh},
-  {"run",  "run the stages the scene needs (today: yarn, mesh)", VKCommandRun},
+  {"sim",  "simulate the homogenized mesh over a scene by projective dynamics (reads DIR/mesh.h5): DIR/sim.{h5,xdmf,json}", VKCommandSim},
+  {"run",  "run the stages the scene needs (today: yarn, mesh, sim)", VKCommandRun},
   {NULL,   NULL, NULL}
 };
 
@@ -129,6 +132,52 @@ static PetscErrorCode MeshStage(VKMesh m, const char dir[])
   PetscFunctionReturn(0);
 }
 
+/* Material, scene and simulator over a mesh, every option read. */
+typedef struct {
+  VKMaterial mat;
+  VKScene    scene;
+  VKSim      sim;
+} SimParts;
+
+static PetscErrorCode SimFromOptions(VKMesh m, const char dir[], SimParts *p)
+{
+  PetscFunctionBegin;
+  PetscCall(VKMaterialCreate(m, &p->mat));
+  PetscCall(VKMaterialSetFromOptions(p->mat));
+  PetscCall(VKSceneCreate(m->comm, &p->scene));
+  PetscCall(VKSceneSetFromOptions(p->scene));
+  PetscCall(VKSimCreate(p->mat, p->scene, &p->sim));
+  PetscCall(VKSimSetFromOptions(p->sim));
+  PetscCall(VKSimSetOutputDirectory(p->sim, dir));
+  PetscOptionsBegin(m->comm, NULL, "Simulation outputs", "volknit sim");
+  PetscCall(PetscOptionsName("-sim_view", "Print scene, material and time integrator before the run", "VKSimView", NULL));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode SimPartsDestroy(SimParts *p)
+{
+  PetscFunctionBegin;
+  PetscCall(VKSimDestroy(&p->sim));
+  PetscCall(VKSceneDestroy(&p->scene));
+  PetscCall(VKMaterialDestroy(&p->mat));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode SimView(void *s, PetscViewer v)
+{
+  return VKSimView((VKSim)s, v);
+}
+
+static PetscErrorCode SimStage(SimParts *p)
+{
+  PetscFunctionBegin;
+  PetscCall(VKSimSetUp(p->sim));
+  PetscCall(ViewFromOptions(p->sim->comm, "-sim_view", SimView, p->sim));
+  PetscCall(VKSimRun(p->sim));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKCommandYarn(MPI_Comm comm)
 {
   char      dir[PETSC_MAX_PATH_LEN];
@@ -188,12 +237,41 @@ PetscErrorCode VKCommandMesh(MPI_Comm comm)
   PetscFunctionReturn(0);
 }
 
+/* sim: the mesh (and the yarn model inside) from DIR/mesh.h5. */
+PetscErrorCode VKCommandSim(MPI_Comm comm)
+{
+  char      dir[PETSC_MAX_PATH_LEN], path[PETSC_MAX_PATH_LEN];
+  VKYarn    y = NULL;
+  VKMesh    m = NULL;
+  SimParts  p = {0};
+  PetscBool exists, help;
+
+  PetscFunctionBegin;
+  PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
+  PetscCall(VKPathJoin(dir, "mesh.h5", path, sizeof(path)));
+  PetscCall(VKFileExists(comm, path, &exists));
+  PetscCall(PetscOptionsHasHelp(NULL, &help));
+  PetscCheck(exists || help, comm, PETSC_ERR_FILE_OPEN, "volknit sim needs %s: run volknit mesh -o %s (or volknit run) first", path, dir);
+  if (exists) PetscCall(VKMeshLoadH5(comm, path, &m, &y));
+  else PetscCall(VKMeshCreate(comm, &m));
+  PetscCall(SimFromOptions(m, dir, &p));
+  if (!help) {
+    PetscCall(PetscPrintf(comm, "volknit sim: mesh read from %s (%d nodes, %d tets)\n", path, (int)m->nv, (int)m->ne));
+    PetscCall(SimStage(&p));
+  }
+  PetscCall(SimPartsDestroy(&p));
+  PetscCall(VKMeshDestroy(&m));
+  PetscCall(VKYarnDestroy(&y));
+  PetscFunctionReturn(0);
+}
+
 /* run: every stage the scene needs, options of all stages checked first. */
 PetscErrorCode VKCommandRun(MPI_Comm comm)
 {
   char           dir[PETSC_MAX_PATH_LEN];
   VKYarn         y;
   VKMesh         m;
+  SimParts       p = {0};
   PetscBool      help;
   PetscLogDouble t0 = VKWallTime();
 
@@ -201,12 +279,15 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
   PetscCall(YarnFromOptions(comm, &y));
   PetscCall(MeshFromOptions(comm, y, &m));
+  PetscCall(SimFromOptions(m, dir, &p));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
     PetscCall(YarnStage(y, dir, PETSC_TRUE));
     PetscCall(MeshStage(m, dir));
-    PetscCall(PetscPrintf(comm, "volknit run: stages yarn, mesh done in %.2f s; outputs in %s/\n", VKWallTime() - t0, dir));
+    PetscCall(SimStage(&p));
+    PetscCall(PetscPrintf(comm, "volknit run: stages yarn, mesh, sim done in %.2f s; outputs in %s/\n", VKWallTime() - t0, dir));
   }
+  PetscCall(SimPartsDestroy(&p));
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);

@@ -55,3 +55,18 @@ PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal
   }
   PetscFunctionReturn(0);
 }
+
+PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal *E, PetscReal rhs[], PetscReal *det)
+{
+  PetscReal  F[9], P[9];
+  VKPsiState st;
+
+  PetscFunctionBegin;
+  VKTetDeformation(G, X, F);
+  PetscCall(VKPsiEvaluate(F, &st));
+  *E = vol * (gs * st.psi_s + gv * st.psi_v);
+  for (int i = 0; i < 9; i++) P[i] = 2 * (gs * st.R[i] + gv * st.V[i]);
+  NodalForce(G, vol, P, rhs);
+  *det = st.svd.s[0] * st.svd.s[1] * st.svd.s[2];
+  PetscFunctionReturn(0);
+}

@@ -2,9 +2,10 @@
 #include <vklog.h>
 
 PetscClassId  VK_CLASSID;
-PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH;
+PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH, VK_STAGE_SIM;
 PetscLogEvent VK_EVENT_YarnBuild, VK_EVENT_YarnRead, VK_EVENT_YarnResample, VK_EVENT_YarnFrames, VK_EVENT_YarnBind, VK_EVENT_YarnRadius;
 PetscLogEvent VK_EVENT_Voxelize, VK_EVENT_Tets, VK_EVENT_Lump, VK_EVENT_Embed, VK_EVENT_DualGraph, VK_EVENT_Partition, VK_EVENT_Layout, VK_EVENT_Write;
+PetscLogEvent VK_EVENT_PDSetUp, VK_EVENT_PDLocal, VK_EVENT_PDGlobal, VK_EVENT_PDNewton, VK_EVENT_PDCollide;
 
 static PetscBool registered = PETSC_FALSE;
 
@@ -23,6 +24,7 @@ PetscErrorCode VKInitializePackage(void)
   PetscCall(PetscClassIdRegister("volknit", &VK_CLASSID));
   PetscCall(PetscLogStageRegister("volknit yarn", &VK_STAGE_YARN));
   PetscCall(PetscLogStageRegister("volknit mesh", &VK_STAGE_MESH));
+  PetscCall(PetscLogStageRegister("volknit sim", &VK_STAGE_SIM));
   PetscCall(PetscLogEventRegister("YarnBuild", VK_CLASSID, &VK_EVENT_YarnBuild));
   PetscCall(PetscLogEventRegister("YarnRead", VK_CLASSID, &VK_EVENT_YarnRead));
   PetscCall(PetscLogEventRegister("YarnResample", VK_CLASSID, &VK_EVENT_YarnResample));
@@ -37,6 +39,11 @@ PetscErrorCode VKInitializePackage(void)
   PetscCall(PetscLogEventRegister("MeshPartition", VK_CLASSID, &VK_EVENT_Partition));
   PetscCall(PetscLogEventRegister("MeshLayout", VK_CLASSID, &VK_EVENT_Layout));
   PetscCall(PetscLogEventRegister("VKWrite", VK_CLASSID, &VK_EVENT_Write));
+  PetscCall(PetscLogEventRegister("PDSetUp", VK_CLASSID, &VK_EVENT_PDSetUp));
+  PetscCall(PetscLogEventRegister("PDLocal", VK_CLASSID, &VK_EVENT_PDLocal));
+  PetscCall(PetscLogEventRegister("PDGlobal", VK_CLASSID, &VK_EVENT_PDGlobal));
+  PetscCall(PetscLogEventRegister("PDNewton", VK_CLASSID, &VK_EVENT_PDNewton));
+  PetscCall(PetscLogEventRegister("PDCollide", VK_CLASSID, &VK_EVENT_PDCollide));
   PetscCall(PetscRegisterFinalize(VKFinalizePackage));
   PetscFunctionReturn(0);
 }

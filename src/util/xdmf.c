@@ -63,3 +63,24 @@ PetscErrorCode VKXdmfAttribute(FILE *fp, const char name[], const char center[],
   fputs("   </Attribute>\n", fp);
   PetscFunctionReturn(0);
 }
+
+PetscErrorCode VKXdmfCollectionBegin(FILE *fp, const char name[])
+{
+  PetscFunctionBegin;
+  fprintf(fp, "  <Grid Name=\"%s\" GridType=\"Collection\" CollectionType=\"Temporal\">\n", name);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKXdmfCollectionEnd(FILE *fp)
+{
+  PetscFunctionBegin;
+  fputs("  </Grid>\n", fp);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKXdmfTime(FILE *fp, PetscReal t)
+{
+  PetscFunctionBegin;
+  fprintf(fp, "   <Time Value=\"%.17g\"/>\n", (double)t);
+  PetscFunctionReturn(0);
+}

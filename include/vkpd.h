@@ -1,0 +1,103 @@
+/* vkpd.h: the projective-dynamics equilibrium solver of the homogenized
+ * model (DESIGN §7, paper §7.1).  One implicit Euler step is the minimum of
+ *   Phi(x) = 1/(2 dt^2) |x - y|^2_M + sum_e V_e psi_e(F_e(x))
+ * with handle nodes prescribed; y is the inertial target
+ * (y = x_n + dt v_n + dt^2 g for a time step; the fitting passes its own).
+ * PD alternates the local step (R_e, V_e per tet) and the global step
+ *   K x = b,  K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e   (scalar),
+ *   b = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e)      (per coordinate),
+ * so grad Phi(x) = K x - b(x) is the true residual at no extra cost.  K is
+ * assembled once per time step size with the handle rows and columns
+ * eliminated and factored once; the global step solves three right-hand
+ * sides through a KSP with prefix -pd_global_ (MUMPS or CHOLMOD Cholesky,
+ * CG + GAMG, or any PC registered later, such as the CMS solver).
+ * Options: -pd_rtol, -pd_atol, -pd_max_it, -pd_monitor, Chebyshev
+ * acceleration (-pd_chebyshev_rho), Newton polishing through SNES with the
+ * exact Hessian (-pd_newton_its, prefix -pd_newton_). */
+#pragma once
+#include <vkmaterial.h>
+#include <vkscene.h>
+#include <petscksp.h>
+#include <petscsnes.h>
+
+typedef enum {
+  VK_PD_DIVERGED_GLOBAL = -2, /* the global-step KSP failed */
+  VK_PD_DIVERGED_NAN   = -1, /* Phi or the residual is not finite */
+  VK_PD_ITERATING      = 0,
+  VK_PD_CONVERGED_RTOL = 1,
+  VK_PD_CONVERGED_ATOL = 2,
+  VK_PD_MAX_IT         = 3  /* stopped at -pd_max_it (accepted) */
+} VKPDReason;
+PETSC_EXTERN const char *VKPDReasonName(VKPDReason);
+
+typedef struct {
+  VKPDReason     reason;
+  PetscInt       iterations, newton_its, fail_iteration;
+  PetscReal      residual0, residual; /* |grad Phi| at the start and the end */
+  PetscReal      phi, energy;         /* Phi and the elastic energy at the end */
+  PetscInt       inverted, contacts;  /* tets with det F <= 0, nodes on colliders */
+  PetscLogDouble time_local, time_global, time_other;
+} VKPDStats;
+
+typedef struct _n_VKPD *VKPD;
+struct _n_VKPD {
+  MPI_Comm   comm;
+  VKMesh     mesh;
+  VKMaterial mat;
+  VKScene    scene;
+  PetscReal  dt;
+  /* options */
+  PetscReal rtol, atol;
+  PetscInt  max_it;
+  PetscBool monitor;
+  PetscReal cheb_rho, cheb_gamma;
+  PetscInt  cheb_delay;
+  PetscInt  newton_its;
+  PetscReal newton_rtol;
+  /* owned handle nodes (local owned index) and their handle */
+  PetscInt  nhandle, *handle_node, *handle_id, *handle_row;
+  PetscInt  *node_handle; /* per owned node: handle or -1 */
+  /* contacts of the current solve: per owned node flag and outward normal */
+  PetscBool *contact;
+  PetscReal *contact_normal;
+  /* global step */
+  Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
+  PetscReal kdiag;  /* diagonal put on eliminated rows */
+  KSP       ksp;
+  Vec       xc, bc, rc, xd[3];   /* scalar work; handle values per coordinate */
+  Vec       b, My, xold, xhat, x1, r; /* block-3 ghosted work */
+  /* Newton */
+  SNES      snes;
+  Mat       H;
+  const Vec *ysnes; /* inertial target seen by the SNES callbacks */
+  PetscInt   step;  /* time step number for messages (set by the caller) */
+  /* Phi and |grad Phi| at every iteration of the last solve (max_it + 1) */
+  PetscReal *hist_phi, *hist_res;
+  PetscInt   hist_n, hist_cap;
+  PetscBool  setup, kset;
+};
+
+PETSC_EXTERN PetscErrorCode VKPDCreate(VKMaterial, VKScene, VKPD *);
+PETSC_EXTERN PetscErrorCode VKPDSetTimeStep(VKPD, PetscReal dt);
+PETSC_EXTERN PetscErrorCode VKPDSetFromOptions(VKPD);
+PETSC_EXTERN PetscErrorCode VKPDSetUp(VKPD);
+PETSC_EXTERN PetscErrorCode VKPDView(VKPD, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKPDDestroy(VKPD *);
+/* The material changed (fitting): K is reassembled and refactored. */
+PETSC_EXTERN PetscErrorCode VKPDMaterialChanged(VKPD);
+
+/* Minimize Phi for target y with the handles at time t; x holds the initial
+ * guess and receives the result; prev (optional) is the position at the
+ * start of the step, the reference of collider friction.  A non-finite
+ * Phi or residual is reported in stats->reason (x then holds the last
+ * finite iterate), not raised, so that the caller can save its last good
+ * state first. */
+PETSC_EXTERN PetscErrorCode VKPDSolve(VKPD, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *);
+/* Set the handle nodes of x to their positions at time t. */
+PETSC_EXTERN PetscErrorCode VKPDApplyHandles(VKPD, PetscReal t, Vec x);
+/* Phi(x), and grad Phi(x) with the handle rows zeroed. */
+PETSC_EXTERN PetscErrorCode VKPDObjective(VKPD, Vec y, Vec x, PetscReal *phi);
+PETSC_EXTERN PetscErrorCode VKPDGradient(VKPD, Vec y, Vec x, Vec g);
+/* The elastic energy at x, the right-hand side b(x) of the global step,
+ * and the number of tets with det F <= 0 (the PD local step). */
+PETSC_EXTERN PetscErrorCode VKPDLocalStep(VKPD, Vec x, Vec b, PetscReal *E, PetscInt *inverted);

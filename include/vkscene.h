@@ -1,0 +1,83 @@
+/* vkscene.h: scenes (DESIGN §10), shared by the yarn-level simulator and
+ * the homogenized simulator so that one options file drives both and
+ * their output frames correspond one to one.
+ *
+ * A scene has gravity, a duration, an output interval, handles and
+ * colliders.  A handle is a box in rest coordinates: every point whose rest
+ * position lies inside is a Dirichlet point, driven by a translation
+ * velocity and/or a rotation about an axis within a time window (held at
+ * rest before the window and at the final pose after it).  Colliders are
+ * planes, spheres and infinite cylinders, optionally moving at a constant
+ * velocity, with Coulomb friction.
+ *
+ * Scene units (the default; -scene_absolute switches everything to
+ * metres): handle boxes are per-axis fractions of the rest bounding box of
+ * the yarn model about its centre (-0.5..0.5 spans the box, an axis without
+ * extent counts as 1% of the largest), so "the top 4% of the patch" is
+ * -1,0.46,-1,1,1,1 for any patch; every other position and length
+ * (rotation centres, collider points and radii, velocities) is measured
+ * from the box centre in units of its largest extent.  Velocities are
+ * lengths per second, angular velocities degrees per second, gravity m/s^2 always. */
+#pragma once
+#include <petscsys.h>
+
+#define VK_SCENE_MAX 8 /* handles, colliders */
+
+typedef struct {
+  PetscReal box[6];         /* lo x,y,z, hi x,y,z (rest coordinates, m after set-up) */
+  PetscReal velocity[3];    /* m/s */
+  PetscReal center[3];      /* rotation centre, m */
+  PetscReal axis[3];        /* unit rotation axis */
+  PetscReal omega;          /* rad/s */
+  PetscReal window[2];      /* active time window, s */
+} VKHandle;
+
+typedef enum { VK_COLLIDER_PLANE, VK_COLLIDER_SPHERE, VK_COLLIDER_CYLINDER } VKColliderType;
+PETSC_EXTERN const char *const VKColliderTypes[];
+
+typedef struct {
+  VKColliderType type;
+  PetscReal      point[3];    /* plane point, sphere centre, point on the cylinder axis (m, at t = 0) */
+  PetscReal      normal[3];   /* unit plane normal (free side) or cylinder axis */
+  PetscReal      radius;      /* sphere, cylinder (m) */
+  PetscReal      velocity[3]; /* m/s */
+  PetscReal      friction;    /* Coulomb coefficient */
+} VKCollider;
+
+typedef struct _n_VKScene *VKScene;
+struct _n_VKScene {
+  MPI_Comm   comm;
+  char       name[64];
+  PetscReal  gravity[3];      /* m/s^2 */
+  PetscReal  duration;        /* s */
+  PetscReal  output_interval; /* s */
+  PetscBool  relative;        /* lengths in bounding-box units (until set-up) */
+  PetscInt   nhandles, ncolliders;
+  VKHandle   handle[VK_SCENE_MAX];
+  VKCollider collider[VK_SCENE_MAX];
+  PetscBool  center_set[VK_SCENE_MAX];
+  PetscReal  lo[3], hi[3]; /* reference bounding box */
+  PetscBool  setup;
+};
+
+PETSC_EXTERN PetscErrorCode VKSceneCreate(MPI_Comm, VKScene *);
+PETSC_EXTERN PetscErrorCode VKSceneSetFromOptions(VKScene);
+/* Fix scene units to metres with the rest bounding box [lo, hi] of the
+ * yarn model (both simulators pass the same box). */
+PETSC_EXTERN PetscErrorCode VKSceneSetUp(VKScene, const PetscReal lo[], const PetscReal hi[]);
+PETSC_EXTERN PetscErrorCode VKSceneView(VKScene, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKSceneDestroy(VKScene *);
+
+/* The handle (first matching box) that holds a point of rest position X,
+ * or -1. */
+PETSC_EXTERN PetscInt VKSceneHandleOf(VKScene, const PetscReal X[]);
+/* Position at time t of the handle point with rest position X. */
+PETSC_EXTERN void VKSceneHandlePosition(VKScene, PetscInt handle, const PetscReal X[], PetscReal t, PetscReal p[]);
+/* Push a point out of every collider at time t (closest surface point),
+ * with Coulomb friction against its motion since `prev` (position at the
+ * start of the step, dt before t): the tangential motion relative to the
+ * collider is removed while it is below
+ * friction x penetration (sticking), reduced by that much otherwise.
+ * Returns whether the point touched a collider; `normal` (optional) gets
+ * the outward normal of the last collider touched. */
+PETSC_EXTERN PetscBool VKSceneCollide(VKScene, PetscReal t, PetscReal dt, const PetscReal prev[], PetscReal p[], PetscReal normal[]);

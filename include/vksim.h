@@ -1,0 +1,67 @@
+/* vksim.h: the homogenized forward simulation (DESIGN §7, paper §7.1).
+ *
+ * The time loop is a PETSc TS of the registered type "pd" (VKTSPD): each
+ * step solves the implicit Euler problem by projective dynamics (vkpd.h)
+ * with the inertial target y = x_n + dt v_n + dt^2 g and sets
+ * v_{n+1} = (x_{n+1} - x_n)/dt, so -ts_dt, -ts_max_time, -ts_max_steps,
+ * -ts_monitor and -ts_view work as for any TS.
+ *
+ * VKSim puts together mesh, material, scene, PD solver and TS, writes the
+ * frames at the scene's output interval (DIR/sim.h5 + sim.xdmf: node
+ * positions and the yarns driven by the mesh, x^Y = N x^V; DIR/sim.json:
+ * statistics), and stops with a clear error, after writing the last good
+ * frame, when a step fails (non-finite values, global solver failure). */
+#pragma once
+#include <vkpd.h>
+#include <petscts.h>
+
+#define TSPD "pd"
+/* Register the TS type "pd" (done by VKSimCreate; call it to use the type
+ * directly with TSSetType). */
+PETSC_EXTERN PetscErrorCode VKTSPDRegister(void);
+/* The PD solver a TS of type "pd" uses, and its velocity vector. */
+PETSC_EXTERN PetscErrorCode VKTSPDSetSolver(TS, VKPD);
+PETSC_EXTERN PetscErrorCode VKTSPDGetVelocity(TS, Vec *);
+/* Statistics of the last step and totals over all steps so far. */
+typedef struct {
+  PetscInt       steps, iterations, iterations_max, newton_its, inverted_max, contacts_max, max_it_steps;
+  PetscReal      residual_rel_max, residual_rel_last;
+  PetscLogDouble time_local, time_global, time_other;
+  VKPDStats      last;
+} VKTSPDStats;
+PETSC_EXTERN PetscErrorCode VKTSPDGetStats(TS, VKTSPDStats *);
+
+typedef struct _n_VKSim *VKSim;
+struct _n_VKSim {
+  MPI_Comm   comm;
+  VKMesh     mesh;
+  VKMaterial mat;
+  VKScene    scene;
+  VKPD       pd;
+  TS         ts;
+  Vec        x, x0, v0; /* state; initial state (NULL: rest, at rest) */
+  char       dir[PETSC_MAX_PATH_LEN]; /* output directory, "" for none */
+  PetscBool  quiet, setup;
+  void      *out;                     /* frame writer (sim_output.c) */
+  PetscReal  next_output, last_frame_time;
+  PetscInt   frames;
+  PetscReal  energy[3]; /* last frame: elastic, kinetic, gravitational potential */
+  PetscLogDouble time_run;
+};
+
+PETSC_EXTERN PetscErrorCode VKSimCreate(VKMaterial, VKScene, VKSim *);
+/* -pd_* and -ts_* options; the defaults come from the scene
+ * (-ts_max_time = -scene_duration, -ts_dt = min(1/150 s, output interval)). */
+PETSC_EXTERN PetscErrorCode VKSimSetFromOptions(VKSim);
+/* Write sim.h5/.xdmf/.json into dir (NULL: write nothing). */
+PETSC_EXTERN PetscErrorCode VKSimSetOutputDirectory(VKSim, const char dir[]);
+PETSC_EXTERN PetscErrorCode VKSimSetUp(VKSim);
+/* Start from x, v instead of the rest state at rest (copied; a crumpled
+ * start, a restart).  Handle nodes still follow the scene. */
+PETSC_EXTERN PetscErrorCode VKSimSetInitialState(VKSim, Vec x, Vec v);
+/* Simulate over the scene from the initial state. */
+PETSC_EXTERN PetscErrorCode VKSimRun(VKSim);
+PETSC_EXTERN PetscErrorCode VKSimView(VKSim, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKSimDestroy(VKSim *);
+/* Energies of a state: elastic, kinetic 1/2 v^T M v, gravitational -g . M x. */
+PETSC_EXTERN PetscErrorCode VKSimEnergies(VKSim, Vec x, Vec v, PetscReal e[3]);

@@ -1,0 +1,284 @@
+/* scene.c: the scene object (DESIGN §10): -scene_ options, conversion from
+ * scene units to metres, handle motion (Dirichlet points driven by a
+ * translation and a rotation about an axis, Rodrigues' formula) and
+ * collider projection with Coulomb friction in position form (the
+ * tangential motion of a penetrating point over the step is cancelled up
+ * to friction x penetration depth). */
+#include <vkscene.h>
+#include <petscviewer.h>
+#include <vkutil.h>
+#include <math.h>
+
+const char *const VKColliderTypes[] = {"plane", "sphere", "cylinder", "VKColliderType", "VK_COLLIDER_", NULL};
+
+PetscErrorCode VKSceneCreate(MPI_Comm comm, VKScene *scene)
+{
+  VKScene s;
+
+  PetscFunctionBegin;
+  PetscCall(PetscNew(&s));
+  s->comm            = comm;
+  s->gravity[2]      = -9.81;
+  s->duration        = 1.0;
+  s->output_interval = 1.0 / 30;
+  s->relative        = PETSC_TRUE;
+  PetscCall(PetscStrncpy(s->name, "scene", sizeof(s->name)));
+  *scene = s;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneDestroy(VKScene *s)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscFree(*s));
+  PetscFunctionReturn(0);
+}
+
+/* A 3-vector option; `n` must be 3 when given. */
+static PetscErrorCode Option3(PetscOptionItems *PetscOptionsObject, const char opt[], const char text[], PetscReal v[], PetscInt want, PetscBool *set)
+{
+  PetscInt  n = want;
+  PetscBool flg;
+
+  PetscFunctionBegin;
+  PetscCall(PetscOptionsRealArray(opt, text, "VKSceneSetFromOptions", v, &n, &flg));
+  PetscCheck(!flg || n == want, PETSC_COMM_WORLD, PETSC_ERR_ARG_SIZ, "%s needs %d comma-separated numbers, got %d", opt, (int)want, (int)n);
+  for (PetscInt i = 0; flg && i < want; i++) PetscCheck(PetscIsNormalReal(v[i]) || v[i] == 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s: value %d is not a finite number", opt, (int)i);
+  if (set) *set = flg;
+  PetscFunctionReturn(0);
+}
+
+static PetscReal Norm3(const PetscReal v[])
+{
+  return PetscSqrtReal(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
+
+static PetscErrorCode HandleOptions(PetscOptionItems *PetscOptionsObject, VKScene s, PetscInt i)
+{
+  VKHandle *h = &s->handle[i];
+  char      opt[64];
+  PetscReal deg = 0;
+  PetscBool set;
+
+  PetscFunctionBegin;
+  h->box[0] = h->box[1] = h->box[2] = -1;
+  h->box[3] = h->box[4] = h->box[5] = 1;
+  h->axis[1]   = 1;
+  h->window[0] = 0;
+  h->window[1] = PETSC_MAX_REAL;
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_handle%d_box", (int)i));
+  PetscCall(Option3(PetscOptionsObject, opt, "Handle box in rest coordinates: xlo,ylo,zlo,xhi,yhi,zhi (fractions of the rest bounding box per axis, -0.5..0.5 spans it)", h->box, 6, &set));
+  PetscCheck(set, PETSC_COMM_WORLD, PETSC_ERR_ARG_WRONG, "-scene_handles %d needs %s", (int)s->nhandles, opt);
+  for (int a = 0; a < 3; a++) PetscCheck(h->box[a] < h->box[3 + a], PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s: lower corner must be below the upper corner in every coordinate (coordinate %d: %g >= %g)", opt, a, (double)h->box[a], (double)h->box[3 + a]);
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_handle%d_velocity", (int)i));
+  PetscCall(Option3(PetscOptionsObject, opt, "Handle translation velocity (scene units per s)", h->velocity, 3, NULL));
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_handle%d_center", (int)i));
+  PetscCall(Option3(PetscOptionsObject, opt, "Rotation centre (scene units; default the box centre)", h->center, 3, &s->center_set[i]));
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_handle%d_axis", (int)i));
+  PetscCall(Option3(PetscOptionsObject, opt, "Rotation axis", h->axis, 3, NULL));
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_handle%d_omega", (int)i));
+  PetscCall(PetscOptionsReal(opt, "Angular velocity about the axis, degrees per s", "VKSceneSetFromOptions", deg, &deg, NULL));
+  PetscCheck(PetscIsNormalReal(deg) || deg == 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be a finite number", opt);
+  h->omega = deg * PETSC_PI / 180;
+  PetscCheck(h->omega == 0 || Norm3(h->axis) > 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "-scene_handle%d_axis must be non-zero for a rotating handle", (int)i);
+  if (h->omega != 0) {
+    PetscReal n = Norm3(h->axis);
+    for (int a = 0; a < 3; a++) h->axis[a] /= n;
+  }
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_handle%d_window", (int)i));
+  {
+    PetscInt  n = 2;
+    PetscBool flg;
+    PetscCall(PetscOptionsRealArray(opt, "Time window of the motion t0,t1 (s; default the whole scene)", "VKSceneSetFromOptions", h->window, &n, &flg));
+    PetscCheck(!flg || (n == 2 && h->window[0] >= 0 && h->window[0] < h->window[1]), PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s needs t0,t1 with 0 <= t0 < t1", opt);
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode ColliderOptions(PetscOptionItems *PetscOptionsObject, VKScene s, PetscInt i)
+{
+  VKCollider *c = &s->collider[i];
+  char        opt[64];
+  PetscBool   set;
+
+  PetscFunctionBegin;
+  c->friction  = 0.3;
+  c->normal[2] = 1;
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_type", (int)i));
+  c->type = VK_COLLIDER_PLANE;
+  PetscCall(PetscOptionsEnum(opt, "Collider shape", "VKSceneSetFromOptions", VKColliderTypes, (PetscEnum)c->type, (PetscEnum *)&c->type, &set));
+  PetscCheck(set, PETSC_COMM_WORLD, PETSC_ERR_ARG_WRONG, "-scene_colliders %d needs %s plane|sphere|cylinder", (int)s->ncolliders, opt);
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_point", (int)i));
+  PetscCall(Option3(PetscOptionsObject, opt, "Plane point, sphere centre or point on the cylinder axis (scene units)", c->point, 3, NULL));
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_normal", (int)i));
+  PetscCall(Option3(PetscOptionsObject, opt, "Plane normal (towards the free side) or cylinder axis", c->normal, 3, NULL));
+  PetscCheck(Norm3(c->normal) > 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be non-zero", opt);
+  {
+    PetscReal n = Norm3(c->normal);
+    for (int a = 0; a < 3; a++) c->normal[a] /= n;
+  }
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_radius", (int)i));
+  PetscCall(PetscOptionsReal(opt, "Sphere or cylinder radius (scene units)", "VKSceneSetFromOptions", c->radius, &c->radius, &set));
+  PetscCheck(c->type == VK_COLLIDER_PLANE || (set && c->radius > 0 && c->radius < PETSC_INFINITY), PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "a %s collider needs %s > 0", VKColliderTypes[c->type], opt);
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_velocity", (int)i));
+  PetscCall(Option3(PetscOptionsObject, opt, "Collider velocity (scene units per s)", c->velocity, 3, NULL));
+  PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_friction", (int)i));
+  PetscCall(PetscOptionsReal(opt, "Coulomb friction coefficient", "VKSceneSetFromOptions", c->friction, &c->friction, NULL));
+  PetscCheck(c->friction >= 0 && c->friction < PETSC_INFINITY, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be >= 0, got %g", opt, (double)c->friction);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneSetFromOptions(VKScene s)
+{
+  PetscBool absolute = s->relative ? PETSC_FALSE : PETSC_TRUE;
+
+  PetscFunctionBegin;
+  PetscOptionsBegin(s->comm, NULL, "Scene options (DESIGN section 10)", "VKScene");
+  PetscCall(PetscOptionsString("-scene_name", "Scene name (recorded in the outputs)", "VKSceneSetFromOptions", s->name, s->name, sizeof(s->name), NULL));
+  PetscCall(PetscOptionsBool("-scene_absolute", "Lengths in metres instead of rest bounding-box units (origin at the box centre, unit its largest extent)", "VKSceneSetFromOptions", absolute, &absolute, NULL));
+  s->relative = absolute ? PETSC_FALSE : PETSC_TRUE;
+  PetscCall(Option3(PetscOptionsObject, "-scene_gravity", "Gravity, m/s^2", s->gravity, 3, NULL));
+  PetscCall(PetscOptionsReal("-scene_duration", "Simulated time, s", "VKSceneSetFromOptions", s->duration, &s->duration, NULL));
+  PetscCheck(s->duration > 0 && s->duration < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration must be positive, got %g", (double)s->duration);
+  PetscCall(PetscOptionsReal("-scene_output_interval", "Time between output frames, s", "VKSceneSetFromOptions", s->output_interval, &s->output_interval, NULL));
+  PetscCheck(s->output_interval > 0 && s->output_interval < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_output_interval must be positive, got %g", (double)s->output_interval);
+  PetscCall(PetscOptionsInt("-scene_handles", "Number of handles (then -scene_handle<i>_box ... for i = 0, 1, ...)", "VKSceneSetFromOptions", s->nhandles, &s->nhandles, NULL));
+  PetscCheck(s->nhandles >= 0 && s->nhandles <= VK_SCENE_MAX, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_handles must be 0..%d, got %d", VK_SCENE_MAX, (int)s->nhandles);
+  for (PetscInt i = 0; i < s->nhandles; i++) PetscCall(HandleOptions(PetscOptionsObject, s, i));
+  PetscCall(PetscOptionsInt("-scene_colliders", "Number of colliders (then -scene_collider<i>_type ... for i = 0, 1, ...)", "VKSceneSetFromOptions", s->ncolliders, &s->ncolliders, NULL));
+  PetscCheck(s->ncolliders >= 0 && s->ncolliders <= VK_SCENE_MAX, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_colliders must be 0..%d, got %d", VK_SCENE_MAX, (int)s->ncolliders);
+  for (PetscInt i = 0; i < s->ncolliders; i++) PetscCall(ColliderOptions(PetscOptionsObject, s, i));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneSetUp(VKScene s, const PetscReal lo[], const PetscReal hi[])
+{
+  PetscReal c[3], L = 0;
+
+  PetscFunctionBegin;
+  if (s->setup) PetscFunctionReturn(0);
+  for (int a = 0; a < 3; a++) {
+    s->lo[a] = lo[a];
+    s->hi[a] = hi[a];
+    c[a]     = 0.5 * (lo[a] + hi[a]);
+    L        = PetscMax(L, hi[a] - lo[a]);
+  }
+  if (!s->relative) {
+    L = 1;
+    c[0] = c[1] = c[2] = 0;
+  }
+  PetscCheck(L > 0, s->comm, PETSC_ERR_ARG_WRONG, "The scene needs a non-empty rest bounding box");
+  for (PetscInt i = 0; i < s->nhandles; i++) {
+    VKHandle *h = &s->handle[i];
+    for (int a = 0; a < 3; a++) {
+      PetscReal E = s->relative ? PetscMax(hi[a] - lo[a], 1e-2 * L) : 1; /* boxes: per-axis fractions */
+      h->box[a]     = c[a] + E * h->box[a];
+      h->box[3 + a] = c[a] + E * h->box[3 + a];
+      h->velocity[a] *= L;
+      h->center[a] = s->center_set[i] ? c[a] + L * h->center[a] : 0.5 * (PetscMax(h->box[a], lo[a]) + PetscMin(h->box[3 + a], hi[a]));
+    }
+  }
+  for (PetscInt i = 0; i < s->ncolliders; i++) {
+    VKCollider *k = &s->collider[i];
+    for (int a = 0; a < 3; a++) {
+      k->point[a] = c[a] + L * k->point[a];
+      k->velocity[a] *= L;
+    }
+    k->radius *= L;
+  }
+  s->setup = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneView(VKScene s, PetscViewer viewer)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Scene %s: gravity (%g, %g, %g) m/s^2, duration %g s, output every %g s, %d handles, %d colliders%s\n", s->name, (double)s->gravity[0], (double)s->gravity[1], (double)s->gravity[2], (double)s->duration, (double)s->output_interval, (int)s->nhandles, (int)s->ncolliders, s->setup ? "" : " (scene units)"));
+  PetscCall(PetscViewerASCIIPushTab(viewer));
+  for (PetscInt i = 0; i < s->nhandles; i++) {
+    VKHandle *h = &s->handle[i];
+    PetscCall(PetscViewerASCIIPrintf(viewer, "handle %d: box [%g %g %g] - [%g %g %g], velocity (%g, %g, %g), %g deg/s about (%g, %g, %g) through (%g, %g, %g), window [%g, %g] s\n", (int)i, (double)h->box[0], (double)h->box[1], (double)h->box[2], (double)h->box[3], (double)h->box[4], (double)h->box[5], (double)h->velocity[0], (double)h->velocity[1], (double)h->velocity[2], (double)(h->omega * 180 / PETSC_PI), (double)h->axis[0], (double)h->axis[1], (double)h->axis[2], (double)h->center[0], (double)h->center[1], (double)h->center[2], (double)h->window[0], (double)PetscMin(h->window[1], s->duration)));
+  }
+  for (PetscInt i = 0; i < s->ncolliders; i++) {
+    VKCollider *c = &s->collider[i];
+    PetscCall(PetscViewerASCIIPrintf(viewer, "collider %d: %s at (%g, %g, %g), normal/axis (%g, %g, %g), radius %g, velocity (%g, %g, %g), friction %g\n", (int)i, VKColliderTypes[c->type], (double)c->point[0], (double)c->point[1], (double)c->point[2], (double)c->normal[0], (double)c->normal[1], (double)c->normal[2], (double)c->radius, (double)c->velocity[0], (double)c->velocity[1], (double)c->velocity[2], (double)c->friction));
+  }
+  PetscCall(PetscViewerASCIIPopTab(viewer));
+  PetscFunctionReturn(0);
+}
+
+PetscInt VKSceneHandleOf(VKScene s, const PetscReal X[])
+{
+  for (PetscInt i = 0; i < s->nhandles; i++) {
+    const PetscReal *b = s->handle[i].box;
+    if (X[0] >= b[0] && X[0] <= b[3] && X[1] >= b[1] && X[1] <= b[4] && X[2] >= b[2] && X[2] <= b[5]) return i;
+  }
+  return -1;
+}
+
+void VKSceneHandlePosition(VKScene s, PetscInt i, const PetscReal X[], PetscReal t, PetscReal p[])
+{
+  const VKHandle *h   = &s->handle[i];
+  PetscReal       tau = PetscMin(PetscMax(t, h->window[0]), h->window[1]) - h->window[0];
+  PetscReal       r[3], th = h->omega * tau, c = PetscCosReal(th), sn = PetscSinReal(th), k[3], kxr[3], kr;
+
+  for (int a = 0; a < 3; a++) {
+    r[a] = X[a] - h->center[a];
+    k[a] = h->axis[a];
+  }
+  kxr[0] = k[1] * r[2] - k[2] * r[1];
+  kxr[1] = k[2] * r[0] - k[0] * r[2];
+  kxr[2] = k[0] * r[1] - k[1] * r[0];
+  kr     = k[0] * r[0] + k[1] * r[1] + k[2] * r[2];
+  for (int a = 0; a < 3; a++) p[a] = h->center[a] + c * r[a] + sn * kxr[a] + (1 - c) * kr * k[a] + h->velocity[a] * tau;
+}
+
+/* Signed distance to collider c at time t (positive outside) and the
+ * outward normal at the closest surface point. */
+static PetscReal ColliderDistance(const VKCollider *c, PetscReal t, const PetscReal p[], PetscReal n[])
+{
+  PetscReal q[3], d;
+
+  for (int a = 0; a < 3; a++) q[a] = p[a] - (c->point[a] + c->velocity[a] * t);
+  if (c->type == VK_COLLIDER_PLANE) {
+    for (int a = 0; a < 3; a++) n[a] = c->normal[a];
+    return q[0] * n[0] + q[1] * n[1] + q[2] * n[2];
+  }
+  if (c->type == VK_COLLIDER_CYLINDER) { /* distance from the axis */
+    d = q[0] * c->normal[0] + q[1] * c->normal[1] + q[2] * c->normal[2];
+    for (int a = 0; a < 3; a++) q[a] -= d * c->normal[a];
+  }
+  d = Norm3(q);
+  if (d > 0)
+    for (int a = 0; a < 3; a++) n[a] = q[a] / d;
+  else VKOrthogonal3(c->normal, n);
+  return d - c->radius;
+}
+
+PetscBool VKSceneCollide(VKScene s, PetscReal t, PetscReal dt, const PetscReal prev[], PetscReal p[], PetscReal normal[])
+{
+  PetscBool touched = PETSC_FALSE;
+
+  for (PetscInt i = 0; i < s->ncolliders; i++) {
+    const VKCollider *c = &s->collider[i];
+    PetscReal         n[3], d = ColliderDistance(c, t, p, n), m[3], mn, mt, limit;
+
+    if (d >= 0) continue;
+    touched = PETSC_TRUE;
+    for (int a = 0; a < 3; a++) p[a] -= d * n[a]; /* onto the surface */
+    /* tangential motion relative to the collider over the step */
+    for (int a = 0; a < 3; a++) m[a] = p[a] - prev[a] - c->velocity[a] * dt;
+    mn = m[0] * n[0] + m[1] * n[1] + m[2] * n[2];
+    for (int a = 0; a < 3; a++) m[a] -= mn * n[a];
+    mt    = Norm3(m);
+    limit = c->friction * (-d);
+    if (mt > 0) {
+      PetscReal f = mt <= limit ? 1 : limit / mt;
+      for (int a = 0; a < 3; a++) p[a] -= f * m[a];
+    }
+    if (normal)
+      for (int a = 0; a < 3; a++) normal[a] = n[a];
+  }
+  return touched;
+}

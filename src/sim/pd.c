@@ -1,0 +1,256 @@
+/* pd.c: the VKPD object (DESIGN §7): options, handle nodes, and the
+ * global-step matrix
+ *   K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e      (paper Eq. 27 with
+ * the factor 2 of our psi), assembled as a scalar AIJ matrix over the node
+ * layout.  Handles are eliminated symmetrically (rows and columns replaced
+ * by kdiag I) into Kel, which the KSP with prefix -pd_global_ factors once
+ * per time step size and material; K itself is kept for the true residual
+ * and the handle correction of the right-hand side. */
+#include <vkpd.h>
+#include <vklog.h>
+
+const char *VKPDReasonName(VKPDReason r)
+{
+  static const char *const names[] = {"DIVERGED_GLOBAL", "DIVERGED_NAN", "ITERATING", "CONVERGED_RTOL", "CONVERGED_ATOL", "MAX_IT"};
+  return r >= VK_PD_DIVERGED_GLOBAL && r <= VK_PD_MAX_IT ? names[r - VK_PD_DIVERGED_GLOBAL] : "UNKNOWN";
+}
+
+PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
+{
+  VKPD pd;
+
+  PetscFunctionBegin;
+  PetscCall(VKInitializePackage());
+  PetscCall(PetscNew(&pd));
+  pd->comm        = mat->comm;
+  pd->mesh        = mat->mesh;
+  pd->mat         = mat;
+  pd->scene       = scene;
+  pd->dt          = 1.0 / 150;
+  pd->rtol        = 1e-2;
+  pd->atol        = 0;
+  pd->max_it      = 100;
+  pd->cheb_rho    = 0;
+  pd->cheb_gamma  = 0.9;
+  pd->cheb_delay  = 10;
+  pd->newton_its  = 0;
+  pd->newton_rtol = 1e-10;
+  PetscCall(KSPCreate(pd->comm, &pd->ksp));
+  PetscCall(KSPSetOptionsPrefix(pd->ksp, "pd_global_"));
+  PetscCall(KSPSetType(pd->ksp, KSPPREONLY));
+  {
+    PC pc;
+    PetscCall(KSPGetPC(pd->ksp, &pc));
+    PetscCall(PCSetType(pc, PCCHOLESKY));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  }
+  PetscCall(KSPSetTolerances(pd->ksp, 1e-10, 1e-50, PETSC_DEFAULT, 1000));
+  *pdout = pd;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDDestroy(VKPD *p)
+{
+  VKPD pd = *p;
+
+  PetscFunctionBegin;
+  if (!pd) PetscFunctionReturn(0);
+  PetscCall(PetscFree4(pd->handle_node, pd->handle_id, pd->handle_row, pd->node_handle));
+  PetscCall(PetscFree2(pd->contact, pd->contact_normal));
+  PetscCall(PetscFree2(pd->hist_phi, pd->hist_res));
+  PetscCall(MatDestroy(&pd->K));
+  PetscCall(MatDestroy(&pd->Kel));
+  PetscCall(MatDestroy(&pd->H));
+  PetscCall(KSPDestroy(&pd->ksp));
+  PetscCall(SNESDestroy(&pd->snes));
+  PetscCall(VecDestroy(&pd->xc));
+  PetscCall(VecDestroy(&pd->bc));
+  PetscCall(VecDestroy(&pd->rc));
+  for (int c = 0; c < 3; c++) PetscCall(VecDestroy(&pd->xd[c]));
+  PetscCall(VecDestroy(&pd->b));
+  PetscCall(VecDestroy(&pd->My));
+  PetscCall(VecDestroy(&pd->xold));
+  PetscCall(VecDestroy(&pd->xhat));
+  PetscCall(VecDestroy(&pd->x1));
+  PetscCall(VecDestroy(&pd->r));
+  PetscCall(PetscFree(*p));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetTimeStep(VKPD pd, PetscReal dt)
+{
+  PetscFunctionBegin;
+  PetscCheck(dt > 0 && dt < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "The time step must be positive and finite, got %g", (double)dt);
+  if (dt != pd->dt) pd->kset = PETSC_FALSE;
+  pd->dt = dt;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDMaterialChanged(VKPD pd)
+{
+  PetscFunctionBegin;
+  pd->kset = PETSC_FALSE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetFromOptions(VKPD pd)
+{
+  PetscFunctionBegin;
+  PetscOptionsBegin(pd->comm, NULL, "Projective dynamics (DESIGN section 7)", "VKPD");
+  PetscCall(PetscOptionsReal("-pd_rtol", "Stop when |grad Phi| <= rtol |grad Phi(x0)|", "VKPDSolve", pd->rtol, &pd->rtol, NULL));
+  PetscCall(PetscOptionsReal("-pd_atol", "Stop when |grad Phi| <= atol (N)", "VKPDSolve", pd->atol, &pd->atol, NULL));
+  PetscCall(PetscOptionsInt("-pd_max_it", "Maximum PD iterations per solve", "VKPDSolve", pd->max_it, &pd->max_it, NULL));
+  PetscCall(PetscOptionsBool("-pd_monitor", "Print Phi and |grad Phi| at every PD iteration", "VKPDSolve", pd->monitor, &pd->monitor, NULL));
+  PetscCall(PetscOptionsReal("-pd_chebyshev_rho", "Spectral radius estimate for Chebyshev acceleration of the PD iterations (0: off; Wang 2015)", "VKPDSolve", pd->cheb_rho, &pd->cheb_rho, NULL));
+  PetscCall(PetscOptionsReal("-pd_chebyshev_gamma", "Under-relaxation of the accelerated iterations", "VKPDSolve", pd->cheb_gamma, &pd->cheb_gamma, NULL));
+  PetscCall(PetscOptionsInt("-pd_chebyshev_delay", "Plain PD iterations before the acceleration starts", "VKPDSolve", pd->cheb_delay, &pd->cheb_delay, NULL));
+  PetscCall(PetscOptionsInt("-pd_newton_its", "Newton iterations (exact Hessian, SNES prefix -pd_newton_) after PD", "VKPDSolve", pd->newton_its, &pd->newton_its, NULL));
+  PetscCall(PetscOptionsReal("-pd_newton_rtol", "Newton stops when |grad Phi| <= rtol |grad Phi(x0)|", "VKPDSolve", pd->newton_rtol, &pd->newton_rtol, NULL));
+  PetscOptionsEnd();
+  PetscCheck(pd->rtol >= 0 && pd->rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_rtol must be in [0, 1), got %g", (double)pd->rtol);
+  PetscCheck(pd->atol >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_atol must be >= 0, got %g", (double)pd->atol);
+  PetscCheck(pd->max_it >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_max_it must be >= 1, got %d", (int)pd->max_it);
+  PetscCheck(pd->cheb_rho >= 0 && pd->cheb_rho < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_rho must be in [0, 1), got %g", (double)pd->cheb_rho);
+  PetscCheck(pd->cheb_gamma > 0 && pd->cheb_gamma <= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_gamma must be in (0, 1], got %g", (double)pd->cheb_gamma);
+  PetscCheck(pd->cheb_delay >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_delay must be >= 1, got %d", (int)pd->cheb_delay);
+  PetscCheck(pd->newton_its >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_newton_its must be >= 0, got %d", (int)pd->newton_its);
+  PetscCheck(pd->newton_rtol >= 0 && pd->newton_rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_newton_rtol must be in [0, 1), got %g", (double)pd->newton_rtol);
+  PetscCall(KSPSetFromOptions(pd->ksp));
+  {
+    PC             pc;
+    MatSolverType  st;
+    PetscMPIInt    size;
+    PetscBool      isfactor, ischolmod = PETSC_FALSE;
+    PetscCall(KSPGetPC(pd->ksp, &pc));
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &isfactor, PCCHOLESKY, PCLU, ""));
+    if (isfactor) {
+      PetscCall(PCFactorGetMatSolverType(pc, &st));
+      if (st) PetscCall(PetscStrcmp(st, MATSOLVERCHOLMOD, &ischolmod));
+    }
+    PetscCallMPI(MPI_Comm_size(pd->comm, &size));
+    PetscCheck(!ischolmod || size == 1, pd->comm, PETSC_ERR_SUP, "-pd_global_pc_factor_mat_solver_type cholmod is sequential; with %d ranks use mumps (the default)", (int)size);
+  }
+  PetscFunctionReturn(0);
+}
+
+/* Handle nodes among the owned nodes, from the scene's boxes. */
+static PetscErrorCode FindHandles(VKPD pd)
+{
+  VKMesh    mesh = pd->mesh;
+  VKLayout *L    = &mesh->layout;
+  PetscInt  nown = L->nEnd - L->nStart, n = 0, count[VK_SCENE_MAX] = {0}, total[VK_SCENE_MAX];
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc4(nown + 1, &pd->handle_node, nown + 1, &pd->handle_id, nown + 1, &pd->handle_row, nown + 1, &pd->node_handle));
+  for (PetscInt i = 0; i < nown; i++) {
+    PetscInt h = VKSceneHandleOf(pd->scene, mesh->x + 3 * (L->nStart + i));
+    pd->node_handle[i] = h;
+    if (h < 0) continue;
+    pd->handle_node[n] = i;
+    pd->handle_id[n]   = h;
+    pd->handle_row[n]  = L->nStart + i;
+    count[h]++;
+    n++;
+  }
+  pd->nhandle = n;
+  PetscCallMPI(MPI_Allreduce(count, total, VK_SCENE_MAX, MPIU_INT, MPI_SUM, pd->comm));
+  for (PetscInt h = 0; h < pd->scene->nhandles; h++) PetscCheck(total[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node", (int)h, (int)h);
+  PetscFunctionReturn(0);
+}
+
+/* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e, then Kel. */
+static PetscErrorCode AssembleK(VKPD pd)
+{
+  VKMesh    mesh = pd->mesh;
+  VKLayout *L    = &pd->mesh->layout;
+  PetscReal dsum = 0, dt2 = pd->dt * pd->dt;
+  PetscInt  N;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDSetUp, 0, 0, 0, 0));
+  if (!pd->K) PetscCall(VKMeshCreateNodeMat(mesh, 1, &pd->K));
+  PetscCall(MatZeroEntries(pd->K));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    const PetscReal *G = mesh->G + 12 * (L->eStart + e);
+    PetscReal        w = 2 * mesh->vol[L->eStart + e] * (pd->mat->gamma[2 * e] + pd->mat->gamma[2 * e + 1]), Ke[16];
+    for (int a = 0; a < 4; a++)
+      for (int b = 0; b < 4; b++) Ke[4 * a + b] = w * (G[a] * G[b] + G[4 + a] * G[4 + b] + G[8 + a] * G[8 + b]);
+    PetscCall(MatSetValuesLocal(pd->K, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, Ke, ADD_VALUES));
+  }
+  for (PetscInt i = L->nStart; i < L->nEnd; i++) {
+    PetscReal m = mesh->mass[i] / dt2;
+    PetscCall(MatSetValue(pd->K, i, i, m, ADD_VALUES));
+  }
+  PetscCall(MatAssemblyBegin(pd->K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(pd->K, MAT_FINAL_ASSEMBLY));
+  {
+    Vec d;
+    PetscCall(MatCreateVecs(pd->K, &d, NULL));
+    PetscCall(MatGetDiagonal(pd->K, d));
+    PetscCall(VecSum(d, &dsum));
+    PetscCall(VecGetSize(d, &N));
+    PetscCall(VecDestroy(&d));
+  }
+  pd->kdiag = dsum / N;
+  PetscCall(MatDestroy(&pd->Kel));
+  PetscCall(MatDuplicate(pd->K, MAT_COPY_VALUES, &pd->Kel));
+  PetscCall(MatZeroRowsColumns(pd->Kel, pd->nhandle, pd->handle_row, pd->kdiag, NULL, NULL));
+  PetscCall(MatSetOption(pd->Kel, MAT_SPD, PETSC_TRUE));
+  PetscCall(KSPSetOperators(pd->ksp, pd->Kel, pd->Kel));
+  PetscCall(KSPSetUp(pd->ksp));
+  pd->kset = PETSC_TRUE;
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDSetUp, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetUp(VKPD pd)
+{
+  PetscFunctionBegin;
+  PetscCheck(pd->scene->setup, pd->comm, PETSC_ERR_ORDER, "Call VKSceneSetUp() before VKPDSetUp()");
+  PetscCall(VKMaterialSetUp(pd->mat));
+  if (!pd->setup) {
+    PetscInt nown = pd->mesh->layout.nEnd - pd->mesh->layout.nStart;
+    PetscCall(FindHandles(pd));
+    PetscCall(PetscCalloc2(nown + 1, &pd->contact, 3 * nown + 1, &pd->contact_normal));
+    PetscCall(VKMeshCreateNodeVec(pd->mesh, 3, &pd->b));
+    PetscCall(VecDuplicate(pd->b, &pd->My));
+    PetscCall(VecDuplicate(pd->b, &pd->xold));
+    PetscCall(VecDuplicate(pd->b, &pd->xhat));
+    PetscCall(VecDuplicate(pd->b, &pd->x1));
+    PetscCall(VecDuplicate(pd->b, &pd->r));
+    pd->setup = PETSC_TRUE;
+  }
+  if (!pd->kset) {
+    PetscCall(AssembleK(pd));
+    if (!pd->xc) {
+      PetscCall(MatCreateVecs(pd->K, &pd->xc, &pd->bc));
+      PetscCall(VecDuplicate(pd->xc, &pd->rc));
+      for (int c = 0; c < 3; c++) PetscCall(VecDuplicate(pd->xc, &pd->xd[c]));
+    }
+    {
+      PetscBool preonly;
+      PetscCall(PetscObjectTypeCompare((PetscObject)pd->ksp, KSPPREONLY, &preonly));
+      if (!preonly) PetscCall(KSPSetInitialGuessNonzero(pd->ksp, PETSC_TRUE));
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDView(VKPD pd, PetscViewer viewer)
+{
+  PetscInt nh;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Allreduce(&pd->nhandle, &nh, 1, MPIU_INT, MPI_SUM, pd->comm));
+  {
+    char cheb[128] = "", newton[128] = "";
+    if (pd->cheb_rho > 0) PetscCall(PetscSNPrintf(cheb, sizeof(cheb), ", Chebyshev rho %g gamma %g after %d", (double)pd->cheb_rho, (double)pd->cheb_gamma, (int)pd->cheb_delay));
+    if (pd->newton_its) PetscCall(PetscSNPrintf(newton, sizeof(newton), ", then up to %d Newton iterations to rtol %g", (int)pd->newton_its, (double)pd->newton_rtol));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics: dt %g s, rtol %g, atol %g, max_it %d, %d handle nodes%s%s\n", (double)pd->dt, (double)pd->rtol, (double)pd->atol, (int)pd->max_it, (int)nh, cheb, newton));
+  }
+  PetscCall(PetscViewerASCIIPushTab(viewer));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "global step (prefix -pd_global_):\n"));
+  PetscCall(KSPView(pd->ksp, viewer));
+  PetscCall(PetscViewerASCIIPopTab(viewer));
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,115 @@
+/* pd_newton.c: Newton polishing after PD (DESIGN §7), for a tight
+ * equilibrium (the fitting needs |grad Phi| <= 1e-5 relative and better).
+ * SNES (prefix -pd_newton_) on F(x) = grad Phi(x) = M (x - y)/dt^2 +
+ * grad E(x) with the exact Hessian M/dt^2 + d2E/dx2 (VKMaterialHessian,
+ * not projected), handle rows and columns eliminated, and a backtracking
+ * line search on Phi itself.  Defaults: newtonls, bt, MUMPS LU. */
+#include <vkpd.h>
+#include <vklog.h>
+#include <vkutil.h>
+
+static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
+{
+  VKPD pd = (VKPD)ctx;
+
+  PetscFunctionBegin;
+  (void)snes;
+  PetscCall(VKPDGradient(pd, *pd->ysnes, x, F));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode NewtonObjective(SNES snes, Vec x, PetscReal *phi, void *ctx)
+{
+  VKPD pd = (VKPD)ctx;
+
+  PetscFunctionBegin;
+  (void)snes;
+  PetscCall(VKPDObjective(pd, *pd->ysnes, x, phi));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode NewtonJacobian(SNES snes, Vec x, Mat J, Mat P, void *ctx)
+{
+  VKPD            pd = (VKPD)ctx;
+  const VKLayout *L  = &pd->mesh->layout;
+  PetscInt        nown = L->nEnd - L->nStart, *rows;
+  Vec             m;
+  PetscScalar    *ma;
+
+  PetscFunctionBegin;
+  (void)snes;
+  (void)J;
+  PetscCall(VKMaterialHessian(pd->mat, x, PETSC_FALSE, P));
+  PetscCall(VecDuplicate(x, &m));
+  PetscCall(VecGetArray(m, &ma));
+  for (PetscInt i = 0; i < nown; i++)
+    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt);
+  PetscCall(VecRestoreArray(m, &ma));
+  PetscCall(MatDiagonalSet(P, m, ADD_VALUES));
+  PetscCall(VecDestroy(&m));
+  PetscCall(PetscMalloc1(3 * pd->nhandle + 1, &rows));
+  for (PetscInt i = 0; i < pd->nhandle; i++)
+    for (int c = 0; c < 3; c++) rows[3 * i + c] = 3 * pd->handle_row[i] + c;
+  PetscCall(MatZeroRowsColumns(P, 3 * pd->nhandle, rows, pd->kdiag, NULL, NULL));
+  PetscCall(PetscFree(rows));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode NewtonCreate(VKPD pd)
+{
+  KSP            ksp;
+  PC             pc;
+  SNESLineSearch ls;
+
+  PetscFunctionBegin;
+  PetscCall(SNESCreate(pd->comm, &pd->snes));
+  PetscCall(SNESSetOptionsPrefix(pd->snes, "pd_newton_"));
+  PetscCall(SNESSetType(pd->snes, SNESNEWTONLS));
+  PetscCall(SNESGetLineSearch(pd->snes, &ls));
+  PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+  PetscCall(SNESGetKSP(pd->snes, &ksp));
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCLU));
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
+  PetscCall(SNESSetFunction(pd->snes, NULL, NewtonFunction, pd));
+  PetscCall(SNESSetObjective(pd->snes, NewtonObjective, pd));
+  PetscCall(SNESSetJacobian(pd->snes, pd->H, pd->H, NewtonJacobian, pd));
+  PetscCall(SNESSetFromOptions(pd->snes));
+  PetscFunctionReturn(0);
+}
+
+PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal, Vec, Vec, VKPDStats *);
+
+PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
+{
+  PetscReal      target = PetscMax(pd->newton_rtol * st->residual0, pd->atol);
+  PetscInt       its;
+  PetscLogDouble t0;
+
+  PetscFunctionBegin;
+  (void)t;
+  if (st->residual <= target) PetscFunctionReturn(0);
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDNewton, 0, 0, 0, 0));
+  t0 = VKWallTime();
+  if (!pd->snes) PetscCall(NewtonCreate(pd));
+  PetscCall(SNESSetTolerances(pd->snes, target, 0, 0, pd->newton_its, PETSC_DEFAULT));
+  pd->ysnes = &y;
+  PetscCall(SNESSolve(pd->snes, NULL, x));
+  pd->ysnes = NULL;
+  PetscCall(SNESGetIterationNumber(pd->snes, &its));
+  st->newton_its = its;
+  PetscCall(VKPDObjective(pd, y, x, &st->phi));
+  PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
+  PetscCall(VKPDGradient(pd, y, x, pd->r));
+  PetscCall(VecNorm(pd->r, NORM_2, &st->residual));
+  if (PetscIsInfOrNanReal(st->phi) || PetscIsInfOrNanReal(st->residual)) {
+    st->reason         = VK_PD_DIVERGED_NAN;
+    st->fail_iteration = st->iterations + its;
+  } else if (st->residual <= target) st->reason = target == pd->atol ? VK_PD_CONVERGED_ATOL : VK_PD_CONVERGED_RTOL;
+  if (pd->monitor) PetscCall(PetscPrintf(pd->comm, "  Newton %d its: Phi %.15e |grad Phi| %.6e (rel %.3e)\n", (int)its, (double)st->phi, (double)st->residual, (double)(st->residual / st->residual0)));
+  st->time_global += VKWallTime() - t0;
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDNewton, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}

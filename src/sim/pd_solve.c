@@ -1,0 +1,308 @@
+/* pd_solve.c: the PD iterations of one implicit step (DESIGN §7, paper
+ * §7.1).  Local step: R_e and V_e of every owned tet (VKTetProject) and
+ * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e).
+ * True residual grad Phi(x) = K x - b(x) on free nodes (at collider
+ * contacts without the normal component that pushes into the collider).
+ * Global step: Kel x = b - K x_D (handle values x_D on handle rows), one
+ * KSP solve per coordinate.  Optional Chebyshev acceleration (Wang 2015,
+ * "A Chebyshev semi-iterative approach for accelerating projective and
+ * position-based dynamics"):
+ *   x_{k+1} = w_{k+1} (gamma (xhat_{k+1} - x_k) + x_k - x_{k-1}) + x_{k-1},
+ *   w = 1 for k < S, w = 2/(2 - rho^2) at k = S, w = 4/(4 - rho^2 w) after. */
+#include <vkpd.h>
+#include <vkutil.h>
+#include <vklog.h>
+
+PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inverted)
+{
+  VKMesh             mesh = pd->mesh;
+  VKLayout          *L    = &mesh->layout;
+  Vec                xl, bl;
+  const PetscScalar *a;
+  PetscScalar       *ba;
+  VKSum              sum  = {0, 0};
+  PetscInt           ninv = 0, mine[1];
+  PetscReal          Emine;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDLocal, 0, 0, 0, 0));
+  PetscCall(VecGhostUpdateBegin(x, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGhostUpdateEnd(x, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGhostGetLocalForm(x, &xl));
+  PetscCall(VecGhostGetLocalForm(b, &bl));
+  PetscCall(VecSet(bl, 0));
+  PetscCall(VecGetArrayRead(xl, &a));
+  PetscCall(VecGetArray(bl, &ba));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    const PetscInt *t = L->local_tet + 4 * e;
+    PetscReal       X[12], rhs[12], Ee, det;
+    for (int k = 0; k < 4; k++)
+      for (int r = 0; r < 3; r++) X[3 * k + r] = a[3 * t[k] + r];
+    PetscCall(VKTetProject(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, pd->mat->gamma[2 * e], pd->mat->gamma[2 * e + 1], &Ee, rhs, &det));
+    VKSumAdd(&sum, Ee);
+    if (!(det > 0)) ninv++;
+    for (int k = 0; k < 4; k++)
+      for (int r = 0; r < 3; r++) ba[3 * t[k] + r] += rhs[3 * k + r];
+  }
+  PetscCall(VecRestoreArray(bl, &ba));
+  PetscCall(VecRestoreArrayRead(xl, &a));
+  PetscCall(VecGhostRestoreLocalForm(b, &bl));
+  PetscCall(VecGhostRestoreLocalForm(x, &xl));
+  PetscCall(VecGhostUpdateBegin(b, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecGhostUpdateEnd(b, ADD_VALUES, SCATTER_REVERSE));
+  Emine   = VKSumValue(&sum);
+  mine[0] = ninv;
+  PetscCallMPI(MPI_Allreduce(&Emine, E, 1, MPIU_REAL, MPIU_SUM, pd->comm));
+  if (inverted) PetscCallMPI(MPI_Allreduce(mine, inverted, 1, MPIU_INT, MPI_SUM, pd->comm));
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDLocal, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* My = M y / dt^2 over owned nodes. */
+static PetscErrorCode InertialTarget(VKPD pd, Vec y)
+{
+  const PetscScalar *ya;
+  PetscScalar       *m;
+  const VKLayout    *L = &pd->mesh->layout;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArrayRead(y, &ya));
+  PetscCall(VecGetArray(pd->My, &m));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
+    for (int r = 0; r < 3; r++) m[3 * i + r] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r];
+  PetscCall(VecRestoreArray(pd->My, &m));
+  PetscCall(VecRestoreArrayRead(y, &ya));
+  PetscFunctionReturn(0);
+}
+
+/* 1/(2 dt^2) |x - y|^2_M */
+static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
+{
+  const PetscScalar *xa, *ya;
+  const VKLayout    *L   = &pd->mesh->layout;
+  VKSum              sum = {0, 0};
+  PetscReal          mine;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArrayRead(x, &xa));
+  PetscCall(VecGetArrayRead(y, &ya));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+    PetscReal d2 = 0;
+    for (int r = 0; r < 3; r++) d2 += PetscSqr(xa[3 * i + r] - ya[3 * i + r]);
+    VKSumAdd(&sum, 0.5 * pd->mesh->mass[L->nStart + i] * d2 / (pd->dt * pd->dt));
+  }
+  PetscCall(VecRestoreArrayRead(y, &ya));
+  PetscCall(VecRestoreArrayRead(x, &xa));
+  mine = VKSumValue(&sum);
+  PetscCallMPI(MPI_Allreduce(&mine, T, 1, MPIU_REAL, MPIU_SUM, pd->comm));
+  PetscFunctionReturn(0);
+}
+
+/* r = K x - b with handle rows zeroed, and at contacts without the normal
+ * component pointing into the collider; returns |r|. */
+static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscBool contacts, PetscReal *norm)
+{
+  PetscScalar   *ra;
+  const VKLayout *L = &pd->mesh->layout;
+
+  PetscFunctionBegin;
+  for (PetscInt c = 0; c < 3; c++) {
+    PetscCall(VecStrideGather(x, c, pd->xc, INSERT_VALUES));
+    PetscCall(VecStrideGather(b, c, pd->bc, INSERT_VALUES));
+    PetscCall(MatMult(pd->K, pd->xc, pd->rc));
+    PetscCall(VecAXPY(pd->rc, -1, pd->bc));
+    PetscCall(VecStrideScatter(pd->rc, c, r, INSERT_VALUES));
+  }
+  PetscCall(VecGetArray(r, &ra));
+  for (PetscInt i = 0; i < pd->nhandle; i++)
+    for (int c = 0; c < 3; c++) ra[3 * pd->handle_node[i] + c] = 0;
+  if (contacts)
+    for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+      const PetscReal *n = pd->contact_normal + 3 * i;
+      PetscReal        rn;
+      if (!pd->contact[i]) continue;
+      rn = ra[3 * i] * n[0] + ra[3 * i + 1] * n[1] + ra[3 * i + 2] * n[2];
+      if (rn > 0)
+        for (int c = 0; c < 3; c++) ra[3 * i + c] -= rn * n[c];
+    }
+  PetscCall(VecRestoreArray(r, &ra));
+  PetscCall(VecNorm(r, NORM_2, norm));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
+{
+  PetscScalar    *xa, *d[3];
+  const VKLayout *L = &pd->mesh->layout;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(VecGetArray(x, &xa));
+  for (int c = 0; c < 3; c++) {
+    PetscCall(VecSet(pd->xd[c], 0));
+    PetscCall(VecGetArray(pd->xd[c], &d[c]));
+  }
+  for (PetscInt i = 0; i < pd->nhandle; i++) {
+    PetscInt  n = pd->handle_node[i];
+    PetscReal p[3];
+    VKSceneHandlePosition(pd->scene, pd->handle_id[i], pd->mesh->x + 3 * (L->nStart + n), t, p);
+    for (int c = 0; c < 3; c++) xa[3 * n + c] = d[c][n] = p[c];
+  }
+  for (int c = 0; c < 3; c++) PetscCall(VecRestoreArray(pd->xd[c], &d[c]));
+  PetscCall(VecRestoreArray(x, &xa));
+  PetscFunctionReturn(0);
+}
+
+/* xhat = Kel^{-1} (b - K x_D, x_D on handle rows), coordinate by coordinate. */
+static PetscErrorCode GlobalStep(VKPD pd, Vec b, Vec x, Vec xhat, PetscBool *ok)
+{
+  KSPConvergedReason reason;
+  PetscInt           nh;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
+  PetscCallMPI(MPI_Allreduce(&pd->nhandle, &nh, 1, MPIU_INT, MPI_SUM, pd->comm));
+  *ok = PETSC_TRUE;
+  for (PetscInt c = 0; c < 3; c++) {
+    PetscCall(VecStrideGather(b, c, pd->bc, INSERT_VALUES));
+    if (nh) {
+      PetscScalar       *ba;
+      const PetscScalar *da;
+      PetscCall(MatMult(pd->K, pd->xd[c], pd->rc));
+      PetscCall(VecAXPY(pd->bc, -1, pd->rc));
+      PetscCall(VecGetArray(pd->bc, &ba));
+      PetscCall(VecGetArrayRead(pd->xd[c], &da));
+      for (PetscInt i = 0; i < pd->nhandle; i++) ba[pd->handle_node[i]] = pd->kdiag * da[pd->handle_node[i]];
+      PetscCall(VecRestoreArrayRead(pd->xd[c], &da));
+      PetscCall(VecRestoreArray(pd->bc, &ba));
+    }
+    PetscCall(VecStrideGather(x, c, pd->xc, INSERT_VALUES));
+    PetscCall(KSPSolve(pd->ksp, pd->bc, pd->xc));
+    PetscCall(KSPGetConvergedReason(pd->ksp, &reason));
+    if (reason < 0) *ok = PETSC_FALSE;
+    PetscCall(VecStrideScatter(pd->xc, c, xhat, INSERT_VALUES));
+  }
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDGlobal, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* Push free owned nodes out of the colliders; record contacts. */
+static PetscErrorCode Collide(VKPD pd, PetscReal t, Vec prev, Vec x, PetscInt *ncontact)
+{
+  PetscScalar       *xa;
+  const PetscScalar *pa = NULL;
+  const VKLayout    *L  = &pd->mesh->layout;
+  PetscInt           n  = 0;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDCollide, 0, 0, 0, 0));
+  PetscCall(VecGetArray(x, &xa));
+  if (prev) PetscCall(VecGetArrayRead(prev, &pa));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+    pd->contact[i] = PETSC_FALSE;
+    if (pd->node_handle[i] >= 0) continue;
+    pd->contact[i] = VKSceneCollide(pd->scene, t, pd->dt, pa ? pa + 3 * i : xa + 3 * i, xa + 3 * i, pd->contact_normal + 3 * i);
+    if (pd->contact[i]) n++;
+  }
+  if (prev) PetscCall(VecRestoreArrayRead(prev, &pa));
+  PetscCall(VecRestoreArray(x, &xa));
+  PetscCallMPI(MPI_Allreduce(&n, ncontact, 1, MPIU_INT, MPI_SUM, pd->comm));
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDCollide, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal t, Vec y, Vec x, VKPDStats *);
+
+PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *st)
+{
+  PetscBool      colliders = pd->scene->ncolliders > 0 ? PETSC_TRUE : PETSC_FALSE;
+  PetscReal      omega     = 1, T, res;
+  PetscLogDouble t0 = VKWallTime(), t1;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(PetscMemzero(st, sizeof(*st)));
+  if (pd->hist_cap < pd->max_it + 1) {
+    PetscCall(PetscFree2(pd->hist_phi, pd->hist_res));
+    pd->hist_cap = pd->max_it + 1;
+    PetscCall(PetscMalloc2(pd->hist_cap, &pd->hist_phi, pd->hist_cap, &pd->hist_res));
+  }
+  pd->hist_n = 0;
+  PetscCall(VKPDApplyHandles(pd, t, x));
+  PetscCall(InertialTarget(pd, y));
+  if (colliders) PetscCall(Collide(pd, t, prev, x, &st->contacts));
+  for (PetscInt it = 0;; it++) {
+    PetscBool ok;
+    t1 = VKWallTime();
+    PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
+    PetscCall(VecAXPY(pd->b, 1, pd->My));
+    st->time_local += VKWallTime() - t1;
+    PetscCall(Residual(pd, x, pd->b, pd->r, colliders, &res));
+    PetscCall(KineticTerm(pd, x, y, &T));
+    st->phi      = T + st->energy;
+    st->residual = res;
+    if (it == 0) st->residual0 = res;
+    st->iterations = it;
+    if (it < pd->hist_cap) {
+      pd->hist_phi[it] = st->phi;
+      pd->hist_res[it] = res;
+      pd->hist_n       = it + 1;
+    }
+    if (pd->monitor) PetscCall(PetscPrintf(pd->comm, "  PD %3d Phi %.15e |grad Phi| %.6e (rel %.3e)\n", (int)it, (double)st->phi, (double)res, (double)(st->residual0 > 0 ? res / st->residual0 : 0)));
+    if (PetscIsInfOrNanReal(st->phi) || PetscIsInfOrNanReal(res)) {
+      st->reason         = VK_PD_DIVERGED_NAN;
+      st->fail_iteration = it;
+      if (it > 0) PetscCall(VecCopy(pd->xold, x));
+      else if (prev) PetscCall(VecCopy(prev, x));
+      break;
+    }
+    if (res <= pd->atol || st->residual0 == 0) st->reason = VK_PD_CONVERGED_ATOL;
+    else if (res <= pd->rtol * st->residual0) st->reason = VK_PD_CONVERGED_RTOL;
+    else if (it == pd->max_it) st->reason = VK_PD_MAX_IT;
+    if (st->reason) break;
+    t1 = VKWallTime();
+    PetscCall(GlobalStep(pd, pd->b, x, pd->xhat, &ok));
+    st->time_global += VKWallTime() - t1;
+    if (!ok) {
+      st->reason         = VK_PD_DIVERGED_GLOBAL;
+      st->fail_iteration = it;
+      break;
+    }
+    if (pd->cheb_rho > 0 && it + 1 >= pd->cheb_delay) {
+      omega = it + 1 == pd->cheb_delay ? 2 / (2 - pd->cheb_rho * pd->cheb_rho) : 4 / (4 - pd->cheb_rho * pd->cheb_rho * omega);
+      /* x1 = w gamma xhat + w (1 - gamma) x + (1 - w) xold */
+      PetscCall(VecAXPBYPCZ(pd->xhat, omega * (1 - pd->cheb_gamma), 1 - omega, omega * pd->cheb_gamma, x, pd->xold));
+    }
+    PetscCall(VecCopy(x, pd->xold));
+    PetscCall(VecCopy(pd->xhat, x));
+    if (colliders) PetscCall(Collide(pd, t, prev, x, &st->contacts));
+  }
+  if (st->reason > 0 && pd->newton_its > 0) PetscCall(VKPDNewton(pd, t, y, x, st));
+  st->time_other = VKWallTime() - t0 - st->time_local - st->time_global;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDObjective(VKPD pd, Vec y, Vec x, PetscReal *phi)
+{
+  PetscReal T, E;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(VKPDLocalStep(pd, x, pd->b, &E, NULL));
+  PetscCall(KineticTerm(pd, x, y, &T));
+  *phi = T + E;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGradient(VKPD pd, Vec y, Vec x, Vec g)
+{
+  PetscReal E, norm;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(InertialTarget(pd, y));
+  PetscCall(VKPDLocalStep(pd, x, pd->b, &E, NULL));
+  PetscCall(VecAXPY(pd->b, 1, pd->My));
+  PetscCall(Residual(pd, x, pd->b, g, PETSC_FALSE, &norm));
+  PetscFunctionReturn(0);
+}

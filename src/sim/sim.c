@@ -1,0 +1,218 @@
+/* sim.c: the VKSim object (DESIGN §7): mesh + material + scene + PD solver
+ * + TS of type "pd", run from rest over the scene, frames written at the
+ * scene's output interval by a TS monitor, and a failed step turned into
+ * a clear error after the last good frame is written. */
+#include <vksim.h>
+#include <vkutil.h>
+#include <vklog.h>
+#include "simimpl.h"
+
+PetscErrorCode VKSimCreate(VKMaterial mat, VKScene scene, VKSim *simout)
+{
+  VKSim sim;
+
+  PetscFunctionBegin;
+  PetscCall(VKTSPDRegister());
+  PetscCall(PetscNew(&sim));
+  sim->comm  = mat->comm;
+  sim->mesh  = mat->mesh;
+  sim->mat   = mat;
+  sim->scene = scene;
+  PetscCall(VKPDCreate(mat, scene, &sim->pd));
+  PetscCall(TSCreate(sim->comm, &sim->ts));
+  PetscCall(TSSetType(sim->ts, TSPD));
+  PetscCall(VKTSPDSetSolver(sim->ts, sim->pd));
+  PetscCall(TSSetExactFinalTime(sim->ts, TS_EXACTFINALTIME_STEPOVER));
+  PetscCall(TSSetMaxSteps(sim->ts, PETSC_MAX_INT));
+  PetscCall(TSSetErrorIfStepFails(sim->ts, PETSC_FALSE));
+  *simout = sim;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimDestroy(VKSim *s)
+{
+  VKSim sim = *s;
+
+  PetscFunctionBegin;
+  if (!sim) PetscFunctionReturn(0);
+  PetscCall(VKSimOutputDestroy(sim));
+  PetscCall(TSDestroy(&sim->ts));
+  PetscCall(VKPDDestroy(&sim->pd));
+  PetscCall(VecDestroy(&sim->x));
+  PetscCall(VecDestroy(&sim->x0));
+  PetscCall(VecDestroy(&sim->v0));
+  PetscCall(PetscFree(*s));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimSetOutputDirectory(VKSim sim, const char dir[])
+{
+  PetscFunctionBegin;
+  PetscCall(PetscStrncpy(sim->dir, dir ? dir : "", sizeof(sim->dir)));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimSetFromOptions(VKSim sim)
+{
+  PetscBool ispd;
+  PetscReal dt;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDSetFromOptions(sim->pd));
+  PetscCall(TSSetMaxTime(sim->ts, sim->scene->duration));
+  dt = PetscMin(1.0 / 150, sim->scene->output_interval);
+  PetscCall(TSSetTimeStep(sim->ts, dt));
+  PetscCall(TSSetFromOptions(sim->ts));
+  PetscCall(PetscObjectTypeCompare((PetscObject)sim->ts, TSPD, &ispd));
+  if (!ispd) {
+    TSType type;
+    PetscCall(TSGetType(sim->ts, &type));
+    SETERRQ(sim->comm, PETSC_ERR_ARG_WRONG, "volknit sim integrates with the TS type pd; -ts_type %s is not supported", type);
+  }
+  PetscCall(TSGetTimeStep(sim->ts, &dt));
+  PetscCheck(dt > 0 && dt < PETSC_INFINITY, sim->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_dt must be positive, got %g", (double)dt);
+  PetscOptionsBegin(sim->comm, NULL, "Homogenized simulation", "VKSim");
+  PetscCall(PetscOptionsBool("-sim_quiet", "Do not print the summary line", "VKSimRun", sim->quiet, &sim->quiet, NULL));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+/* TS monitor: a frame whenever the output time is reached. */
+static PetscErrorCode OutputMonitor(TS ts, PetscInt step, PetscReal t, Vec x, void *ctx)
+{
+  VKSim     sim = (VKSim)ctx;
+  PetscReal dt;
+
+  PetscFunctionBegin;
+  (void)step;
+  PetscCall(TSGetTimeStep(ts, &dt));
+  if (t >= sim->next_output - 1e-6 * dt) {
+    PetscCall(VKSimOutputFrame(sim, t, x));
+    while (sim->next_output <= t + 1e-6 * dt) sim->next_output += sim->scene->output_interval;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimSetUp(VKSim sim)
+{
+  PetscReal lo[3], hi[3], dt;
+
+  PetscFunctionBegin;
+  if (sim->setup) PetscFunctionReturn(0);
+  PetscCall(VKCurvesBoundingBox(&sim->mesh->yarn->curves, lo, hi));
+  PetscCall(VKSceneSetUp(sim->scene, lo, hi));
+  PetscCall(TSGetTimeStep(sim->ts, &dt));
+  {
+    /* ptime accumulates rounding: a duration of n steps must not take an
+     * (n+1)-th step just past it */
+    PetscReal T, n;
+    PetscCall(TSGetMaxTime(sim->ts, &T));
+    n = PetscFloorReal(T / dt + 0.5);
+    if (n >= 1 && PetscAbsReal(T / dt - n) < 1e-6) PetscCall(TSSetMaxTime(sim->ts, (n - 1e-6) * dt));
+  }
+  PetscCall(VKPDSetTimeStep(sim->pd, dt));
+  PetscCall(VKPDSetUp(sim->pd));
+  PetscCall(VKMeshCreateNodeVec(sim->mesh, 3, &sim->x));
+  PetscCall(VKMeshGetRestPositions(sim->mesh, sim->x));
+  PetscCall(TSSetSolution(sim->ts, sim->x));
+  PetscCall(TSMonitorSet(sim->ts, OutputMonitor, sim, NULL));
+  PetscCall(TSSetUp(sim->ts));
+  sim->setup = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimView(VKSim sim, PetscViewer viewer)
+{
+  PetscFunctionBegin;
+  PetscCall(VKSceneView(sim->scene, viewer));
+  PetscCall(VKMaterialView(sim->mat, viewer));
+  PetscCall(TSView(sim->ts, viewer));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimEnergies(VKSim sim, Vec x, Vec v, PetscReal e[3])
+{
+  const VKLayout    *L = &sim->mesh->layout;
+  const PetscScalar *xa, *va;
+  const PetscReal   *g = sim->scene->gravity;
+  PetscReal          mine[2] = {0, 0}, all[2];
+
+  PetscFunctionBegin;
+  PetscCall(VKMaterialEnergy(sim->mat, x, &e[0]));
+  PetscCall(VecGetArrayRead(x, &xa));
+  PetscCall(VecGetArrayRead(v, &va));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+    PetscReal m = sim->mesh->mass[L->nStart + i];
+    for (int c = 0; c < 3; c++) {
+      mine[0] += 0.5 * m * va[3 * i + c] * va[3 * i + c];
+      mine[1] -= m * g[c] * xa[3 * i + c];
+    }
+  }
+  PetscCall(VecRestoreArrayRead(v, &va));
+  PetscCall(VecRestoreArrayRead(x, &xa));
+  PetscCallMPI(MPI_Allreduce(mine, all, 2, MPIU_REAL, MPIU_SUM, sim->comm));
+  e[1] = all[0];
+  e[2] = all[1];
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimSetInitialState(VKSim sim, Vec x, Vec v)
+{
+  PetscFunctionBegin;
+  PetscCall(VKSimSetUp(sim));
+  if (!sim->x0) PetscCall(VecDuplicate(sim->x, &sim->x0));
+  if (!sim->v0) PetscCall(VecDuplicate(sim->x, &sim->v0));
+  if (x) PetscCall(VecCopy(x, sim->x0));
+  else PetscCall(VKMeshGetRestPositions(sim->mesh, sim->x0));
+  if (v) PetscCall(VecCopy(v, sim->v0));
+  else PetscCall(VecSet(sim->v0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimRun(VKSim sim)
+{
+  TSConvergedReason reason;
+  VKTSPDStats       st;
+  PetscReal         t, dt;
+  PetscInt          steps;
+  Vec               v;
+  PetscLogDouble    t0;
+
+  PetscFunctionBegin;
+  PetscCall(VKSimSetUp(sim));
+  PetscCall(PetscLogStagePush(VK_STAGE_SIM));
+  t0 = VKWallTime();
+  PetscCall(VKTSPDGetVelocity(sim->ts, &v));
+  if (sim->x0) PetscCall(VecCopy(sim->x0, sim->x));
+  else PetscCall(VKMeshGetRestPositions(sim->mesh, sim->x));
+  if (sim->v0) PetscCall(VecCopy(sim->v0, v));
+  else PetscCall(VecSet(v, 0));
+  PetscCall(TSSetTime(sim->ts, 0));
+  PetscCall(TSSetStepNumber(sim->ts, 0));
+  sim->next_output = 0;
+  sim->frames      = 0;
+  PetscCall(VKSimOutputOpen(sim));
+  PetscCall(TSSolve(sim->ts, sim->x));
+  PetscCall(TSGetConvergedReason(sim->ts, &reason));
+  PetscCall(TSGetTime(sim->ts, &t));
+  PetscCall(TSGetTimeStep(sim->ts, &dt));
+  PetscCall(TSGetStepNumber(sim->ts, &steps));
+  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  if (reason < 0) {
+    char msg[512];
+    PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) failed at PD iteration %d: %s", (int)(steps + 1), (double)(t + dt), (int)st.last.fail_iteration, st.last.reason == VK_PD_DIVERGED_NAN ? "non-finite energy or residual (NaN/Inf)" : "the global-step solver (-pd_global_) failed"));
+    if (sim->out) PetscCall(VKSimOutputFrame(sim, t, sim->x));
+    PetscCall(VKSimOutputClose(sim, msg));
+    PetscCall(PetscLogStagePop());
+    SETERRQ(sim->comm, PETSC_ERR_NOT_CONVERGED, "volknit sim: %s; the last good frame (t = %g s) was written%s%s", msg, (double)t, sim->dir[0] ? " to " : "", sim->dir[0] ? sim->dir : "");
+  }
+  if (sim->out && sim->frames > 0 && sim->last_frame_time < t - 1e-6 * dt) PetscCall(VKSimOutputFrame(sim, t, sim->x));
+  sim->time_run = VKWallTime() - t0;
+  PetscCall(VKSimOutputClose(sim, NULL));
+  if (!sim->quiet) {
+    PetscCall(PetscPrintf(sim->comm, "volknit sim: %s, %d steps of %g s to t = %g s, PD iterations %.1f per step (max %d), |grad Phi| reached %.1e relative (max), %d inverted tets (max), %.3f s per step (local %.3f, global %.3f, other %.3f)%s%s\n", sim->scene->name, (int)steps, (double)dt, (double)t, st.steps ? (double)st.iterations / st.steps : 0.0, (int)st.iterations_max, (double)st.residual_rel_max, (int)st.inverted_max, st.steps ? sim->time_run / st.steps : 0.0,
+                          st.steps ? st.time_local / st.steps : 0.0, st.steps ? st.time_global / st.steps : 0.0, st.steps ? st.time_other / st.steps : 0.0, sim->dir[0] ? " -> " : "", sim->dir[0] ? sim->dir : ""));
+  }
+  PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(0);
+}

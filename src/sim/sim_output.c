@@ -1,0 +1,263 @@
+/* sim_output.c: the frames of a homogenized simulation (DESIGN §7):
+ *   DIR/sim.h5    /mesh/tets, /mesh/node_mass, /yarn/... (the yarn model),
+ *                 /frames/NNNNNN/x (n_V x 3 node positions),
+ *                 /frames/NNNNNN/yarn (n_Y x 3, x^Y = N x^V, Eq. 4),
+ *                 /sim/time, /sim/energy (elastic, kinetic, potential)
+ *   DIR/sim.xdmf  two temporal collections (mesh, yarn) for ParaView
+ *   DIR/sim.json  steps, PD iterations, residual reached, time split,
+ *                 inverted tets, energies, status.
+ * Positions are gathered on rank 0, which writes; sim.h5 is written under
+ * a temporary name and renamed when the run ends (also after a failure,
+ * with every good frame up to it). */
+#include "simimpl.h"
+#include <vkio.h>
+#include <vkutil.h>
+#include <vklog.h>
+
+#define SIM_FORMAT "volknit-sim 1"
+
+typedef struct {
+  VKOutput   h5out;
+  VKH5       h5;
+  PetscBool  open;
+  VecScatter scatter;
+  Vec        xseq;
+  PetscReal *xy;
+  PetscInt   n, cap;
+  PetscReal *time, *energy;
+} SimOutput;
+
+static PetscErrorCode WriteStatic(VKSim sim, SimOutput *o)
+{
+  VKMesh m = sim->mesh;
+
+  PetscFunctionBegin;
+  PetscCall(VKH5Create(o->h5out.tmp, &o->h5));
+  o->open = PETSC_TRUE;
+  PetscCall(VKH5WriteInt(&o->h5, "/mesh/tets", m->ne, 4, m->tet));
+  PetscCall(VKH5WriteReal(&o->h5, "/mesh/node_mass", m->nv, 1, m->mass));
+  PetscCall(VKH5WriteReal(&o->h5, "/mesh/x_rest", m->nv, 3, m->x));
+  PetscCall(VKYarnWriteToH5(m->yarn, &o->h5));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/", "format", SIM_FORMAT));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/", "units", "m, kg, s, J"));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/", "scene", sim->scene->name));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimOutputOpen(VKSim sim)
+{
+  SimOutput     *o;
+  char           path[PETSC_MAX_PATH_LEN];
+  PetscErrorCode ierr = 0;
+  PetscMPIInt    rank;
+
+  PetscFunctionBegin;
+  PetscCall(VKSimOutputDestroy(sim));
+  if (!sim->dir[0]) PetscFunctionReturn(0);
+  PetscCall(PetscNew(&o));
+  sim->out = o;
+  PetscCall(VKMakeDirectory(sim->comm, sim->dir));
+  PetscCall(VKPathJoin(sim->dir, "sim.h5", path, sizeof(path)));
+  PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
+  if (rank == 0) {
+    ierr = VKOutputBegin(path, PETSC_FALSE, &o->h5out);
+    if (!ierr) ierr = WriteStatic(sim, o);
+    if (!ierr) ierr = PetscMalloc1(3 * sim->mesh->ny + 1, &o->xy);
+  }
+  PetscCall(VKCollective(sim->comm, ierr, "Creating sim.h5"));
+  PetscCall(VecScatterCreateToZero(sim->x, &o->scatter, &o->xseq));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
+{
+  SimOutput     *o = (SimOutput *)sim->out;
+  Vec            v;
+  PetscErrorCode ierr = 0;
+  PetscMPIInt    rank;
+
+  PetscFunctionBegin;
+  PetscCall(VKTSPDGetVelocity(sim->ts, &v));
+  PetscCall(VKSimEnergies(sim, x, v, sim->energy));
+  sim->frames++;
+  sim->last_frame_time = t;
+  if (!o) PetscFunctionReturn(0);
+  PetscCall(PetscLogEventBegin(VK_EVENT_Write, 0, 0, 0, 0));
+  if (o->n == o->cap) {
+    o->cap = PetscMax(64, 2 * o->cap);
+    PetscCall(PetscRealloc(sizeof(PetscReal) * o->cap, &o->time));
+    PetscCall(PetscRealloc(sizeof(PetscReal) * 3 * o->cap, &o->energy));
+  }
+  o->time[o->n] = t;
+  for (int k = 0; k < 3; k++) o->energy[3 * o->n + k] = sim->energy[k];
+  PetscCall(VecScatterBegin(o->scatter, x, o->xseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(o->scatter, x, o->xseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
+  if (rank == 0) {
+    const PetscScalar *xa;
+    char               name[64];
+    PetscCall(VecGetArrayRead(o->xseq, &xa));
+    PetscCall(VKMeshApplyEmbedding(sim->mesh, xa, o->xy));
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/x", (int)o->n));
+    ierr = VKH5WriteReal(&o->h5, name, sim->mesh->nv, 3, xa);
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/yarn", (int)o->n));
+    if (!ierr) ierr = VKH5WriteReal(&o->h5, name, sim->mesh->ny, 3, o->xy);
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
+    if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", t);
+    PetscCall(VecRestoreArrayRead(o->xseq, &xa));
+  }
+  PetscCall(VKCollective(sim->comm, ierr, "Writing a frame to sim.h5"));
+  o->n++;
+  PetscCall(PetscLogEventEnd(VK_EVENT_Write, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
+{
+  VKSim      sim  = (VKSim)ctx;
+  SimOutput *o    = (SimOutput *)sim->out;
+  FILE      *fp   = out->fp;
+  PetscInt   nseg = VKCurvesNumSegments(&sim->mesh->yarn->curves);
+  char       ds[64];
+
+  PetscFunctionBegin;
+  PetscCall(VKXdmfBegin(fp));
+  for (int part = 0; part < 2; part++) {
+    PetscCall(VKXdmfCollectionBegin(fp, part ? "yarn" : "mesh"));
+    for (PetscInt f = 0; f < o->n; f++) {
+      PetscCall(VKXdmfGridBegin(fp, part ? "yarn" : "mesh"));
+      PetscCall(VKXdmfTime(fp, o->time[f]));
+      if (part) PetscCall(VKXdmfTopology(fp, "Polyline", nseg, 2, "sim.h5", "/yarn/segments"));
+      else PetscCall(VKXdmfTopology(fp, "Tetrahedron", sim->mesh->ne, 4, "sim.h5", "/mesh/tets"));
+      PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, part ? "yarn" : "x"));
+      PetscCall(VKXdmfGeometry(fp, part ? sim->mesh->ny : sim->mesh->nv, "sim.h5", ds));
+      PetscCall(VKXdmfGridEnd(fp));
+    }
+    PetscCall(VKXdmfCollectionEnd(fp));
+  }
+  PetscCall(VKXdmfEnd(fp));
+  PetscFunctionReturn(0);
+}
+
+typedef struct {
+  VKSim       sim;
+  const char *failure;
+} JSONCtx;
+
+static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
+{
+  JSONCtx     *c   = (JSONCtx *)ctx;
+  VKSim        sim = c->sim;
+  VKJSON       j;
+  VKTSPDStats  st;
+  PetscReal    dt, t;
+  PetscInt     nsteps;
+  PetscMPIInt  size;
+  const char  *solver;
+
+  PetscFunctionBegin;
+  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  PetscCall(TSGetTimeStep(sim->ts, &dt));
+  PetscCall(TSGetTime(sim->ts, &t));
+  nsteps = PetscMax(st.steps, 1);
+  PetscCallMPI(MPI_Comm_size(sim->comm, &size));
+  {
+    PC pc;
+    PetscCall(KSPGetPC(sim->pd->ksp, &pc));
+    PetscCall(PCGetType(pc, &solver));
+  }
+  PetscCall(VKJSONBegin(&j, out->fp));
+  PetscCall(VKJSONString(&j, "format", "volknit-sim-summary 1"));
+  PetscCall(VKJSONString(&j, "scene", sim->scene->name));
+  PetscCall(VKJSONString(&j, "status", c->failure ? "failed" : "completed"));
+  if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
+  PetscCall(VKJSONInt(&j, "ranks", size));
+  PetscCall(VKJSONInt(&j, "nodes", sim->mesh->nv));
+  PetscCall(VKJSONInt(&j, "tets", sim->mesh->ne));
+  PetscCall(VKJSONInt(&j, "yarn_vertices", sim->mesh->ny));
+  PetscCall(VKJSONReal(&j, "dt", dt));
+  PetscCall(VKJSONReal(&j, "time_reached", t));
+  PetscCall(VKJSONInt(&j, "steps", st.steps));
+  PetscCall(VKJSONInt(&j, "frames", sim->frames));
+  PetscCall(VKJSONObjectBegin(&j, "pd"));
+  PetscCall(VKJSONString(&j, "global_pc", solver));
+  PetscCall(VKJSONReal(&j, "rtol", sim->pd->rtol));
+  PetscCall(VKJSONInt(&j, "max_it", sim->pd->max_it));
+  PetscCall(VKJSONReal(&j, "iterations_mean", (PetscReal)st.iterations / nsteps));
+  PetscCall(VKJSONInt(&j, "iterations_max", st.iterations_max));
+  PetscCall(VKJSONInt(&j, "steps_at_max_it", st.max_it_steps));
+  PetscCall(VKJSONInt(&j, "newton_iterations", st.newton_its));
+  PetscCall(VKJSONReal(&j, "residual_rel_max", st.residual_rel_max));
+  PetscCall(VKJSONReal(&j, "residual_rel_last", st.residual_rel_last));
+  PetscCall(VKJSONObjectEnd(&j));
+  PetscCall(VKJSONObjectBegin(&j, "time_per_step"));
+  PetscCall(VKJSONReal(&j, "local", st.time_local / nsteps));
+  PetscCall(VKJSONReal(&j, "global", st.time_global / nsteps));
+  PetscCall(VKJSONReal(&j, "other", st.time_other / nsteps));
+  PetscCall(VKJSONReal(&j, "total", sim->time_run / nsteps));
+  PetscCall(VKJSONObjectEnd(&j));
+  PetscCall(VKJSONReal(&j, "wall_time", sim->time_run));
+  PetscCall(VKJSONInt(&j, "inverted_tets_max", st.inverted_max));
+  PetscCall(VKJSONInt(&j, "contacts_max", st.contacts_max));
+  PetscCall(VKJSONObjectBegin(&j, "energy_last_frame"));
+  PetscCall(VKJSONReal(&j, "elastic", sim->energy[0]));
+  PetscCall(VKJSONReal(&j, "kinetic", sim->energy[1]));
+  PetscCall(VKJSONReal(&j, "gravity", sim->energy[2]));
+  PetscCall(VKJSONObjectEnd(&j));
+  PetscCall(VKJSONEnd(&j));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode CloseRank0(VKSim sim, const char failure[])
+{
+  SimOutput *o = (SimOutput *)sim->out;
+  char       path[PETSC_MAX_PATH_LEN];
+  JSONCtx    ctx = {sim, failure};
+
+  PetscFunctionBegin;
+  PetscCall(VKH5WriteReal(&o->h5, "/sim/time", o->n, 1, o->time));
+  PetscCall(VKH5WriteReal(&o->h5, "/sim/energy", o->n, 3, o->energy));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/sim", "status", failure ? failure : "completed"));
+  PetscCall(VKH5WriteAttrInt(&o->h5, "/sim", "frames", o->n));
+  o->open = PETSC_FALSE;
+  PetscCall(VKH5Close(&o->h5));
+  PetscCall(VKOutputCommit(&o->h5out));
+  PetscCall(VKPathJoin(sim->dir, "sim.xdmf", path, sizeof(path)));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteXdmf, sim));
+  PetscCall(VKPathJoin(sim->dir, "sim.json", path, sizeof(path)));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteJSON, &ctx));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimOutputClose(VKSim sim, const char failure[])
+{
+  PetscErrorCode ierr = 0;
+  PetscMPIInt    rank;
+
+  PetscFunctionBegin;
+  if (!sim->out) PetscFunctionReturn(0);
+  PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
+  if (rank == 0) ierr = CloseRank0(sim, failure);
+  PetscCall(VKCollective(sim->comm, ierr, "Finishing sim.h5, sim.xdmf, sim.json"));
+  PetscCall(VKSimOutputDestroy(sim));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimOutputDestroy(VKSim sim)
+{
+  SimOutput *o = (SimOutput *)sim->out;
+
+  PetscFunctionBegin;
+  if (!o) PetscFunctionReturn(0);
+  if (o->open) { /* an error path: never leave a half-written sim.h5 */
+    (void)VKH5Close(&o->h5);
+    (void)VKOutputAbandon(&o->h5out);
+  }
+  PetscCall(VecScatterDestroy(&o->scatter));
+  PetscCall(VecDestroy(&o->xseq));
+  PetscCall(PetscFree(o->xy));
+  PetscCall(PetscFree(o->time));
+  PetscCall(PetscFree(o->energy));
+  PetscCall(PetscFree(sim->out));
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,181 @@
+/* ts_pd.c: the TS type "pd" (DESIGN §7): implicit Euler steps solved by
+ * projective dynamics.  The TS solution vector holds the node positions
+ * (block size 3); the velocity lives in the type's data.  One step:
+ *   y = x_n + dt v_n + dt^2 g,   x_{n+1} = argmin Phi (VKPDSolve, handles
+ *   at t_{n+1}),   v_{n+1} = (x_{n+1} - x_n)/dt.
+ * A failed PD solve (non-finite values, global KSP failure) restores x_n
+ * and sets TS_DIVERGED_NONLINEAR_SOLVE, so the caller still has the last
+ * good state.  Modelled on PETSc's own TS implementations (TSStep_Euler). */
+#include <vksim.h>
+#include <petsc/private/tsimpl.h>
+
+typedef struct {
+  VKPD        pd;
+  Vec         v, y, xprev;
+  VKTSPDStats stats;
+} TS_PD;
+
+static PetscErrorCode TSSetUp_PD(TS ts)
+{
+  TS_PD *p = (TS_PD *)ts->data;
+
+  PetscFunctionBegin;
+  PetscCheck(p->pd, PetscObjectComm((PetscObject)ts), PETSC_ERR_ORDER, "Call VKTSPDSetSolver() before TSSetUp() for TS type pd");
+  if (!p->v) {
+    PetscCall(VecDuplicate(ts->vec_sol, &p->v));
+    PetscCall(VecSet(p->v, 0));
+    PetscCall(VecDuplicate(ts->vec_sol, &p->y));
+    PetscCall(VecDuplicate(ts->vec_sol, &p->xprev));
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TSStep_PD(TS ts)
+{
+  TS_PD          *p  = (TS_PD *)ts->data;
+  VKPD            pd = p->pd;
+  Vec             x  = ts->vec_sol;
+  PetscReal       dt = ts->time_step, t1 = ts->ptime + dt, rel;
+  const PetscReal *g = pd->scene->gravity;
+  PetscScalar    *ya;
+  PetscInt        n;
+  VKTSPDStats    *s = &p->stats;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDSetTimeStep(pd, dt));
+  pd->step = ts->steps + 1;
+  PetscCall(VecCopy(x, p->xprev));
+  PetscCall(VecWAXPY(p->y, dt, p->v, x));
+  PetscCall(VecGetLocalSize(p->y, &n));
+  PetscCall(VecGetArray(p->y, &ya));
+  for (PetscInt i = 0; i < n; i++) ya[i] += dt * dt * g[i % 3];
+  PetscCall(VecRestoreArray(p->y, &ya));
+  PetscCall(VecCopy(p->y, x));
+  PetscCall(VKPDSolve(pd, t1, p->y, p->xprev, x, &s->last));
+  if (s->last.reason < 0) {
+    PetscCall(VecCopy(p->xprev, x));
+    ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
+    PetscFunctionReturn(0);
+  }
+  PetscCall(VecWAXPY(p->v, -1, p->xprev, x));
+  PetscCall(VecScale(p->v, 1 / dt));
+  ts->ptime += dt;
+  rel = s->last.residual0 > 0 ? s->last.residual / s->last.residual0 : 0;
+  s->steps++;
+  s->iterations += s->last.iterations;
+  s->iterations_max = PetscMax(s->iterations_max, s->last.iterations);
+  s->newton_its += s->last.newton_its;
+  s->inverted_max = PetscMax(s->inverted_max, s->last.inverted);
+  s->contacts_max = PetscMax(s->contacts_max, s->last.contacts);
+  if (s->last.reason == VK_PD_MAX_IT) s->max_it_steps++;
+  s->residual_rel_max  = PetscMax(s->residual_rel_max, rel);
+  s->residual_rel_last = rel;
+  s->time_local += s->last.time_local;
+  s->time_global += s->last.time_global;
+  s->time_other += s->last.time_other;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TSReset_PD(TS ts)
+{
+  TS_PD *p = (TS_PD *)ts->data;
+
+  PetscFunctionBegin;
+  PetscCall(VecDestroy(&p->v));
+  PetscCall(VecDestroy(&p->y));
+  PetscCall(VecDestroy(&p->xprev));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TSDestroy_PD(TS ts)
+{
+  PetscFunctionBegin;
+  PetscCall(TSReset_PD(ts));
+  PetscCall(PetscFree(ts->data));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TSView_PD(TS ts, PetscViewer viewer)
+{
+  TS_PD    *p = (TS_PD *)ts->data;
+  PetscBool ascii;
+
+  PetscFunctionBegin;
+  PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
+  if (ascii && p->pd) {
+    PetscCall(PetscViewerASCIIPrintf(viewer, "  implicit Euler by projective dynamics (volknit, DESIGN section 7)\n"));
+    PetscCall(PetscViewerASCIIPushTab(viewer));
+    PetscCall(VKPDView(p->pd, viewer));
+    PetscCall(PetscViewerASCIIPopTab(viewer));
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TSCreate_PD(TS ts)
+{
+  TS_PD *p;
+
+  PetscFunctionBegin;
+  PetscCall(PetscNew(&p));
+  ts->data                = (void *)p;
+  ts->ops->setup          = TSSetUp_PD;
+  ts->ops->step           = TSStep_PD;
+  ts->ops->reset          = TSReset_PD;
+  ts->ops->destroy        = TSDestroy_PD;
+  ts->ops->view           = TSView_PD;
+  ts->default_adapt_type  = TSADAPTNONE;
+  ts->usessnes            = PETSC_FALSE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKTSPDRegister(void)
+{
+  static PetscBool done = PETSC_FALSE;
+
+  PetscFunctionBegin;
+  if (done) PetscFunctionReturn(0);
+  PetscCall(TSRegister(TSPD, TSCreate_PD));
+  done = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode GetData(TS ts, TS_PD **p)
+{
+  PetscBool ispd;
+
+  PetscFunctionBegin;
+  PetscCall(PetscObjectTypeCompare((PetscObject)ts, TSPD, &ispd));
+  PetscCheck(ispd, PetscObjectComm((PetscObject)ts), PETSC_ERR_ARG_WRONG, "The TS must be of type pd (-ts_type pd), not %s", ((PetscObject)ts)->type_name);
+  *p = (TS_PD *)ts->data;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKTSPDSetSolver(TS ts, VKPD pd)
+{
+  TS_PD *p;
+
+  PetscFunctionBegin;
+  PetscCall(GetData(ts, &p));
+  p->pd = pd;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKTSPDGetVelocity(TS ts, Vec *v)
+{
+  TS_PD *p;
+
+  PetscFunctionBegin;
+  PetscCall(GetData(ts, &p));
+  *v = p->v;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKTSPDGetStats(TS ts, VKTSPDStats *s)
+{
+  TS_PD *p;
+
+  PetscFunctionBegin;
+  PetscCall(GetData(ts, &p));
+  *s = p->stats;
+  PetscFunctionReturn(0);
+}
