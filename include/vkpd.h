@@ -54,15 +54,18 @@ struct _n_VKPD {
   PetscInt  cheb_delay;
   PetscInt  newton_its;
   PetscReal newton_rtol;
-  /* owned handle nodes (local owned index) and their handle */
-  PetscInt  nhandle, *handle_node, *handle_id, *handle_row;
-  PetscInt  *node_handle; /* per owned node: handle or -1 */
+  /* eliminated owned nodes (local owned index, handle, global row): the
+   * scene's handle nodes first (nscene), then frozen nodes (handle -1:
+   * neither mass nor stiffness, held where they are) */
+  PetscInt  nhandle, nscene, *handle_node, *handle_id, *handle_row;
+  PetscInt  *node_handle; /* per owned node: handle, VK_SCENE_MAX if frozen, or -1 */
   /* contacts of the current solve: per owned node flag and outward normal */
   PetscBool *contact;
   PetscReal *contact_normal;
   /* global step */
   Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
   PetscReal kdiag;  /* diagonal put on eliminated rows */
+  PetscReal res_floor; /* round-off level of |grad Phi|: 1e-12 kdiag L (N) */
   KSP       ksp;
   Vec       xc, bc, rc, xd[3];   /* scalar work; handle values per coordinate */
   Vec       b, My, xold, xhat, x1, r; /* block-3 ghosted work */

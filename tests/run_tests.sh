@@ -91,7 +91,8 @@ for d in 1 2; do
 done
 printf '%-22s       : %4d passed, %d failed\n' "mesh, 1 vs 2 ranks" "$((passed - cmp_passed))" "$((failed - cmp_failed))"
 
-# 4. the example program: its printed mass balance and reproduction error
+# 4. the example programs: ex1's printed mass balance and reproduction error,
+#    ex2's stretch of the driven yarns (1.5 x the rest width)
 for n in 1 2; do
   log="$out/ex1.n$n.log"
   timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/examples/ex1_chart_mesh -ex_chart meshes/moss_rib.knit -ex_wales 9 -ex_courses 7 -o "$out/ex1.n$n" > "$log" 2>&1
@@ -101,7 +102,15 @@ for n in 1 2; do
   if [ "$rc" -eq 0 ] && [ -n "$dm" ] && [ -n "$dx" ] && awk -v a="$dm" -v b="$dx" 'BEGIN { exit !(a < 1e-12 && b < 3e-15) }'; then ok
   else not_ok "ex1_chart_mesh -n $n: status $rc, mass difference '$dm' (< 1e-12), reproduction '$dx' m (< 3e-15 = 1e-12 h) (see $log)"; fi
 done
-printf '%-22s       : example ex1_chart_mesh with 1 and 2 ranks\n' "examples"
+for n in 1 2; do
+  log="$out/ex2.n$n.log"
+  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/examples/ex2_stretch -ts_dt 0.02 -o "$out/ex2.n$n" > "$log" 2>&1
+  rc=$?
+  ratio=$(sed -n 's/.*after the stretch (ratio \([^)]*\)).*/\1/p' "$log")
+  if [ "$rc" -eq 0 ] && [ -n "$ratio" ] && [ -s "$out/ex2.n$n/sim.h5" ] && awk -v r="$ratio" 'BEGIN { exit !(r > 1.49 && r < 1.51) }'; then ok
+  else not_ok "ex2_stretch -n $n: status $rc, width ratio '$ratio' (1.5 expected), sim.h5 written (see $log)"; fi
+done
+printf '%-22s       : examples ex1_chart_mesh, ex2_stretch with 1 and 2 ranks\n' "examples"
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

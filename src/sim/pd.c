@@ -152,7 +152,8 @@ static PetscErrorCode FindHandles(VKPD pd)
     count[h]++;
     n++;
   }
-  pd->nhandle = n;
+  pd->nhandle  = n;
+  pd->nscene   = n;
   PetscCallMPI(MPI_Allreduce(count, total, VK_SCENE_MAX, MPIU_INT, MPI_SUM, pd->comm));
   for (PetscInt h = 0; h < pd->scene->nhandles; h++) PetscCheck(total[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node", (int)h, (int)h);
   PetscFunctionReturn(0);
@@ -192,6 +193,34 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscCall(VecDestroy(&d));
   }
   pd->kdiag = dsum / N;
+  {
+    /* Nodes with neither mass nor stiffness (g = 0 all around, no yarn
+     * mass) are undetermined: they are frozen where they are, eliminated
+     * like handles. */
+    Vec                d;
+    const PetscScalar *da;
+    PetscInt           nown = L->nEnd - L->nStart;
+    PetscCall(MatCreateVecs(pd->K, &d, NULL));
+    PetscCall(MatGetDiagonal(pd->K, d));
+    PetscCall(VecGetArrayRead(d, &da));
+    pd->nhandle = pd->nscene;
+    for (PetscInt i = 0; i < nown; i++) {
+      if (pd->node_handle[i] >= 0 && pd->node_handle[i] < VK_SCENE_MAX) continue;
+      pd->node_handle[i] = -1;
+      if (da[i] > 1e-14 * pd->kdiag) continue;
+      pd->node_handle[i]            = VK_SCENE_MAX; /* frozen */
+      pd->handle_node[pd->nhandle]  = i;
+      pd->handle_id[pd->nhandle]    = -1;
+      pd->handle_row[pd->nhandle++] = L->nStart + i;
+    }
+    PetscCall(VecRestoreArrayRead(d, &da));
+    PetscCall(VecDestroy(&d));
+  }
+  {
+    PetscReal L = 0;
+    for (int a = 0; a < 3; a++) L = PetscMax(L, mesh->grid.h * mesh->grid.dims[a]);
+    pd->res_floor = 1e-12 * pd->kdiag * L;
+  }
   PetscCall(MatDestroy(&pd->Kel));
   PetscCall(MatDuplicate(pd->K, MAT_COPY_VALUES, &pd->Kel));
   PetscCall(MatZeroRowsColumns(pd->Kel, pd->nhandle, pd->handle_row, pd->kdiag, NULL, NULL));

@@ -84,7 +84,7 @@ PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal, Vec, Vec, VKPDStats *);
 
 PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
 {
-  PetscReal      target = PetscMax(pd->newton_rtol * st->residual0, pd->atol);
+  PetscReal      target = PetscMax(PetscMax(pd->newton_rtol * st->residual0, pd->atol), pd->res_floor);
   PetscInt       its;
   PetscLogDouble t0;
 
@@ -107,7 +107,7 @@ PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
   if (PetscIsInfOrNanReal(st->phi) || PetscIsInfOrNanReal(st->residual)) {
     st->reason         = VK_PD_DIVERGED_NAN;
     st->fail_iteration = st->iterations + its;
-  } else if (st->residual <= target) st->reason = target == pd->atol ? VK_PD_CONVERGED_ATOL : VK_PD_CONVERGED_RTOL;
+  } else if (st->residual <= target) st->reason = target > pd->newton_rtol * st->residual0 ? VK_PD_CONVERGED_ATOL : VK_PD_CONVERGED_RTOL;
   if (pd->monitor) PetscCall(PetscPrintf(pd->comm, "  Newton %d its: Phi %.15e |grad Phi| %.6e (rel %.3e)\n", (int)its, (double)st->phi, (double)st->residual, (double)(st->residual / st->residual0)));
   st->time_global += VKWallTime() - t0;
   PetscCall(PetscLogEventEnd(VK_EVENT_PDNewton, 0, 0, 0, 0));

@@ -144,8 +144,8 @@ PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
   }
   for (PetscInt i = 0; i < pd->nhandle; i++) {
     PetscInt  n = pd->handle_node[i];
-    PetscReal p[3];
-    VKSceneHandlePosition(pd->scene, pd->handle_id[i], pd->mesh->x + 3 * (L->nStart + n), t, p);
+    PetscReal p[3] = {xa[3 * n], xa[3 * n + 1], xa[3 * n + 2]}; /* frozen nodes stay */
+    if (pd->handle_id[i] >= 0) VKSceneHandlePosition(pd->scene, pd->handle_id[i], pd->mesh->x + 3 * (L->nStart + n), t, p);
     for (int c = 0; c < 3; c++) xa[3 * n + c] = d[c][n] = p[c];
   }
   for (int c = 0; c < 3; c++) PetscCall(VecRestoreArray(pd->xd[c], &d[c]));
@@ -228,6 +228,16 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
     PetscCall(PetscMalloc2(pd->hist_cap, &pd->hist_phi, pd->hist_cap, &pd->hist_res));
   }
   pd->hist_n = 0;
+  if (prev && pd->nhandle > pd->nscene) { /* frozen nodes stay at the start of the step */
+    PetscScalar       *xa;
+    const PetscScalar *pa;
+    PetscCall(VecGetArray(x, &xa));
+    PetscCall(VecGetArrayRead(prev, &pa));
+    for (PetscInt i = pd->nscene; i < pd->nhandle; i++)
+      for (int c = 0; c < 3; c++) xa[3 * pd->handle_node[i] + c] = pa[3 * pd->handle_node[i] + c];
+    PetscCall(VecRestoreArrayRead(prev, &pa));
+    PetscCall(VecRestoreArray(x, &xa));
+  }
   PetscCall(VKPDApplyHandles(pd, t, x));
   PetscCall(InertialTarget(pd, y));
   if (colliders) PetscCall(Collide(pd, t, prev, x, &st->contacts));
@@ -256,7 +266,7 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
       else if (prev) PetscCall(VecCopy(prev, x));
       break;
     }
-    if (res <= pd->atol || st->residual0 == 0) st->reason = VK_PD_CONVERGED_ATOL;
+    if (res <= pd->atol || res <= pd->res_floor) st->reason = VK_PD_CONVERGED_ATOL;
     else if (res <= pd->rtol * st->residual0) st->reason = VK_PD_CONVERGED_RTOL;
     else if (it == pd->max_it) st->reason = VK_PD_MAX_IT;
     if (st->reason) break;

@@ -206,7 +206,7 @@ PetscErrorCode VKSimRun(VKSim sim)
     PetscCall(PetscLogStagePop());
     SETERRQ(sim->comm, PETSC_ERR_NOT_CONVERGED, "volknit sim: %s; the last good frame (t = %g s) was written%s%s", msg, (double)t, sim->dir[0] ? " to " : "", sim->dir[0] ? sim->dir : "");
   }
-  if (sim->out && sim->frames > 0 && sim->last_frame_time < t - 1e-6 * dt) PetscCall(VKSimOutputFrame(sim, t, sim->x));
+  if (sim->last_frame_time < t - 1e-6 * dt) PetscCall(VKSimOutputFrame(sim, t, sim->x)); /* the final state, energies */
   sim->time_run = VKWallTime() - t0;
   PetscCall(VKSimOutputClose(sim, NULL));
   if (!sim->quiet) {

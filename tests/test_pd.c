@@ -1,0 +1,367 @@
+/* test_pd.c: the projective-dynamics solver and the TS type pd on a small
+ * rib patch (DESIGN §7):
+ *  - the rest state at rest without gravity is an equilibrium (residual 0);
+ *  - PD never increases Phi within a step (large handle motion, gravity);
+ *  - PD converges to the Newton solution: both reach |grad Phi| <= 1e-8
+ *    relative and agree;
+ *  - Newton (SNES, exact Hessian) converges quadratically;
+ *  - TS type pd: steps and time as asked, linear momentum conserved to
+ *    round-off without handles, colliders or gravity (PD keeps sum M x = sum M y
+ *    at every iteration, so this holds for any PD tolerance);
+ *  - the same trajectory with 1 and 2 ranks (in-process against a
+ *    one-rank build on PETSC_COMM_SELF).
+ * ranks: 1 2 */
+#include <vksim.h>
+#include "vktest.h"
+#include "meshcompare.h"
+
+PETSC_UNUSED static PetscErrorCode (*unused_compare)(VKMesh, VKMesh, const char[], PetscBool) = VKTestCompareMeshes;
+
+static PetscErrorCode Build(MPI_Comm comm, VKYarn *y, VKMesh *m, VKMaterial *mat)
+{
+  PetscMPIInt size;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCall(VKYarnCreate(comm, y));
+  PetscCall(VKYarnSetKnit(*y, "rib1x1", 3, 3));
+  PetscCall(VKMeshCreate(comm, m));
+  PetscCall(VKMeshSetYarn(*m, *y));
+  PetscCall(VKMeshSetDomains(*m, size));
+  PetscCall(VKMeshSetUp(*m));
+  PetscCall(VKMaterialCreate(*m, mat));
+  PetscCall(VKMaterialSetUniform(*mat, 1e3, 2e3));
+  PetscCall(VKMaterialSetUp(*mat));
+  PetscFunctionReturn(0);
+}
+
+/* Stretch by the two side edges (scene units), with gravity. */
+static PetscErrorCode StretchScene(VKMesh m, PetscReal gz, VKScene *s)
+{
+  PetscReal lo[3], hi[3];
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(m->comm, s));
+  (*s)->gravity[2] = gz;
+  (*s)->nhandles   = 2;
+  for (int h = 0; h < 2; h++) {
+    VKHandle *H = &(*s)->handle[h];
+    for (int a = 0; a < 3; a++) {
+      H->box[a]     = -1;
+      H->box[3 + a] = 1;
+    }
+    if (h == 0) H->box[3] = -0.45;
+    else H->box[0] = 0.45;
+    H->velocity[0] = h == 0 ? -0.25 : 0.25;
+    H->axis[1]     = 1;
+    H->window[1]   = PETSC_MAX_REAL;
+  }
+  PetscCall(VKCurvesBoundingBox(&m->yarn->curves, lo, hi));
+  PetscCall(VKSceneSetUp(*s, lo, hi));
+  PetscFunctionReturn(0);
+}
+
+/* y = rest + dt^2 g */
+static PetscErrorCode RestTarget(VKMesh m, PetscReal dt, const PetscReal g[], Vec y)
+{
+  PetscScalar *a;
+  PetscInt     n;
+
+  PetscFunctionBegin;
+  PetscCall(VKMeshGetRestPositions(m, y));
+  PetscCall(VecGetLocalSize(y, &n));
+  PetscCall(VecGetArray(y, &a));
+  for (PetscInt i = 0; i < n; i++) a[i] += dt * dt * g[i % 3];
+  PetscCall(VecRestoreArray(y, &a));
+  PetscFunctionReturn(0);
+}
+
+/* Positions gathered on every rank, ordered by node key. */
+static PetscErrorCode GatherByKey(VKMesh m, Vec x, PetscReal **out)
+{
+  VecScatter         sc;
+  Vec                all;
+  const PetscScalar *a;
+  uint64_t          *keys;
+  PetscInt          *order;
+
+  PetscFunctionBegin;
+  PetscCall(VecScatterCreateToAll(x, &sc, &all));
+  PetscCall(VecScatterBegin(sc, x, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, x, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(KeyOrder(m, &keys, &order));
+  PetscCall(PetscMalloc1(3 * m->nv, out));
+  PetscCall(VecGetArrayRead(all, &a));
+  for (PetscInt k = 0; k < m->nv; k++)
+    for (int c = 0; c < 3; c++) (*out)[3 * k + c] = a[3 * order[k] + c];
+  PetscCall(VecRestoreArrayRead(all, &a));
+  PetscCall(PetscFree2(keys, order));
+  PetscCall(VecDestroy(&all));
+  PetscCall(VecScatterDestroy(&sc));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestRestEquilibrium(VKMaterial mat)
+{
+  VKScene   s;
+  VKPD      pd;
+  Vec       x, y;
+  VKPDStats st;
+  PetscReal lo[3], hi[3];
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(mat->comm, &s));
+  s->gravity[2] = 0;
+  PetscCall(VKCurvesBoundingBox(&mat->mesh->yarn->curves, lo, hi));
+  PetscCall(VKSceneSetUp(s, lo, hi));
+  PetscCall(VKPDCreate(mat, s, &pd));
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(VKMeshCreateNodeVec(mat->mesh, 3, &x));
+  PetscCall(VecDuplicate(x, &y));
+  PetscCall(VKMeshGetRestPositions(mat->mesh, x));
+  PetscCall(VecCopy(x, y));
+  PetscCall(VKPDSolve(pd, 0.1, y, NULL, x, &st));
+  PetscCall(VKTestCheck((PetscBool)(st.residual0 <= 1e-12 && st.iterations == 0 && PetscAbsReal(st.phi) <= 1e-18), NULL, "rest state at rest without gravity: |grad Phi| = %.1e, Phi = %.1e, no iteration", (double)st.residual0, (double)st.phi));
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&y));
+  PetscCall(VKPDDestroy(&pd));
+  PetscCall(VKSceneDestroy(&s));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestMonotoneAndNewton(VKMaterial mat)
+{
+  VKMesh    m = mat->mesh;
+  VKScene   s;
+  VKPD      pd;
+  Vec       x, y, xn;
+  VKPDStats st;
+  PetscReal dt = 1.0 / 150, worst = 0, dx, ref, t = 0.2;
+
+  PetscFunctionBegin;
+  PetscCall(StretchScene(m, -9.81, &s));
+  PetscCall(VKPDCreate(mat, s, &pd));
+  PetscCall(VKPDSetTimeStep(pd, dt));
+  PetscCall(VKMeshCreateNodeVec(m, 3, &x));
+  PetscCall(VecDuplicate(x, &y));
+  PetscCall(VecDuplicate(x, &xn));
+  PetscCall(RestTarget(m, dt, s->gravity, y));
+
+  /* monotone Phi over 60 plain PD iterations */
+  pd->max_it = 60;
+  pd->rtol   = 0;
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(VecCopy(y, x));
+  PetscCall(VKPDSolve(pd, t, y, NULL, x, &st));
+  for (PetscInt k = 1; k < pd->hist_n; k++) worst = PetscMax(worst, (pd->hist_phi[k] - pd->hist_phi[k - 1]) / PetscAbsReal(pd->hist_phi[0]));
+  PetscCall(VKTestCheck((PetscBool)(pd->hist_n == 61 && worst <= 1e-14), NULL, "PD never increases Phi within a step: %d iterations, largest relative increase %.2e", (int)pd->hist_n - 1, (double)worst));
+  PetscCall(VKTestCheck((PetscBool)(pd->hist_phi[60] < 0.5 * pd->hist_phi[0] && st.residual < 0.5 * st.residual0), NULL, "PD decreases Phi (%.4e -> %.4e) and |grad Phi| (%.3e -> %.3e)", (double)pd->hist_phi[0], (double)pd->hist_phi[60], (double)st.residual0, (double)st.residual));
+
+  /* Newton after a few PD iterations: quadratic convergence to 1e-12 */
+  pd->max_it      = 3;
+  pd->newton_its  = 30;
+  pd->newton_rtol = 1e-12;
+  PetscCall(VecCopy(y, xn));
+  PetscCall(VKPDSolve(pd, t, y, NULL, xn, &st));
+  PetscCall(VKTestCheck((PetscBool)(st.reason > 0 && st.residual <= 1e-12 * st.residual0 && st.newton_its <= 12), NULL, "Newton (SNES, exact Hessian) reaches |grad Phi| %.2e relative in %d iterations", (double)(st.residual / st.residual0), (int)st.newton_its));
+
+  /* PD alone to 1e-8 relative reaches the Newton solution */
+  pd->max_it     = 20000;
+  pd->rtol       = 1e-8;
+  pd->newton_its = 0;
+  PetscCall(VecCopy(y, x));
+  PetscCall(VKPDSolve(pd, t, y, NULL, x, &st));
+  PetscCall(VecNorm(xn, NORM_2, &ref));
+  PetscCall(VecAXPY(xn, -1, y));
+  PetscCall(VecNorm(xn, NORM_2, &ref));
+  PetscCall(VecAXPY(xn, 1, y));
+  PetscCall(VecAXPY(x, -1, xn));
+  PetscCall(VecNorm(x, NORM_2, &dx));
+  PetscCall(VKTestCheck((PetscBool)(st.reason == VK_PD_CONVERGED_RTOL && dx <= 1e-6 * ref), NULL, "PD converges to |grad Phi| <= 1e-8 relative (%s, %d iterations) at the Newton solution: |x_PD - x_N| = %.2e of the step %.2e", VKPDReasonName(st.reason), (int)st.iterations, (double)(dx / ref), (double)ref));
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&xn));
+  PetscCall(VecDestroy(&y));
+  PetscCall(VKPDDestroy(&pd));
+  PetscCall(VKSceneDestroy(&s));
+  PetscFunctionReturn(0);
+}
+
+typedef struct {
+  VKMesh    m;
+  PetscReal p0[3], scale, worst;
+  PetscInt  calls;
+} MomentumCtx;
+
+static PetscErrorCode Momentum(VKMesh m, Vec v, PetscReal p[3], PetscReal *scale)
+{
+  const PetscScalar *a;
+  const VKLayout    *L = &m->layout;
+  PetscReal          mine[4] = {0, 0, 0, 0}, all[4];
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArrayRead(v, &a));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
+    for (int c = 0; c < 3; c++) {
+      mine[c] += m->mass[L->nStart + i] * a[3 * i + c];
+      mine[3] += m->mass[L->nStart + i] * PetscAbsReal(a[3 * i + c]);
+    }
+  PetscCall(VecRestoreArrayRead(v, &a));
+  PetscCallMPI(MPI_Allreduce(mine, all, 4, MPIU_REAL, MPIU_SUM, m->comm));
+  for (int c = 0; c < 3; c++) p[c] = all[c];
+  if (scale) *scale = all[3];
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode MomentumMonitor(TS ts, PetscInt step, PetscReal t, Vec x, void *ctx)
+{
+  MomentumCtx *mc = (MomentumCtx *)ctx;
+  Vec          v;
+  PetscReal    p[3];
+
+  PetscFunctionBegin;
+  (void)step;
+  (void)t;
+  (void)x;
+  PetscCall(VKTSPDGetVelocity(ts, &v));
+  PetscCall(Momentum(mc->m, v, p, NULL));
+  for (int c = 0; c < 3; c++) mc->worst = PetscMax(mc->worst, PetscAbsReal(p[c] - mc->p0[c]) / mc->scale);
+  mc->calls++;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestTSMomentum(VKMaterial mat)
+{
+  VKMesh      m = mat->mesh;
+  VKScene     s;
+  VKPD        pd;
+  TS          ts;
+  Vec         x, v;
+  PetscRandom rnd;
+  PetscReal   lo[3], hi[3], t, dt = 1.0 / 150;
+  PetscInt    steps;
+  MomentumCtx mc = {m, {0, 0, 0}, 0, 0, 0};
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(m->comm, &s));
+  s->gravity[2] = 0;
+  PetscCall(VKCurvesBoundingBox(&m->yarn->curves, lo, hi));
+  PetscCall(VKSceneSetUp(s, lo, hi));
+  PetscCall(VKPDCreate(mat, s, &pd));
+  pd->max_it = 7; /* any tolerance: momentum holds at every iteration */
+  PetscCall(VKTSPDRegister());
+  PetscCall(TSCreate(m->comm, &ts));
+  PetscCall(TSSetType(ts, TSPD));
+  PetscCall(VKTSPDSetSolver(ts, pd));
+  PetscCall(VKMeshCreateNodeVec(m, 3, &x));
+  PetscCall(VKMeshGetRestPositions(m, x));
+  PetscCall(PetscRandomCreate(m->comm, &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1, 1));
+  PetscCall(VecDuplicate(x, &v));
+  PetscCall(VecSetRandom(v, rnd));
+  PetscCall(VecAXPY(x, 0.2 * m->grid.h, v)); /* deformed start */
+  PetscCall(VecSetRandom(v, rnd));
+  PetscCall(VecShift(v, 0.05)); /* net drift */
+  PetscCall(TSSetSolution(ts, x));
+  PetscCall(TSSetTimeStep(ts, dt));
+  PetscCall(TSSetMaxSteps(ts, 12));
+  PetscCall(TSSetMaxTime(ts, 1.0));
+  PetscCall(TSSetExactFinalTime(ts, TS_EXACTFINALTIME_STEPOVER));
+  PetscCall(TSSetUp(ts));
+  {
+    Vec vts;
+    PetscCall(VKTSPDGetVelocity(ts, &vts));
+    PetscCall(VecCopy(v, vts));
+  }
+  PetscCall(Momentum(m, v, mc.p0, &mc.scale));
+  PetscCall(TSMonitorSet(ts, MomentumMonitor, &mc, NULL));
+  PetscCall(TSSolve(ts, x));
+  PetscCall(TSGetStepNumber(ts, &steps));
+  PetscCall(TSGetTime(ts, &t));
+  PetscCall(VKTestCheck((PetscBool)(steps == 12 && PetscAbsReal(t - 12 * dt) < 1e-12 && mc.calls == 13), NULL, "TS type pd: -ts_max_steps 12 gives 12 steps to t = %g (12 dt = %g), 13 monitor calls (%d)", (double)t, (double)(12 * dt), (int)mc.calls));
+  PetscCall(VKTestCheck((PetscBool)(mc.worst <= 1e-12), NULL, "linear momentum conserved without handles, colliders, gravity: max |p_n - p_0| = %.2e of sum m|v|", (double)mc.worst));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(VecDestroy(&v));
+  PetscCall(VecDestroy(&x));
+  PetscCall(TSDestroy(&ts));
+  PetscCall(VKPDDestroy(&pd));
+  PetscCall(VKSceneDestroy(&s));
+  PetscFunctionReturn(0);
+}
+
+/* A hang-and-stretch trajectory; final positions by node key. */
+static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton, PetscReal **xk)
+{
+  VKScene s;
+  VKSim   sim;
+
+  PetscFunctionBegin;
+  PetscCall(StretchScene(mat->mesh, -9.81, &s));
+  PetscCall(VKSimCreate(mat, s, &sim));
+  sim->quiet           = PETSC_TRUE;
+  sim->pd->rtol        = rtol;
+  sim->pd->max_it      = 2000;
+  sim->pd->newton_its  = newton;
+  sim->pd->newton_rtol = 1e-11;
+  PetscCall(TSSetTimeStep(sim->ts, 1.0 / 150));
+  PetscCall(TSSetMaxTime(sim->ts, 5.0 / 150));
+  PetscCall(VKSimRun(sim));
+  PetscCall(GatherByKey(mat->mesh, sim->x, xk));
+  PetscCall(VKSimDestroy(&sim));
+  PetscCall(VKSceneDestroy(&s));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestRanks(VKMaterial mat)
+{
+  VKYarn      ys;
+  VKMesh      ms;
+  VKMaterial  mats;
+  PetscReal  *xp, *xs, d, scale;
+  PetscMPIInt size;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(mat->comm, &size));
+  PetscCall(Build(PETSC_COMM_SELF, &ys, &ms, &mats));
+  for (int pass = 0; pass < 2; pass++) {
+    PetscReal rtol = pass ? 1e-4 : 1e-6, tol = pass ? 1e-6 : 1e-8;
+    PetscInt  newton = pass ? 0 : 10;
+    PetscCall(Trajectory(mat, rtol, newton, &xp));
+    PetscCall(Trajectory(mats, rtol, newton, &xs));
+    d     = 0;
+    scale = 0;
+    for (PetscInt i = 0; i < 3 * ms->nv; i++) {
+      d     = PetscMax(d, PetscAbsReal(xp[i] - xs[i]));
+      scale = PetscMax(scale, PetscAbsReal(xs[i]));
+    }
+    PetscCall(VKTestCheck((PetscBool)(d <= tol * scale), NULL, "5 steps with %d ranks and with one (PD rtol %g%s): max difference %.2e of the patch size", (int)size, (double)rtol, newton ? " + Newton" : "", (double)(d / scale)));
+    PetscCall(PetscFree(xp));
+    PetscCall(PetscFree(xs));
+  }
+  PetscCall(VKMaterialDestroy(&mats));
+  PetscCall(VKMeshDestroy(&ms));
+  PetscCall(VKYarnDestroy(&ys));
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  VKYarn     y;
+  VKMesh     m;
+  VKMaterial mat;
+
+  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(Build(PETSC_COMM_WORLD, &y, &m, &mat));
+  PetscCall(TestRestEquilibrium(mat));
+  PetscCall(TestMonotoneAndNewton(mat));
+  PetscCall(TestTSMomentum(mat));
+  PetscCall(TestRanks(mat));
+  PetscCall(VKMaterialDestroy(&mat));
+  PetscCall(VKMeshDestroy(&m));
+  PetscCall(VKYarnDestroy(&y));
+  {
+    int rc = VKTestFinish();
+    PetscCall(PetscFinalize());
+    return rc;
+  }
+}
