@@ -10,7 +10,8 @@
  *    at every iteration, so this holds for any PD tolerance);
  *  - the same trajectory with 1 and 2 ranks (in-process against a
  *    one-rank build on PETSC_COMM_SELF).
- * ranks: 1 2 */
+ * ranks: 1 2
+ */
 #include <vksim.h>
 #include "vktest.h"
 #include "meshcompare.h"

@@ -9,7 +9,8 @@
  * Each must finish without NaN or Inf, with finite energies.  Then a NaN
  * is provoked (gravity 1e300): the run stops with PETSC_ERR_NOT_CONVERGED
  * naming the step and iteration, and sim.h5 holds the last good frame.
- * ranks: 1 2 */
+ * ranks: 1 2
+ */
 #include <vksim.h>
 #include <vkio.h>
 #include "vktest.h"

@@ -63,6 +63,52 @@ static PetscReal Phi(int k, const PetscReal s[], const int eta[], PetscReal C, P
   return phi;
 }
 
+/* KKT matrix of the free components f[] (constraint prod = C). */
+static void KKTMatrix(const PetscReal x[], const int f[], int k, PetscReal lambda, PetscReal K[4][5])
+{
+  for (int i = 0; i < k; i++) {
+    PetscReal others = 1;
+    for (int j = 0; j < k; j++)
+      if (j != i) others *= x[f[j]];
+    for (int l = 0; l < k; l++) {
+      PetscReal p = 1;
+      for (int j = 0; j < k; j++)
+        if (j != i && j != l) p *= x[f[j]];
+      K[i][l] = (l == i) ? 1 : lambda * p;
+    }
+    K[i][k] = others;
+    K[k][i] = others;
+  }
+  K[k][k] = 0;
+}
+
+/* Near a branch point (a component close to s_i / 2) lambda cannot
+ * resolve the constraint to round-off (phi varies like a square root
+ * there); Newton on the KKT system in (x, lambda), which is regular there,
+ * finishes the job.  Returns log(prod x / C), -inf on failure. */
+static PetscReal Polish(int k, const PetscReal s[], PetscReal C, PetscReal x[], PetscReal *lambda)
+{
+  static const int f[3] = {0, 1, 2};
+  PetscReal        K[4][5], prod = 1;
+
+  for (int it = 0; it < 20; it++) {
+    KKTMatrix(x, f, k, *lambda, K);
+    prod = 1;
+    for (int i = 0; i < k; i++) prod *= x[i];
+    for (int i = 0; i < k; i++) K[i][k + 1] = -(x[i] - s[i] + *lambda * K[i][k]);
+    K[k][k + 1] = -(prod - C);
+    if (!Solve(k + 1, K)) return PETSC_NINFINITY;
+    for (int i = 0; i < k; i++) x[i] += K[i][k + 1];
+    *lambda += K[k][k + 1];
+    for (int i = 0; i < k; i++)
+      if (!(x[i] > 0)) return PETSC_NINFINITY;
+    prod = 1;
+    for (int i = 0; i < k; i++) prod *= x[i];
+    if (PetscAbsReal(PetscLogReal(prod / C)) <= 1e-14) break;
+  }
+  return PetscLogReal(prod / C);
+}
+
 /* The KKT point of one branch, or 0 if the branch has none. */
 static int SolveBranch(int k, const PetscReal s[], const int eta[], PetscReal C, PetscReal x[], PetscReal *lambda)
 {
@@ -111,26 +157,8 @@ static int SolveBranch(int k, const PetscReal s[], const int eta[], PetscReal C,
   }
   phi     = Phi(k, s, eta, C, l, x, &dphi);
   *lambda = l;
+  if (phi > PETSC_NINFINITY && PetscAbsReal(phi) > 1e-12) phi = Polish(k, s, C, x, lambda);
   return phi > PETSC_NINFINITY && PetscAbsReal(phi) <= 1e-12;
-}
-
-/* KKT matrix of the free components f[] (constraint prod = C). */
-static void KKTMatrix(const PetscReal x[], const int f[], int k, PetscReal lambda, PetscReal K[4][5])
-{
-  for (int i = 0; i < k; i++) {
-    PetscReal others = 1;
-    for (int j = 0; j < k; j++)
-      if (j != i) others *= x[f[j]];
-    for (int l = 0; l < k; l++) {
-      PetscReal p = 1;
-      for (int j = 0; j < k; j++)
-        if (j != i && j != l) p *= x[f[j]];
-      K[i][l] = (l == i) ? 1 : lambda * p;
-    }
-    K[i][k] = others;
-    K[k][i] = others;
-  }
-  K[k][k] = 0;
 }
 
 /* Best feasible KKT point with the components in `held` at the bound; the

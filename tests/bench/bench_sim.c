@@ -1,0 +1,95 @@
+static const char help[] = "Benchmark of the homogenized PD simulator (issue 3): time per step at dt = 1/150 s.\n"
+                           "  -bench_wales <30> -bench_courses <30>   1x1 rib patch size (stitches)\n"
+                           "  -bench_steps <5>   steps of the hang scene (gravity, top edge held)\n"
+                           "  -bench_header      print the table header\n"
+                           "and every -pd_, -pd_global_, -ts_, -mat_ option.\n";
+
+/* bench_sim: a hanging 1x1 rib patch simulated for a few steps by PD; one
+ * Markdown table row: size, ranks, global solver, PD iterations per step,
+ * residual reached, ms per step (total, local, global), ns per tet per
+ * local step, and the set-up (assembly + factorization) time. */
+#include <vksim.h>
+#include <vkutil.h>
+
+int main(int argc, char **argv)
+{
+  PetscInt       wales = 30, courses = 30, steps = 5;
+  PetscBool      header = PETSC_FALSE;
+  VKYarn         yarn;
+  VKMesh         mesh;
+  VKMaterial     mat;
+  VKScene        scene;
+  VKSim          sim;
+  VKTSPDStats    st;
+  PetscMPIInt    size;
+  PetscLogDouble t0, tsetup;
+  const char    *pctype, *solver = "";
+  char           name[64];
+  PC             pc;
+
+  PetscCall(PetscInitialize(&argc, &argv, NULL, help));
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscOptionsBegin(PETSC_COMM_WORLD, NULL, "bench_sim options", NULL);
+  PetscCall(PetscOptionsInt("-bench_wales", "Stitches across", NULL, wales, &wales, NULL));
+  PetscCall(PetscOptionsInt("-bench_courses", "Stitches up", NULL, courses, &courses, NULL));
+  PetscCall(PetscOptionsInt("-bench_steps", "Time steps", NULL, steps, &steps, NULL));
+  PetscCall(PetscOptionsBool("-bench_header", "Print the table header", NULL, header, &header, NULL));
+  PetscOptionsEnd();
+  if (header) {
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| patch | nodes | DOFs | tets | ranks | global solver | PD its/step | rel. residual (max) | ms/step | local ms | global ms | ns/tet/local step | set-up s |\n"));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"));
+  }
+  PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &yarn));
+  PetscCall(VKYarnSetKnit(yarn, "rib1x1", wales, courses));
+  PetscCall(VKMeshCreate(PETSC_COMM_WORLD, &mesh));
+  PetscCall(VKMeshSetYarn(mesh, yarn));
+  PetscCall(VKMeshSetFromOptions(mesh));
+  PetscCall(VKMeshSetUp(mesh));
+  PetscCall(VKMaterialCreate(mesh, &mat));
+  PetscCall(VKMaterialSetFromOptions(mat));
+  PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &scene));
+  scene->duration = steps / 150.0;
+  scene->nhandles = 1;
+  for (int a = 0; a < 3; a++) {
+    scene->handle[0].box[a]     = -1;
+    scene->handle[0].box[3 + a] = 1;
+  }
+  scene->handle[0].box[1]    = 0.46;
+  scene->handle[0].axis[1]   = 1;
+  scene->handle[0].window[1] = PETSC_MAX_REAL;
+  PetscCall(VKSimCreate(mat, scene, &sim));
+  sim->quiet = PETSC_TRUE;
+  PetscCall(VKSimSetFromOptions(sim));
+  t0 = VKWallTime();
+  PetscCall(VKSimSetUp(sim));
+  tsetup = VKWallTime() - t0;
+  PetscCall(VKSimRun(sim));
+  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  PetscCall(KSPGetPC(sim->pd->ksp, &pc));
+  PetscCall(PCGetType(pc, &pctype));
+  {
+    PetscBool factor;
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCCHOLESKY, PCLU, ""));
+    if (factor) PetscCall(PCFactorGetMatSolverType(pc, &solver));
+    else {
+      KSPType kt;
+      PetscCall(KSPGetType(sim->pd->ksp, &kt));
+      solver = kt;
+    }
+  }
+  PetscCall(PetscSNPrintf(name, sizeof(name), "%s %s", pctype, solver));
+  {
+    PetscReal its = (PetscReal)st.iterations / PetscMax(st.steps, 1), n = PetscMax(st.steps, 1);
+    /* local steps per PD step: one per iteration plus the final evaluation */
+    PetscReal nlocal = (its + 1) * mesh->ne;
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %.1e | %.0f | %.0f | %.0f | %.0f | %.2f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, (double)st.residual_rel_max, 1e3 * sim->time_run / n, 1e3 * st.time_local / n,
+                          1e3 * st.time_global / n, 1e9 * st.time_local / n / nlocal * size, (double)tsetup));
+  }
+  PetscCall(VKSimDestroy(&sim));
+  PetscCall(VKSceneDestroy(&scene));
+  PetscCall(VKMaterialDestroy(&mat));
+  PetscCall(VKMeshDestroy(&mesh));
+  PetscCall(VKYarnDestroy(&yarn));
+  PetscCall(PetscFinalize());
+  return 0;
+}
