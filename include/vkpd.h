@@ -58,6 +58,7 @@ struct _n_VKPD {
    * scene's handle nodes first (nscene), then frozen nodes (handle -1:
    * neither mass nor stiffness, held where they are) */
   PetscInt  nhandle, nscene, *handle_node, *handle_id, *handle_row;
+  PetscInt  nhandle_total; /* over all ranks */
   PetscInt  *node_handle; /* per owned node: handle, VK_SCENE_MAX if frozen, or -1 */
   /* contacts of the current solve: per owned node flag and outward normal */
   PetscBool *contact;
@@ -101,6 +102,9 @@ PETSC_EXTERN PetscErrorCode VKPDApplyHandles(VKPD, PetscReal t, Vec x);
 /* Phi(x), and grad Phi(x) with the handle rows zeroed. */
 PETSC_EXTERN PetscErrorCode VKPDObjective(VKPD, Vec y, Vec x, PetscReal *phi);
 PETSC_EXTERN PetscErrorCode VKPDGradient(VKPD, Vec y, Vec x, Vec g);
+/* All of them from one local step: Phi, grad Phi (handle rows zeroed), the
+ * elastic energy and the inverted-tet count; any output may be NULL. */
+PETSC_EXTERN PetscErrorCode VKPDEvaluate(VKPD, Vec y, Vec x, PetscReal *phi, Vec g, PetscReal *E, PetscInt *inverted);
 /* The elastic energy at x, the right-hand side b(x) of the global step,
  * and the number of tets with det F <= 0 (the PD local step). */
 PETSC_EXTERN PetscErrorCode VKPDLocalStep(VKPD, Vec x, Vec b, PetscReal *E, PetscInt *inverted);

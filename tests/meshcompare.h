@@ -26,6 +26,33 @@ static PetscErrorCode KeyOrder(VKMesh m, uint64_t **keys, PetscInt **order)
   PetscFunctionReturn(0);
 }
 
+/* Node positions of a distributed vector gathered on every rank and
+ * ordered by node key, so runs on different partitions compare entry by
+ * entry. */
+static PETSC_UNUSED PetscErrorCode VKTestGatherByKey(VKMesh m, Vec x, PetscReal **out)
+{
+  VecScatter         sc;
+  Vec                all;
+  const PetscScalar *a;
+  uint64_t          *keys;
+  PetscInt          *order;
+
+  PetscFunctionBegin;
+  PetscCall(VecScatterCreateToAll(x, &sc, &all));
+  PetscCall(VecScatterBegin(sc, x, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, x, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(KeyOrder(m, &keys, &order));
+  PetscCall(PetscMalloc1(3 * m->nv, out));
+  PetscCall(VecGetArrayRead(all, &a));
+  for (PetscInt k = 0; k < m->nv; k++)
+    for (int c = 0; c < 3; c++) (*out)[3 * k + c] = a[3 * order[k] + c];
+  PetscCall(VecRestoreArrayRead(all, &a));
+  PetscCall(PetscFree2(keys, order));
+  PetscCall(VecDestroy(&all));
+  PetscCall(VecScatterDestroy(&sc));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode VKTestCompareMeshes(VKMesh m, VKMesh s, const char name[], PetscBool partition)
 {
   uint64_t *km, *ks;

@@ -77,31 +77,6 @@ static PetscErrorCode RestTarget(VKMesh m, PetscReal dt, const PetscReal g[], Ve
   PetscFunctionReturn(0);
 }
 
-/* Positions gathered on every rank, ordered by node key. */
-static PetscErrorCode GatherByKey(VKMesh m, Vec x, PetscReal **out)
-{
-  VecScatter         sc;
-  Vec                all;
-  const PetscScalar *a;
-  uint64_t          *keys;
-  PetscInt          *order;
-
-  PetscFunctionBegin;
-  PetscCall(VecScatterCreateToAll(x, &sc, &all));
-  PetscCall(VecScatterBegin(sc, x, all, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sc, x, all, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(KeyOrder(m, &keys, &order));
-  PetscCall(PetscMalloc1(3 * m->nv, out));
-  PetscCall(VecGetArrayRead(all, &a));
-  for (PetscInt k = 0; k < m->nv; k++)
-    for (int c = 0; c < 3; c++) (*out)[3 * k + c] = a[3 * order[k] + c];
-  PetscCall(VecRestoreArrayRead(all, &a));
-  PetscCall(PetscFree2(keys, order));
-  PetscCall(VecDestroy(&all));
-  PetscCall(VecScatterDestroy(&sc));
-  PetscFunctionReturn(0);
-}
-
 static PetscErrorCode TestRestEquilibrium(VKMaterial mat)
 {
   VKScene   s;
@@ -306,7 +281,7 @@ static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton
   PetscCall(TSSetTimeStep(sim->ts, 1.0 / 150));
   PetscCall(TSSetMaxTime(sim->ts, 5.0 / 150));
   PetscCall(VKSimRun(sim));
-  PetscCall(GatherByKey(mat->mesh, sim->x, xk));
+  PetscCall(VKTestGatherByKey(mat->mesh, sim->x, xk));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&s));
   PetscFunctionReturn(0);

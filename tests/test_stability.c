@@ -134,18 +134,13 @@ static PetscErrorCode Crumpled(VKMesh m, Vec x)
   PetscFunctionReturn(0);
 }
 
-/* Run one case; final positions by node key, stats, energies. */
-static PetscErrorCode Run(MPI_Comm comm, Scene which, PetscReal **xk, VKTSPDStats *st, PetscReal e[3], PetscInt *inverted0)
+/* Run one case; final positions by node key (nv nodes), stats, energies. */
+static PetscErrorCode Run(MPI_Comm comm, Scene which, PetscReal **xk, PetscInt *nv, VKTSPDStats *st, PetscReal e[3], PetscInt *inverted0)
 {
   Patch     p;
   VKScene   s;
   VKSim     sim;
   PetscReal dt, T;
-  VecScatter sc;
-  Vec       all;
-  uint64_t *keys;
-  PetscInt *order;
-  const PetscScalar *a;
 
   PetscFunctionBegin;
   PetscCall(Build(comm, &p));
@@ -171,18 +166,8 @@ static PetscErrorCode Run(MPI_Comm comm, Scene which, PetscReal **xk, VKTSPDStat
   PetscCall(VKSimRun(sim));
   PetscCall(VKTSPDGetStats(sim->ts, st));
   for (int k = 0; k < 3; k++) e[k] = sim->energy[k];
-  PetscCall(VecScatterCreateToAll(sim->x, &sc, &all));
-  PetscCall(VecScatterBegin(sc, sim->x, all, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sc, sim->x, all, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(KeyOrder(p.m, &keys, &order));
-  PetscCall(PetscMalloc1(3 * p.m->nv + 1, xk));
-  PetscCall(VecGetArrayRead(all, &a));
-  for (PetscInt k = 0; k < p.m->nv; k++)
-    for (int c = 0; c < 3; c++) (*xk)[3 * k + c] = a[3 * order[k] + c];
-  PetscCall(VecRestoreArrayRead(all, &a));
-  PetscCall(PetscFree2(keys, order));
-  PetscCall(VecDestroy(&all));
-  PetscCall(VecScatterDestroy(&sc));
+  PetscCall(VKTestGatherByKey(p.m, sim->x, xk));
+  *nv = p.m->nv;
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&s));
   PetscCall(PatchDestroy(&p));
@@ -244,14 +229,8 @@ int main(int argc, char **argv)
     PetscInt    inv0, inv0s;
     PetscBool   finite = PETSC_TRUE;
     PetscInt    nv;
-    PetscCall(Run(PETSC_COMM_WORLD, w, &xp, &sp, ep, &inv0));
-    PetscCall(Run(PETSC_COMM_SELF, w, &xs, &ss, es, &inv0s));
-    {
-      Patch q;
-      PetscCall(Build(PETSC_COMM_SELF, &q));
-      nv = q.m->nv;
-      PetscCall(PatchDestroy(&q));
-    }
+    PetscCall(Run(PETSC_COMM_WORLD, w, &xp, &nv, &sp, ep, &inv0));
+    PetscCall(Run(PETSC_COMM_SELF, w, &xs, &nv, &ss, es, &inv0s));
     for (PetscInt i = 0; i < 3 * nv; i++) {
       finite = (PetscBool)(finite && !PetscIsInfOrNanReal(xp[i]));
       d      = PetscMax(d, PetscAbsReal(xp[i] - xs[i]));

@@ -223,6 +223,7 @@ static PetscErrorCode AssembleK(VKPD pd)
   }
   PetscCall(MatDestroy(&pd->Kel));
   PetscCall(MatDuplicate(pd->K, MAT_COPY_VALUES, &pd->Kel));
+  PetscCallMPI(MPI_Allreduce(&pd->nhandle, &pd->nhandle_total, 1, MPIU_INT, MPI_SUM, pd->comm));
   PetscCall(MatZeroRowsColumns(pd->Kel, pd->nhandle, pd->handle_row, pd->kdiag, NULL, NULL));
   PetscCall(MatSetOption(pd->Kel, MAT_SPD, PETSC_TRUE));
   PetscCall(KSPSetOperators(pd->ksp, pd->Kel, pd->Kel));
@@ -267,15 +268,12 @@ PetscErrorCode VKPDSetUp(VKPD pd)
 
 PetscErrorCode VKPDView(VKPD pd, PetscViewer viewer)
 {
-  PetscInt nh;
-
   PetscFunctionBegin;
-  PetscCallMPI(MPI_Allreduce(&pd->nhandle, &nh, 1, MPIU_INT, MPI_SUM, pd->comm));
   {
     char cheb[128] = "", newton[128] = "";
     if (pd->cheb_rho > 0) PetscCall(PetscSNPrintf(cheb, sizeof(cheb), ", Chebyshev rho %g gamma %g after %d", (double)pd->cheb_rho, (double)pd->cheb_gamma, (int)pd->cheb_delay));
     if (pd->newton_its) PetscCall(PetscSNPrintf(newton, sizeof(newton), ", then up to %d Newton iterations to rtol %g", (int)pd->newton_its, (double)pd->newton_rtol));
-    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics: dt %g s, rtol %g, atol %g, max_it %d, %d handle nodes%s%s\n", (double)pd->dt, (double)pd->rtol, (double)pd->atol, (int)pd->max_it, (int)nh, cheb, newton));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics: dt %g s, rtol %g, atol %g, max_it %d, %d eliminated nodes%s%s\n", (double)pd->dt, (double)pd->rtol, (double)pd->atol, (int)pd->max_it, (int)pd->nhandle_total, cheb, newton));
   }
   PetscCall(PetscViewerASCIIPushTab(viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "global step (prefix -pd_global_):\n"));

@@ -100,9 +100,7 @@ PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
   pd->ysnes = NULL;
   PetscCall(SNESGetIterationNumber(pd->snes, &its));
   st->newton_its = its;
-  PetscCall(VKPDObjective(pd, y, x, &st->phi));
-  PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
-  PetscCall(VKPDGradient(pd, y, x, pd->r));
+  PetscCall(VKPDEvaluate(pd, y, x, &st->phi, pd->r, &st->energy, &st->inverted));
   PetscCall(VecNorm(pd->r, NORM_2, &st->residual));
   if (PetscIsInfOrNanReal(st->phi) || PetscIsInfOrNanReal(st->residual)) {
     st->reason         = VK_PD_DIVERGED_NAN;

@@ -157,15 +157,13 @@ PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
 static PetscErrorCode GlobalStep(VKPD pd, Vec b, Vec x, Vec xhat, PetscBool *ok)
 {
   KSPConvergedReason reason;
-  PetscInt           nh;
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
-  PetscCallMPI(MPI_Allreduce(&pd->nhandle, &nh, 1, MPIU_INT, MPI_SUM, pd->comm));
   *ok = PETSC_TRUE;
   for (PetscInt c = 0; c < 3; c++) {
     PetscCall(VecStrideGather(b, c, pd->bc, INSERT_VALUES));
-    if (nh) {
+    if (pd->nhandle_total) {
       PetscScalar       *ba;
       const PetscScalar *da;
       PetscCall(MatMult(pd->K, pd->xd[c], pd->rc));
@@ -242,7 +240,7 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
   PetscCall(InertialTarget(pd, y));
   if (colliders) PetscCall(Collide(pd, t, prev, x, &st->contacts));
   for (PetscInt it = 0;; it++) {
-    PetscBool ok;
+    PetscBool ok = PETSC_FALSE;
     t1 = VKWallTime();
     PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
     PetscCall(VecAXPY(pd->b, 1, pd->My));
@@ -292,27 +290,36 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKPDObjective(VKPD pd, Vec y, Vec x, PetscReal *phi)
+PetscErrorCode VKPDEvaluate(VKPD pd, Vec y, Vec x, PetscReal *phi, Vec g, PetscReal *E, PetscInt *inverted)
 {
-  PetscReal T, E;
+  PetscReal energy, T, norm;
 
   PetscFunctionBegin;
   PetscCall(VKPDSetUp(pd));
-  PetscCall(VKPDLocalStep(pd, x, pd->b, &E, NULL));
-  PetscCall(KineticTerm(pd, x, y, &T));
-  *phi = T + E;
+  PetscCall(VKPDLocalStep(pd, x, pd->b, &energy, inverted));
+  if (E) *E = energy;
+  if (phi) {
+    PetscCall(KineticTerm(pd, x, y, &T));
+    *phi = T + energy;
+  }
+  if (g) {
+    PetscCall(InertialTarget(pd, y));
+    PetscCall(VecAXPY(pd->b, 1, pd->My));
+    PetscCall(Residual(pd, x, pd->b, g, PETSC_FALSE, &norm));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDObjective(VKPD pd, Vec y, Vec x, PetscReal *phi)
+{
+  PetscFunctionBegin;
+  PetscCall(VKPDEvaluate(pd, y, x, phi, NULL, NULL, NULL));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKPDGradient(VKPD pd, Vec y, Vec x, Vec g)
 {
-  PetscReal E, norm;
-
   PetscFunctionBegin;
-  PetscCall(VKPDSetUp(pd));
-  PetscCall(InertialTarget(pd, y));
-  PetscCall(VKPDLocalStep(pd, x, pd->b, &E, NULL));
-  PetscCall(VecAXPY(pd->b, 1, pd->My));
-  PetscCall(Residual(pd, x, pd->b, g, PETSC_FALSE, &norm));
+  PetscCall(VKPDEvaluate(pd, y, x, NULL, g, NULL, NULL));
   PetscFunctionReturn(0);
 }
