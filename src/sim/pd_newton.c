@@ -3,7 +3,11 @@
  * SNES (prefix -pd_newton_) on F(x) = grad Phi(x) = M (x - y)/dt^2 +
  * grad E(x) with the exact Hessian M/dt^2 + d2E/dx2 (VKMaterialHessian,
  * not projected), handle rows and columns eliminated, and a backtracking
- * line search on Phi itself.  Defaults: newtonls, bt, MUMPS LU. */
+ * line search on |grad Phi|^2.  (A line search on Phi itself stalls near
+ * the minimum: the decrease |g|^2/H drops below the round-off of Phi long
+ * before |g| reaches 1e-12 relative.)  Newton runs after PD, close to the
+ * minimum, so the gradient merit does not lead it to a saddle.  Defaults:
+ * newtonls, bt, MUMPS LU. */
 #include <vkpd.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -15,16 +19,6 @@ static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
   PetscFunctionBegin;
   (void)snes;
   PetscCall(VKPDGradient(pd, *pd->ysnes, x, F));
-  PetscFunctionReturn(0);
-}
-
-static PetscErrorCode NewtonObjective(SNES snes, Vec x, PetscReal *phi, void *ctx)
-{
-  VKPD pd = (VKPD)ctx;
-
-  PetscFunctionBegin;
-  (void)snes;
-  PetscCall(VKPDObjective(pd, *pd->ysnes, x, phi));
   PetscFunctionReturn(0);
 }
 
@@ -74,7 +68,6 @@ static PetscErrorCode NewtonCreate(VKPD pd)
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
   PetscCall(SNESSetFunction(pd->snes, NULL, NewtonFunction, pd));
-  PetscCall(SNESSetObjective(pd->snes, NewtonObjective, pd));
   PetscCall(SNESSetJacobian(pd->snes, pd->H, pd->H, NewtonJacobian, pd));
   PetscCall(SNESSetFromOptions(pd->snes));
   PetscFunctionReturn(0);
