@@ -16,6 +16,8 @@ typedef struct {
   PetscReal U[9], W[9], s[3]; /* signed SVD */
 } VKSVD3;
 PETSC_EXTERN void VKSVD3Compute(const PetscReal F[], VKSVD3 *);
+/* The same, Jacobi started from the rotation W0 (a warm start). */
+PETSC_EXTERN void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *);
 /* Eigen-decomposition of a symmetric 3x3 matrix: A = Q diag(l) Q^T. */
 PETSC_EXTERN void VKSymEig3(const PetscReal A[], PetscReal l[], PetscReal Q[]);
 
@@ -27,6 +29,8 @@ typedef struct {
   PetscBool fixed[3];
 } VKVolumeProjection;
 PETSC_EXTERN PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *);
+/* The same without J (the PD local step). */
+PETSC_EXTERN PetscErrorCode VKProjectVolumeValue(const PetscReal s[], VKVolumeProjection *);
 
 /* Everything psi needs at one F. */
 typedef struct {
@@ -36,6 +40,9 @@ typedef struct {
   PetscReal          psi_s, psi_v; /* |F - R|^2, |F - V|^2 */
 } VKPsiState;
 PETSC_EXTERN PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *);
+/* The same without d shat/ds (enough for psi, R, V and the gradient), the
+ * SVD warm-started from W0 (NULL: cold). */
+PETSC_EXTERN PetscErrorCode VKPsiProject(const PetscReal F[], const PetscReal W0[], VKPsiState *);
 /* dpsi/dF = 2 g_s (F - R) + 2 g_v (F - V) */
 PETSC_EXTERN void VKPsiGradient(const VKPsiState *, const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[]);
 /* d2psi/dF2 (81 entries) from the analytic eigensystem of isotropic
@@ -52,8 +59,10 @@ PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, co
 
 /* The local step of projective dynamics (DESIGN §7) for one tet: the
  * energy V psi and the tet's share of the global right-hand side,
- * rhs[3a + r] = 2 V sum_c (g_s R + g_v V)_rc G_ca, and det F. */
-PETSC_EXTERN PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal *E, PetscReal rhs[], PetscReal *det);
+ * rhs[3a + r] = 2 V sum_c (g_s R + g_v V)_rc G_ca, and det F.  W (optional,
+ * in and out) is the tet's right singular rotation from the last call, the
+ * warm start of the SVD. */
+PETSC_EXTERN PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal W[], PetscReal *E, PetscReal rhs[], PetscReal *det);
 
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;

@@ -11,6 +11,9 @@
  * eliminated and factored once; the global step solves three right-hand
  * sides through a KSP with prefix -pd_global_ (MUMPS or CHOLMOD Cholesky,
  * CG + GAMG, or any PC registered later, such as the CMS solver).
+ * Colliders are PD constraints (projection out of the collider, Coulomb
+ * friction) whose weights sit in K for every free node, so a scene with
+ * colliders still factors K once (-pd_contact_weight).
  * Options: -pd_rtol, -pd_atol, -pd_max_it, -pd_monitor, Chebyshev
  * acceleration (-pd_chebyshev_rho), Newton polishing through SNES with the
  * exact Hessian (-pd_newton_its, prefix -pd_newton_). */
@@ -35,7 +38,8 @@ typedef struct {
   PetscInt       iterations, newton_its, fail_iteration;
   PetscReal      residual0, residual; /* |grad Phi| at the start and the end */
   PetscReal      phi, energy;         /* Phi and the elastic energy at the end */
-  PetscInt       inverted, contacts;  /* tets with det F <= 0, nodes on colliders */
+  PetscInt       inverted, contacts;  /* tets with det F <= 0, nodes inside colliders */
+  PetscReal      depth;               /* deepest penetration into a collider (m) */
   PetscLogDouble time_local, time_global, time_other;
 } VKPDStats;
 
@@ -60,15 +64,24 @@ struct _n_VKPD {
   PetscInt  nhandle, nscene, *handle_node, *handle_id, *handle_row;
   PetscInt  nhandle_total; /* over all ranks */
   PetscInt  *node_handle; /* per owned node: handle, VK_SCENE_MAX if frozen, or -1 */
-  /* contacts of the current solve: per owned node flag and outward normal */
+  /* colliders (DESIGN §7): every free owned node carries the PD constraint
+   * w_i/2 |x_i - P(x_i)|^2, P the projection out of the colliders with
+   * Coulomb friction relative to the node's position at the start of the
+   * step; w_i = contact_weight * K_ii is in K, so K stays constant.
+   * contact[i] is set when x_i is inside a collider. */
+  PetscReal  contact_weight;
+  PetscReal *contact_w;
   PetscBool *contact;
-  PetscReal *contact_normal;
+  PetscReal  t;    /* time of the current solve (handles, moving colliders) */
+  Vec        prev; /* start of the step (friction reference), or NULL */
+  PetscReal *tetW; /* per owned tet: W of its last SVD (warm start) */
   /* global step */
   Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
   PetscReal kdiag;  /* diagonal put on eliminated rows */
   PetscReal res_floor; /* round-off level of |grad Phi|: 1e-12 kdiag L (N) */
   KSP       ksp;
   Vec       xc, bc, rc, xd[3];   /* scalar work; handle values per coordinate */
+  Mat       B, X;                /* dense n x 3: right-hand sides and solutions of the global step */
   Vec       b, My, xold, xhat, x1, r; /* block-3 ghosted work */
   /* Newton */
   SNES      snes;
@@ -99,7 +112,9 @@ PETSC_EXTERN PetscErrorCode VKPDMaterialChanged(VKPD);
 PETSC_EXTERN PetscErrorCode VKPDSolve(VKPD, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *);
 /* Set the handle nodes of x to their positions at time t. */
 PETSC_EXTERN PetscErrorCode VKPDApplyHandles(VKPD, PetscReal t, Vec x);
-/* Phi(x), and grad Phi(x) with the handle rows zeroed. */
+/* Phi(x), and grad Phi(x) with the handle rows zeroed.  Collider terms are
+ * evaluated at the time of the last VKPDSolve (0 before any) with friction
+ * relative to its start position. */
 PETSC_EXTERN PetscErrorCode VKPDObjective(VKPD, Vec y, Vec x, PetscReal *phi);
 PETSC_EXTERN PetscErrorCode VKPDGradient(VKPD, Vec y, Vec x, Vec g);
 /* All of them from one local step: Phi, grad Phi (handle rows zeroed), the

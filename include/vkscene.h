@@ -73,6 +73,8 @@ PETSC_EXTERN PetscErrorCode VKSceneDestroy(VKScene *);
 PETSC_EXTERN PetscInt VKSceneHandleOf(VKScene, const PetscReal X[]);
 /* Position at time t of the handle point with rest position X. */
 PETSC_EXTERN void VKSceneHandlePosition(VKScene, PetscInt handle, const PetscReal X[], PetscReal t, PetscReal p[]);
+/* How deep p lies inside the colliders at time t (0 outside all). */
+PETSC_EXTERN PetscReal VKSceneDepth(VKScene, PetscReal t, const PetscReal p[]);
 /* Push a point out of every collider at time t (closest surface point),
  * with Coulomb friction against its motion since `prev` (position at the
  * start of the step, dt before t): the tangential motion relative to the

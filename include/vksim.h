@@ -25,7 +25,7 @@ PETSC_EXTERN PetscErrorCode VKTSPDGetVelocity(TS, Vec *);
 /* Statistics of the last step and totals over all steps so far. */
 typedef struct {
   PetscInt       steps, iterations, iterations_max, newton_its, inverted_max, contacts_max, max_it_steps;
-  PetscReal      residual_rel_max, residual_rel_last;
+  PetscReal      residual_rel_max, residual_rel_last, depth_max;
   PetscLogDouble time_local, time_global, time_other;
   VKPDStats      last;
 } VKTSPDStats;

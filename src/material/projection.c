@@ -209,7 +209,54 @@ static void TryActiveSet(const PetscReal s[], const PetscBool held[], PetscReal 
   }
 }
 
-PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *proj)
+/* The common case, in a few flops: every s_i > 2 VK_SHAT_MIN and the
+ * all-plus branch x_i(lambda) = (s_i + sqrt(s_i^2 - 4 lambda)) / 2 (C = 1;
+ * each x_i solves its KKT equation exactly), Newton on the monotone
+ * g(lambda) = x_1 x_2 x_3 - 1 from the linearized multiplier
+ * lambda0 = (1 - 1/prod s) / sum s_i^-2.  Accepted when g reaches round-off
+ * inside the bound and no other candidate can be closer: a minus branch
+ * moves its component by more than s_m / 2 and a held component by
+ * s_i - VK_SHAT_MIN > s_i / 2, so |x - s|^2 <= min (s_i / 2)^2 settles it.
+ * Anything else goes to the full search. */
+static PetscBool FastPath(const PetscReal s[], VKVolumeProjection *proj)
+{
+  PetscReal x[3], lambda, cap = PETSC_MAX_REAL, den = 0, d = 0, dmin = PETSC_MAX_REAL;
+
+  for (int i = 0; i < 3; i++) {
+    if (!(s[i] > 2 * VK_SHAT_MIN)) return PETSC_FALSE;
+    den += 1 / (s[i] * s[i]);
+    cap = PetscMin(cap, 0.25 * s[i] * s[i]);
+  }
+  lambda = (1 - 1 / (s[0] * s[1] * s[2])) / den;
+  for (int it = 0;; it++) {
+    PetscReal q[3], g, dg;
+    if (!(lambda < cap)) return PETSC_FALSE;
+    for (int i = 0; i < 3; i++) {
+      q[i] = PetscSqrtReal(s[i] * s[i] - 4 * lambda);
+      x[i] = 0.5 * (s[i] + q[i]);
+    }
+    g  = x[0] * x[1] * x[2] - 1;
+    dg = -(x[1] * x[2] / q[0] + x[0] * x[2] / q[1] + x[0] * x[1] / q[2]);
+    if (PetscAbsReal(g) <= 1e-15) break;
+    if (it == 20) return PETSC_FALSE;
+    lambda -= g / dg;
+  }
+  for (int i = 0; i < 3; i++) {
+    if (!(x[i] >= VK_SHAT_MIN)) return PETSC_FALSE;
+    d += PetscSqr(x[i] - s[i]);
+    dmin = PetscMin(dmin, 0.25 * s[i] * s[i]);
+  }
+  if (!(d <= dmin)) return PETSC_FALSE;
+  for (int i = 0; i < 3; i++) {
+    proj->shat[i]  = x[i];
+    proj->fixed[i] = PETSC_FALSE;
+  }
+  proj->lambda = lambda;
+  return PETSC_TRUE;
+}
+
+/* shat and lambda only (no J). */
+static PetscErrorCode ProjectValue(const PetscReal s[], VKVolumeProjection *proj)
 {
   static const PetscBool sets[7][3] = {
     {0, 0, 0},
@@ -223,18 +270,33 @@ PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *proj)
   PetscReal best = PETSC_MAX_REAL, closer = PETSC_MAX_REAL;
 
   PetscFunctionBegin;
+  proj->nfixed = 0;
+  if (FastPath(s, proj)) PetscFunctionReturn(0);
   TryActiveSet(s, sets[0], &best, &closer, proj);
   if (closer < best) /* the unconstrained minimum breaks the bound: try holding components there */
     for (int a = 1; a < 7; a++) TryActiveSet(s, sets[a], &best, &closer, proj);
   PetscCheck(best < PETSC_MAX_REAL, PETSC_COMM_SELF, PETSC_ERR_CONV_FAILED, "Volume projection found no solution for singular values (%g, %g, %g)", (double)s[0], (double)s[1], (double)s[2]);
+  for (int i = 0; i < 3; i++)
+    if (proj->fixed[i]) proj->nfixed++;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKProjectVolumeValue(const PetscReal s[], VKVolumeProjection *proj)
+{
+  PetscFunctionBegin;
+  PetscCall(ProjectValue(s, proj));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *proj)
+{
+  PetscFunctionBegin;
+  PetscCall(ProjectValue(s, proj));
   { /* J = d shat / d s: top-left block of the inverse KKT matrix */
     int       f[3], k = 0;
     PetscReal K[4][5];
-    proj->nfixed = 0;
-    for (int i = 0; i < 3; i++) {
-      if (proj->fixed[i]) proj->nfixed++;
-      else f[k++] = i;
-    }
+    for (int i = 0; i < 3; i++)
+      if (!proj->fixed[i]) f[k++] = i;
     for (int i = 0; i < 9; i++) proj->J[i] = 0;
     for (int c = 0; c < k; c++) {
       KKTMatrix(proj->shat, f, k, proj->lambda, K);

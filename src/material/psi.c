@@ -19,13 +19,14 @@
  * eigenvalues of Hs and of the flip/twist modes at zero. */
 #include <vkmaterial.h>
 
-PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *st)
+static PetscErrorCode Evaluate(const PetscReal F[], const PetscReal W0[], PetscBool jacobian, VKPsiState *st)
 {
   const PetscReal *U = st->svd.U, *W = st->svd.W;
 
   PetscFunctionBegin;
-  VKSVD3Compute(F, &st->svd);
-  PetscCall(VKProjectVolume(st->svd.s, &st->proj));
+  VKSVD3ComputeFrom(F, W0, &st->svd);
+  if (jacobian) PetscCall(VKProjectVolume(st->svd.s, &st->proj));
+  else PetscCall(VKProjectVolumeValue(st->svd.s, &st->proj));
   for (int r = 0; r < 3; r++)
     for (int c = 0; c < 3; c++) {
       st->R[3 * r + c] = U[3 * r] * W[3 * c] + U[3 * r + 1] * W[3 * c + 1] + U[3 * r + 2] * W[3 * c + 2];
@@ -36,6 +37,20 @@ PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *st)
     st->psi_s += PetscSqr(st->svd.s[i] - 1);
     st->psi_v += PetscSqr(st->svd.s[i] - st->proj.shat[i]);
   }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *st)
+{
+  PetscFunctionBegin;
+  PetscCall(Evaluate(F, NULL, PETSC_TRUE, st));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPsiProject(const PetscReal F[], const PetscReal W0[], VKPsiState *st)
+{
+  PetscFunctionBegin;
+  PetscCall(Evaluate(F, W0, PETSC_FALSE, st));
   PetscFunctionReturn(0);
 }
 

@@ -4,17 +4,31 @@
  * eigensolver used for PSD projections.  Both are cyclic Jacobi methods:
  * one-sided on F (rotations on the right until the columns of F W are
  * orthogonal, which keeps high relative accuracy for small singular
- * values), two-sided on symmetric matrices. */
+ * values), two-sided on symmetric matrices.  The one-sided method may
+ * start from any rotation W0 (F W0 instead of F): from the previous time
+ * step's W the columns are nearly orthogonal already and one or two sweeps
+ * finish, which is what makes the PD local step cheap. */
 #include <vkmaterial.h>
 #include <vkutil.h>
 
 void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
 {
+  VKSVD3ComputeFrom(F, NULL, svd);
+}
+
+void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *svd)
+{
   PetscReal A[9], W[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, norm[3], u[3][3], w[3][3];
   int       order[3] = {0, 1, 2};
 
-  for (int i = 0; i < 9; i++) A[i] = F[i];
+  if (W0) { /* A = F W0: nearly orthogonal columns when W0 is last step's W */
+    for (int i = 0; i < 9; i++) W[i] = W0[i];
+    for (int i = 0; i < 3; i++)
+      for (int j = 0; j < 3; j++) A[3 * i + j] = F[3 * i] * W0[j] + F[3 * i + 1] * W0[3 + j] + F[3 * i + 2] * W0[6 + j];
+  } else
+    for (int i = 0; i < 9; i++) A[i] = F[i];
   for (int sweep = 0; sweep < 30; sweep++) {
+    PetscReal tmax    = 0; /* largest rotation of the sweep, tan */
     PetscBool rotated = PETSC_FALSE;
     for (int p = 0; p < 2; p++)
       for (int q = p + 1; q < 3; q++) {
@@ -30,6 +44,7 @@ void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
         t       = (zeta >= 0 ? 1.0 : -1.0) / (PetscAbsReal(zeta) + PetscSqrtReal(1 + zeta * zeta));
         c       = 1 / PetscSqrtReal(1 + t * t);
         s       = c * t;
+        tmax    = PetscMax(tmax, PetscAbsReal(t));
         for (int i = 0; i < 3; i++) {
           PetscReal ap = A[3 * i + p], aq = A[3 * i + q], wp = W[3 * i + p], wq = W[3 * i + q];
           A[3 * i + p] = c * ap - s * aq;
@@ -38,7 +53,9 @@ void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
           W[3 * i + q] = s * wp + c * wq;
         }
       }
-    if (!rotated) break;
+    /* rotations by angles t <= 1e-8 put back off-diagonal terms of order
+     * t times the (already small) others: round-off, no confirming sweep */
+    if (!rotated || tmax <= 1e-8) break;
   }
   for (int j = 0; j < 3; j++) norm[j] = PetscSqrtReal(A[j] * A[j] + A[3 + j] * A[3 + j] + A[6 + j] * A[6 + j]);
   for (int i = 0; i < 2; i++) /* sort columns by norm, descending */

@@ -28,7 +28,8 @@ PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal
 
   PetscFunctionBegin;
   VKTetDeformation(G, X, F);
-  PetscCall(VKPsiEvaluate(F, &st));
+  if (H) PetscCall(VKPsiEvaluate(F, &st));
+  else PetscCall(VKPsiProject(F, NULL, &st)); /* d shat/ds only for the Hessian */
   if (E) *E = vol * (gs * st.psi_s + gv * st.psi_v);
   if (g) {
     VKPsiGradient(&st, F, gs, gv, P);
@@ -56,14 +57,16 @@ PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal *E, PetscReal rhs[], PetscReal *det)
+PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal W[], PetscReal *E, PetscReal rhs[], PetscReal *det)
 {
   PetscReal  F[9], P[9];
   VKPsiState st;
 
   PetscFunctionBegin;
   VKTetDeformation(G, X, F);
-  PetscCall(VKPsiEvaluate(F, &st));
+  PetscCall(VKPsiProject(F, W, &st));
+  if (W)
+    for (int i = 0; i < 9; i++) W[i] = st.svd.W[i];
   *E = vol * (gs * st.psi_s + gv * st.psi_v);
   for (int i = 0; i < 9; i++) P[i] = 2 * (gs * st.R[i] + gv * st.V[i]);
   NodalForce(G, vol, P, rhs);

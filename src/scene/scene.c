@@ -256,6 +256,14 @@ static PetscReal ColliderDistance(const VKCollider *c, PetscReal t, const PetscR
   return d - c->radius;
 }
 
+PetscReal VKSceneDepth(VKScene s, PetscReal t, const PetscReal p[])
+{
+  PetscReal depth = 0, n[3];
+
+  for (PetscInt i = 0; i < s->ncolliders; i++) depth = PetscMax(depth, -ColliderDistance(&s->collider[i], t, p, n));
+  return depth;
+}
+
 PetscBool VKSceneCollide(VKScene s, PetscReal t, PetscReal dt, const PetscReal prev[], PetscReal p[], PetscReal normal[])
 {
   PetscBool touched = PETSC_FALSE;

@@ -5,7 +5,10 @@
  * layout.  Handles are eliminated symmetrically (rows and columns replaced
  * by kdiag I) into Kel, which the KSP with prefix -pd_global_ factors once
  * per time step size and material; K itself is kept for the true residual
- * and the handle correction of the right-hand side. */
+ * and the handle correction of the right-hand side.  With colliders, each
+ * free node's constraint weight w_i = -pd_contact_weight K_ii is added to
+ * the diagonal, whether or not the node touches a collider, so the factor
+ * survives changes of the contact set. */
 #include <vkpd.h>
 #include <vklog.h>
 
@@ -35,6 +38,7 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   pd->cheb_delay  = 10;
   pd->newton_its  = 0;
   pd->newton_rtol = 1e-10;
+  pd->contact_weight = 1;
   PetscCall(KSPCreate(pd->comm, &pd->ksp));
   PetscCall(KSPSetOptionsPrefix(pd->ksp, "pd_global_"));
   PetscCall(KSPSetType(pd->ksp, KSPPREONLY));
@@ -56,10 +60,13 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscFunctionBegin;
   if (!pd) PetscFunctionReturn(0);
   PetscCall(PetscFree4(pd->handle_node, pd->handle_id, pd->handle_row, pd->node_handle));
-  PetscCall(PetscFree2(pd->contact, pd->contact_normal));
+  PetscCall(PetscFree2(pd->contact, pd->contact_w));
+  PetscCall(PetscFree(pd->tetW));
   PetscCall(PetscFree2(pd->hist_phi, pd->hist_res));
   PetscCall(MatDestroy(&pd->K));
   PetscCall(MatDestroy(&pd->Kel));
+  PetscCall(MatDestroy(&pd->B));
+  PetscCall(MatDestroy(&pd->X));
   PetscCall(MatDestroy(&pd->H));
   PetscCall(KSPDestroy(&pd->ksp));
   PetscCall(SNESDestroy(&pd->snes));
@@ -106,7 +113,9 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsInt("-pd_chebyshev_delay", "Plain PD iterations before the acceleration starts", "VKPDSolve", pd->cheb_delay, &pd->cheb_delay, NULL));
   PetscCall(PetscOptionsInt("-pd_newton_its", "Newton iterations (exact Hessian, SNES prefix -pd_newton_) after PD", "VKPDSolve", pd->newton_its, &pd->newton_its, NULL));
   PetscCall(PetscOptionsReal("-pd_newton_rtol", "Newton stops when |grad Phi| <= rtol |grad Phi(x0)|", "VKPDSolve", pd->newton_rtol, &pd->newton_rtol, NULL));
+  PetscCall(PetscOptionsReal("-pd_contact_weight", "Weight of the collider constraints relative to each node's diagonal of K (penetration ~ force / weight)", "VKPDSolve", pd->contact_weight, &pd->contact_weight, NULL));
   PetscOptionsEnd();
+  PetscCheck(pd->contact_weight > 0 && pd->contact_weight < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_contact_weight must be positive and finite, got %g", (double)pd->contact_weight);
   PetscCheck(pd->rtol >= 0 && pd->rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_rtol must be in [0, 1), got %g", (double)pd->rtol);
   PetscCheck(pd->atol >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_atol must be >= 0, got %g", (double)pd->atol);
   PetscCheck(pd->max_it >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_max_it must be >= 1, got %d", (int)pd->max_it);
@@ -159,7 +168,8 @@ static PetscErrorCode FindHandles(VKPD pd)
   PetscFunctionReturn(0);
 }
 
-/* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e, then Kel. */
+/* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e (+ the collider weights
+ * w_i on free nodes when the scene has colliders), then Kel. */
 static PetscErrorCode AssembleK(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
@@ -205,15 +215,26 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscCall(VecGetArrayRead(d, &da));
     pd->nhandle = pd->nscene;
     for (PetscInt i = 0; i < nown; i++) {
+      pd->contact_w[i] = 0;
       if (pd->node_handle[i] >= 0 && pd->node_handle[i] < VK_SCENE_MAX) continue;
       pd->node_handle[i] = -1;
-      if (da[i] > 1e-14 * pd->kdiag) continue;
+      if (da[i] > 1e-14 * pd->kdiag) {
+        if (pd->scene->ncolliders) pd->contact_w[i] = pd->contact_weight * da[i];
+        continue;
+      }
       pd->node_handle[i]            = VK_SCENE_MAX; /* frozen */
       pd->handle_node[pd->nhandle]  = i;
       pd->handle_id[pd->nhandle]    = -1;
       pd->handle_row[pd->nhandle++] = L->nStart + i;
     }
     PetscCall(VecRestoreArrayRead(d, &da));
+    if (pd->scene->ncolliders) {
+      PetscScalar *wa;
+      PetscCall(VecGetArray(d, &wa));
+      for (PetscInt i = 0; i < nown; i++) wa[i] = pd->contact_w[i];
+      PetscCall(VecRestoreArray(d, &wa));
+      PetscCall(MatDiagonalSet(pd->K, d, ADD_VALUES));
+    }
     PetscCall(VecDestroy(&d));
   }
   {
@@ -241,7 +262,10 @@ PetscErrorCode VKPDSetUp(VKPD pd)
   if (!pd->setup) {
     PetscInt nown = pd->mesh->layout.nEnd - pd->mesh->layout.nStart;
     PetscCall(FindHandles(pd));
-    PetscCall(PetscCalloc2(nown + 1, &pd->contact, 3 * nown + 1, &pd->contact_normal));
+    PetscInt ne = pd->mesh->layout.eEnd - pd->mesh->layout.eStart;
+    PetscCall(PetscCalloc2(nown + 1, &pd->contact, nown + 1, &pd->contact_w));
+    PetscCall(PetscCalloc1(9 * ne + 1, &pd->tetW));
+    for (PetscInt e = 0; e < ne; e++) pd->tetW[9 * e] = pd->tetW[9 * e + 4] = pd->tetW[9 * e + 8] = 1;
     PetscCall(VKMeshCreateNodeVec(pd->mesh, 3, &pd->b));
     PetscCall(VecDuplicate(pd->b, &pd->My));
     PetscCall(VecDuplicate(pd->b, &pd->xold));
@@ -256,6 +280,13 @@ PetscErrorCode VKPDSetUp(VKPD pd)
       PetscCall(MatCreateVecs(pd->K, &pd->xc, &pd->bc));
       PetscCall(VecDuplicate(pd->xc, &pd->rc));
       for (int c = 0; c < 3; c++) PetscCall(VecDuplicate(pd->xc, &pd->xd[c]));
+      {
+        PetscInt n, N;
+        PetscCall(VecGetLocalSize(pd->xc, &n));
+        PetscCall(VecGetSize(pd->xc, &N));
+        PetscCall(MatCreateDense(pd->comm, n, PETSC_DECIDE, N, 3, NULL, &pd->B));
+        PetscCall(MatCreateDense(pd->comm, n, PETSC_DECIDE, N, 3, NULL, &pd->X));
+      }
     }
     {
       PetscBool preonly;
@@ -270,10 +301,11 @@ PetscErrorCode VKPDView(VKPD pd, PetscViewer viewer)
 {
   PetscFunctionBegin;
   {
-    char cheb[128] = "", newton[128] = "";
+    char cheb[128] = "", newton[128] = "", contact[96] = "";
+    if (pd->scene->ncolliders) PetscCall(PetscSNPrintf(contact, sizeof(contact), ", collider constraints of weight %g K_ii", (double)pd->contact_weight));
     if (pd->cheb_rho > 0) PetscCall(PetscSNPrintf(cheb, sizeof(cheb), ", Chebyshev rho %g gamma %g after %d", (double)pd->cheb_rho, (double)pd->cheb_gamma, (int)pd->cheb_delay));
     if (pd->newton_its) PetscCall(PetscSNPrintf(newton, sizeof(newton), ", then up to %d Newton iterations to rtol %g", (int)pd->newton_its, (double)pd->newton_rtol));
-    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics: dt %g s, rtol %g, atol %g, max_it %d, %d eliminated nodes%s%s\n", (double)pd->dt, (double)pd->rtol, (double)pd->atol, (int)pd->max_it, (int)pd->nhandle_total, cheb, newton));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics: dt %g s, rtol %g, atol %g, max_it %d, %d eliminated nodes%s%s%s\n", (double)pd->dt, (double)pd->rtol, (double)pd->atol, (int)pd->max_it, (int)pd->nhandle_total, cheb, newton, contact));
   }
   PetscCall(PetscViewerASCIIPushTab(viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "global step (prefix -pd_global_):\n"));

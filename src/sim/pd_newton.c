@@ -2,7 +2,9 @@
  * equilibrium (the fitting needs |grad Phi| <= 1e-5 relative and better).
  * SNES (prefix -pd_newton_) on F(x) = grad Phi(x) = M (x - y)/dt^2 +
  * grad E(x) with the exact Hessian M/dt^2 + d2E/dx2 (VKMaterialHessian,
- * not projected), handle rows and columns eliminated, and a backtracking
+ * not projected; a collider constraint adds w_i I at nodes inside a
+ * collider, exact while friction sticks), handle rows and columns
+ * eliminated, and a backtracking
  * line search on |grad Phi|^2.  (A line search on Phi itself stalls near
  * the minimum: the decrease |g|^2/H drops below the round-off of Phi long
  * before |g| reaches 1e-12 relative.)  Newton runs after PD, close to the
@@ -37,7 +39,7 @@ static PetscErrorCode NewtonJacobian(SNES snes, Vec x, Mat J, Mat P, void *ctx)
   PetscCall(VecDuplicate(x, &m));
   PetscCall(VecGetArray(m, &ma));
   for (PetscInt i = 0; i < nown; i++)
-    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt);
+    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
   PetscCall(VecRestoreArray(m, &ma));
   PetscCall(MatDiagonalSet(P, m, ADD_VALUES));
   PetscCall(VecDestroy(&m));

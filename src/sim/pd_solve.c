@@ -1,8 +1,10 @@
 /* pd_solve.c: the PD iterations of one implicit step (DESIGN §7, paper
  * §7.1).  Local step: R_e and V_e of every owned tet (VKTetProject) and
  * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e).
- * True residual grad Phi(x) = K x - b(x) on free nodes (at collider
- * contacts without the normal component that pushes into the collider).
+ * Colliders (DESIGN §7) are PD constraints w_i/2 |x_i - P(x_i)|^2 with
+ * P the projection out of the colliders (VKSceneCollide, with friction);
+ * their local step adds w_i P(x_i) to b, and w_i is already in K.
+ * True residual grad Phi(x) = K x - b(x) on free nodes.
  * Global step: Kel x = b - K x_D (handle values x_D on handle rows), one
  * KSP solve per coordinate.  Optional Chebyshev acceleration (Wang 2015,
  * "A Chebyshev semi-iterative approach for accelerating projective and
@@ -38,7 +40,7 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
     PetscReal       X[12], rhs[12], Ee, det;
     for (int k = 0; k < 4; k++)
       for (int r = 0; r < 3; r++) X[3 * k + r] = a[3 * t[k] + r];
-    PetscCall(VKTetProject(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, pd->mat->gamma[2 * e], pd->mat->gamma[2 * e + 1], &Ee, rhs, &det));
+    PetscCall(VKTetProject(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, pd->mat->gamma[2 * e], pd->mat->gamma[2 * e + 1], pd->tetW + 9 * e, &Ee, rhs, &det));
     VKSumAdd(&sum, Ee);
     if (!(det > 0)) ninv++;
     for (int k = 0; k < 4; k++)
@@ -98,12 +100,10 @@ static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
   PetscFunctionReturn(0);
 }
 
-/* r = K x - b with handle rows zeroed, and at contacts without the normal
- * component pointing into the collider; returns |r|. */
-static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscBool contacts, PetscReal *norm)
+/* r = K x - b with handle rows zeroed; returns |r|. */
+static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscReal *norm)
 {
-  PetscScalar   *ra;
-  const VKLayout *L = &pd->mesh->layout;
+  PetscScalar *ra;
 
   PetscFunctionBegin;
   for (PetscInt c = 0; c < 3; c++) {
@@ -116,15 +116,6 @@ static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscBool contacts,
   PetscCall(VecGetArray(r, &ra));
   for (PetscInt i = 0; i < pd->nhandle; i++)
     for (int c = 0; c < 3; c++) ra[3 * pd->handle_node[i] + c] = 0;
-  if (contacts)
-    for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
-      const PetscReal *n = pd->contact_normal + 3 * i;
-      PetscReal        rn;
-      if (!pd->contact[i]) continue;
-      rn = ra[3 * i] * n[0] + ra[3 * i + 1] * n[1] + ra[3 * i + 2] * n[2];
-      if (rn > 0)
-        for (int c = 0; c < 3; c++) ra[3 * i + c] -= rn * n[c];
-    }
   PetscCall(VecRestoreArray(r, &ra));
   PetscCall(VecNorm(r, NORM_2, norm));
   PetscFunctionReturn(0);
@@ -153,59 +144,109 @@ PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
   PetscFunctionReturn(0);
 }
 
-/* xhat = Kel^{-1} (b - K x_D, x_D on handle rows), coordinate by coordinate. */
+/* xhat = Kel^{-1} (b - K x_D, x_D on handle rows): the three coordinates
+ * as the columns of one dense right-hand side (KSPMatSolve: one pass of a
+ * direct solver's triangular solves serves all three). */
 static PetscErrorCode GlobalStep(VKPD pd, Vec b, Vec x, Vec xhat, PetscBool *ok)
 {
   KSPConvergedReason reason;
+  PetscScalar       *Ba, *Xa;
+  PetscInt           n;
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
-  *ok = PETSC_TRUE;
+  PetscCall(VecGetLocalSize(pd->bc, &n));
+  PetscCall(MatDenseGetArrayWrite(pd->B, &Ba));
+  PetscCall(MatDenseGetArrayWrite(pd->X, &Xa));
   for (PetscInt c = 0; c < 3; c++) {
+    PetscCall(VecPlaceArray(pd->bc, Ba + c * n));
     PetscCall(VecStrideGather(b, c, pd->bc, INSERT_VALUES));
     if (pd->nhandle_total) {
-      PetscScalar       *ba;
       const PetscScalar *da;
       PetscCall(MatMult(pd->K, pd->xd[c], pd->rc));
       PetscCall(VecAXPY(pd->bc, -1, pd->rc));
-      PetscCall(VecGetArray(pd->bc, &ba));
       PetscCall(VecGetArrayRead(pd->xd[c], &da));
-      for (PetscInt i = 0; i < pd->nhandle; i++) ba[pd->handle_node[i]] = pd->kdiag * da[pd->handle_node[i]];
+      for (PetscInt i = 0; i < pd->nhandle; i++) Ba[c * n + pd->handle_node[i]] = pd->kdiag * da[pd->handle_node[i]];
       PetscCall(VecRestoreArrayRead(pd->xd[c], &da));
-      PetscCall(VecRestoreArray(pd->bc, &ba));
     }
+    PetscCall(VecResetArray(pd->bc));
+    PetscCall(VecPlaceArray(pd->xc, Xa + c * n)); /* initial guess for iterative solvers */
     PetscCall(VecStrideGather(x, c, pd->xc, INSERT_VALUES));
-    PetscCall(KSPSolve(pd->ksp, pd->bc, pd->xc));
-    PetscCall(KSPGetConvergedReason(pd->ksp, &reason));
-    if (reason < 0) *ok = PETSC_FALSE;
-    PetscCall(VecStrideScatter(pd->xc, c, xhat, INSERT_VALUES));
+    PetscCall(VecResetArray(pd->xc));
   }
+  PetscCall(MatDenseRestoreArrayWrite(pd->X, &Xa));
+  PetscCall(MatDenseRestoreArrayWrite(pd->B, &Ba));
+  PetscCall(KSPMatSolve(pd->ksp, pd->B, pd->X));
+  PetscCall(KSPGetConvergedReason(pd->ksp, &reason));
+  *ok = reason < 0 ? PETSC_FALSE : PETSC_TRUE;
+  PetscCall(MatDenseGetArrayRead(pd->X, (const PetscScalar **)&Xa));
+  for (PetscInt c = 0; c < 3; c++) {
+    PetscCall(VecPlaceArray(pd->xc, Xa + c * n));
+    PetscCall(VecStrideScatter(pd->xc, c, xhat, INSERT_VALUES));
+    PetscCall(VecResetArray(pd->xc));
+  }
+  PetscCall(MatDenseRestoreArrayRead(pd->X, (const PetscScalar **)&Xa));
   PetscCall(PetscLogEventEnd(VK_EVENT_PDGlobal, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
 
-/* Push free owned nodes out of the colliders; record contacts. */
-static PetscErrorCode Collide(VKPD pd, PetscReal t, Vec prev, Vec x, PetscInt *ncontact)
+/* Local step of the collider constraints: b_i += w_i P(x_i) on free owned
+ * nodes; their energy sum w_i/2 |x_i - P(x_i)|^2, the number of nodes
+ * inside a collider and the deepest penetration. */
+static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt *ncontact, PetscReal *depth)
 {
-  PetscScalar       *xa;
-  const PetscScalar *pa = NULL;
-  const VKLayout    *L  = &pd->mesh->layout;
-  PetscInt           n  = 0;
+  const PetscScalar *xa, *pa = NULL;
+  PetscScalar       *ba;
+  const VKLayout    *L   = &pd->mesh->layout;
+  VKSum              sum = {0, 0};
+  PetscReal          mine[2], all[2], dmax = 0;
+  PetscInt           n = 0;
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_PDCollide, 0, 0, 0, 0));
-  PetscCall(VecGetArray(x, &xa));
-  if (prev) PetscCall(VecGetArrayRead(prev, &pa));
+  PetscCall(VecGetArrayRead(x, &xa));
+  PetscCall(VecGetArray(b, &ba));
+  if (pd->prev) PetscCall(VecGetArrayRead(pd->prev, &pa));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+    const PetscScalar *xi = xa + 3 * i;
+    PetscReal          q[3] = {xi[0], xi[1], xi[2]}, d2 = 0;
     pd->contact[i] = PETSC_FALSE;
     if (pd->node_handle[i] >= 0) continue;
-    pd->contact[i] = VKSceneCollide(pd->scene, t, pd->dt, pa ? pa + 3 * i : xa + 3 * i, xa + 3 * i, pd->contact_normal + 3 * i);
-    if (pd->contact[i]) n++;
+    pd->contact[i] = VKSceneCollide(pd->scene, pd->t, pd->dt, pa ? pa + 3 * i : xi, q, NULL);
+    for (int c = 0; c < 3; c++) {
+      ba[3 * i + c] += pd->contact_w[i] * q[c];
+      d2 += PetscSqr(xi[c] - q[c]);
+    }
+    if (!pd->contact[i]) continue;
+    n++;
+    VKSumAdd(&sum, 0.5 * pd->contact_w[i] * d2);
+    dmax = PetscMax(dmax, VKSceneDepth(pd->scene, pd->t, xi));
   }
-  if (prev) PetscCall(VecRestoreArrayRead(prev, &pa));
-  PetscCall(VecRestoreArray(x, &xa));
-  PetscCallMPI(MPI_Allreduce(&n, ncontact, 1, MPIU_INT, MPI_SUM, pd->comm));
+  if (pd->prev) PetscCall(VecRestoreArrayRead(pd->prev, &pa));
+  PetscCall(VecRestoreArray(b, &ba));
+  PetscCall(VecRestoreArrayRead(x, &xa));
+  mine[0] = VKSumValue(&sum);
+  mine[1] = (PetscReal)n;
+  PetscCallMPI(MPI_Allreduce(mine, all, 2, MPIU_REAL, MPIU_SUM, pd->comm));
+  PetscCallMPI(MPI_Allreduce(&dmax, depth, 1, MPIU_REAL, MPIU_MAX, pd->comm));
+  *Ec       = all[0];
+  *ncontact = (PetscInt)all[1];
   PetscCall(PetscLogEventEnd(VK_EVENT_PDCollide, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* b(x) = local step + M y/dt^2 (+ collider terms); Phi(x) and the elastic
+ * energy; My must hold M y/dt^2. */
+static PetscErrorCode RightHandSide(VKPD pd, Vec y, Vec x, PetscReal *phi, VKPDStats *st)
+{
+  PetscReal T, Ec = 0;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
+  PetscCall(VecAXPY(pd->b, 1, pd->My));
+  if (pd->scene->ncolliders) PetscCall(ContactStep(pd, x, pd->b, &Ec, &st->contacts, &st->depth));
+  PetscCall(KineticTerm(pd, x, y, &T));
+  *phi = T + st->energy + Ec;
   PetscFunctionReturn(0);
 }
 
@@ -213,8 +254,7 @@ PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal t, Vec y, Vec x, VKPDStat
 
 PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *st)
 {
-  PetscBool      colliders = pd->scene->ncolliders > 0 ? PETSC_TRUE : PETSC_FALSE;
-  PetscReal      omega     = 1, T, res;
+  PetscReal      omega = 1, res;
   PetscLogDouble t0 = VKWallTime(), t1;
 
   PetscFunctionBegin;
@@ -238,16 +278,14 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
   }
   PetscCall(VKPDApplyHandles(pd, t, x));
   PetscCall(InertialTarget(pd, y));
-  if (colliders) PetscCall(Collide(pd, t, prev, x, &st->contacts));
+  pd->t    = t;
+  pd->prev = prev;
   for (PetscInt it = 0;; it++) {
     PetscBool ok = PETSC_FALSE;
     t1 = VKWallTime();
-    PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
-    PetscCall(VecAXPY(pd->b, 1, pd->My));
+    PetscCall(RightHandSide(pd, y, x, &st->phi, st));
     st->time_local += VKWallTime() - t1;
-    PetscCall(Residual(pd, x, pd->b, pd->r, colliders, &res));
-    PetscCall(KineticTerm(pd, x, y, &T));
-    st->phi      = T + st->energy;
+    PetscCall(Residual(pd, x, pd->b, pd->r, &res));
     st->residual = res;
     if (it == 0) st->residual0 = res;
     st->iterations = it;
@@ -283,7 +321,6 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
     }
     PetscCall(VecCopy(x, pd->xold));
     PetscCall(VecCopy(pd->xhat, x));
-    if (colliders) PetscCall(Collide(pd, t, prev, x, &st->contacts));
   }
   if (st->reason > 0 && pd->newton_its > 0) PetscCall(VKPDNewton(pd, t, y, x, st));
   st->time_other = VKWallTime() - t0 - st->time_local - st->time_global;
@@ -292,21 +329,18 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
 
 PetscErrorCode VKPDEvaluate(VKPD pd, Vec y, Vec x, PetscReal *phi, Vec g, PetscReal *E, PetscInt *inverted)
 {
-  PetscReal energy, T, norm;
+  VKPDStats st;
+  PetscReal p, norm;
 
   PetscFunctionBegin;
+  PetscCall(PetscMemzero(&st, sizeof(st)));
   PetscCall(VKPDSetUp(pd));
-  PetscCall(VKPDLocalStep(pd, x, pd->b, &energy, inverted));
-  if (E) *E = energy;
-  if (phi) {
-    PetscCall(KineticTerm(pd, x, y, &T));
-    *phi = T + energy;
-  }
-  if (g) {
-    PetscCall(InertialTarget(pd, y));
-    PetscCall(VecAXPY(pd->b, 1, pd->My));
-    PetscCall(Residual(pd, x, pd->b, g, PETSC_FALSE, &norm));
-  }
+  PetscCall(InertialTarget(pd, y));
+  PetscCall(RightHandSide(pd, y, x, &p, &st));
+  if (phi) *phi = p;
+  if (E) *E = st.energy;
+  if (inverted) *inverted = st.inverted;
+  if (g) PetscCall(Residual(pd, x, pd->b, g, &norm));
   PetscFunctionReturn(0);
 }
 

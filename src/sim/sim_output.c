@@ -199,6 +199,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "wall_time", sim->time_run));
   PetscCall(VKJSONInt(&j, "inverted_tets_max", st.inverted_max));
   PetscCall(VKJSONInt(&j, "contacts_max", st.contacts_max));
+  PetscCall(VKJSONReal(&j, "penetration_max", st.depth_max));
   PetscCall(VKJSONObjectBegin(&j, "energy_last_frame"));
   PetscCall(VKJSONReal(&j, "elastic", sim->energy[0]));
   PetscCall(VKJSONReal(&j, "kinetic", sim->energy[1]));

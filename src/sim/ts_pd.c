@@ -60,13 +60,16 @@ static PetscErrorCode TSStep_PD(TS ts)
   PetscCall(VecWAXPY(p->v, -1, p->xprev, x));
   PetscCall(VecScale(p->v, 1 / dt));
   ts->ptime += dt;
-  rel = s->last.residual0 > 0 ? s->last.residual / s->last.residual0 : 0;
+  /* a step that starts at the round-off floor (at rest) says nothing about
+   * the relative residual PD reaches */
+  rel = s->last.residual0 > 0 && s->last.reason != VK_PD_CONVERGED_ATOL ? s->last.residual / s->last.residual0 : 0;
   s->steps++;
   s->iterations += s->last.iterations;
   s->iterations_max = PetscMax(s->iterations_max, s->last.iterations);
   s->newton_its += s->last.newton_its;
   s->inverted_max = PetscMax(s->inverted_max, s->last.inverted);
   s->contacts_max = PetscMax(s->contacts_max, s->last.contacts);
+  s->depth_max    = PetscMax(s->depth_max, s->last.depth);
   if (s->last.reason == VK_PD_MAX_IT) s->max_it_steps++;
   s->residual_rel_max  = PetscMax(s->residual_rel_max, rel);
   s->residual_rel_last = rel;
