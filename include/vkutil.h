@@ -68,6 +68,12 @@ PETSC_EXTERN void VKSpatialHashCellOf(const VKSpatialHash *, const PetscReal p[]
 /* Items of cell c: item[*begin .. *end) (empty if the cell is absent). */
 PETSC_EXTERN void VKSpatialHashItems(const VKSpatialHash *, const PetscInt c[], PetscInt *begin, PetscInt *end);
 
+/* Small dense symmetric matrices (row-major n x n): S = Q diag(l) Q^T by
+ * cyclic Jacobi (work: n^2 reals), and the closest PSD matrix, negative
+ * eigenvalues clamped to zero, in place (work: 2 n^2 + n reals). */
+PETSC_EXTERN void VKSymEigN(PetscInt n, const PetscReal S[], PetscReal l[], PetscReal Q[], PetscReal work[]);
+PETSC_EXTERN void VKProjectPSD(PetscInt n, PetscReal H[], PetscReal work[]);
+
 /* Unit vector along v (left alone if zero). */
 static inline void VKNormalize3(PetscReal v[])
 {
