@@ -1,0 +1,151 @@
+/* test_rod_model.c: the rod model of a knit patch (DESIGN §4):
+ *  - the segment distance equals the minimum over dense samples of both
+ *    segments (to the sampling error) on random, parallel and touching
+ *    pairs;
+ *  - the spatial-hash broad phase finds exactly the admissible pairs closer
+ *    than 2r that a brute-force double loop finds, at rest and deformed;
+ *  - the rest state stores no stretch or bending energy and no force
+ *    from them;
+ *  - Taylor test of the whole model's energy -> gradient on a deformed
+ *    patch with its contact pairs.
+ * ranks: 1
+ */
+#include <vkyarn.h>
+#include <vkrod.h>
+#include "vktest.h"
+
+static PetscRandom rnd;
+
+static PetscReal Rand(void)
+{
+  PetscReal v;
+  PetscRandomGetValueReal(rnd, &v);
+  return 2 * v - 1;
+}
+
+static PetscErrorCode TestDistance(void)
+{
+  PetscReal worst = 0, below = 0;
+
+  PetscFunctionBegin;
+  for (int t = 0; t < 300; t++) {
+    PetscReal p0[3], p1[3], q0[3], q1[3], d, sampled = PETSC_MAX_REAL;
+    const int ns = 400;
+    for (int i = 0; i < 3; i++) {
+      p0[i] = Rand();
+      p1[i] = Rand();
+      q0[i] = Rand();
+      q1[i] = Rand();
+    }
+    if (t % 3 == 1) /* parallel */
+      for (int i = 0; i < 3; i++) q1[i] = q0[i] + (p1[i] - p0[i]) * 0.7;
+    if (t % 3 == 2) /* sharing an end point */
+      for (int i = 0; i < 3; i++) q0[i] = p1[i];
+    d = VKRodSegmentDistance(p0, p1, q0, q1);
+    for (int a = 0; a <= ns; a++)
+      for (int b = 0; b <= ns; b++) {
+        PetscReal s = (PetscReal)a / ns, u = (PetscReal)b / ns, r2 = 0;
+        for (int i = 0; i < 3; i++) r2 += PetscSqr(p0[i] + s * (p1[i] - p0[i]) - q0[i] - u * (q1[i] - q0[i]));
+        sampled = PetscMin(sampled, PetscSqrtReal(r2));
+      }
+    worst = PetscMax(worst, sampled - d); /* sampling overestimates by at most ~ segment length / ns */
+    below = PetscMax(below, d - sampled);
+  }
+  PetscCall(VKTestCheck((PetscBool)(below <= 1e-12 && worst <= 2 * 3.5 / 400), NULL, "segment distance: never above the sampled minimum (%.1e), at most the sampling error below it (%.1e)", (double)below, (double)worst));
+  PetscFunctionReturn(0);
+}
+
+/* Brute force over all admissible pairs; compare with the hash. */
+static PetscErrorCode ComparePairs(const VKRodModel *m, const PetscReal x[], const char what[])
+{
+  PetscInt  np, *pairs, nb = 0, missing = 0, extra = 0;
+  PetscBool *inhash;
+
+  PetscFunctionBegin;
+  PetscCall(VKRodModelFindPairs(m, x, 0, &np, &pairs));
+  PetscCall(PetscCalloc1((size_t)m->nseg * m->nseg + 1, &inhash));
+  for (PetscInt k = 0; k < np; k++) inhash[pairs[2 * k] * m->nseg + pairs[2 * k + 1]] = PETSC_TRUE;
+  for (PetscInt a = 0; a < m->nseg; a++)
+    for (PetscInt b = a + 1; b < m->nseg; b++) {
+      PetscBool close = (PetscBool)(VKRodModelPairAdmissible(m, a, b) && VKRodSegmentDistance(x + 3 * m->seg[2 * a], x + 3 * m->seg[2 * a + 1], x + 3 * m->seg[2 * b], x + 3 * m->seg[2 * b + 1]) < 2 * m->par.radius);
+      nb += close;
+      if (close && !inhash[a * m->nseg + b]) missing++;
+      if (!close && inhash[a * m->nseg + b]) extra++;
+    }
+  PetscCall(VKTestCheck((PetscBool)(np == nb && !missing && !extra && np > 0), NULL, "%s: the spatial hash finds the %d pairs closer than 2r of a brute-force search (%d found, %d missing, %d extra)", what, (int)nb, (int)np, (int)missing, (int)extra));
+  PetscCall(PetscFree(inhash));
+  PetscCall(PetscFree(pairs));
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  VKYarn      y;
+  VKRodModel  m;
+  VKRodParams par;
+  PetscReal  *x, *g, *dx, E[3], mass, length;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd));
+  PetscCall(PetscRandomSetSeed(rnd, 5));
+  PetscCall(PetscRandomSeed(rnd));
+  PetscCall(TestDistance());
+
+  PetscCall(VKYarnCreate(PETSC_COMM_SELF, &y));
+  PetscCall(VKYarnSetKnit(y, "rib1x1", 3, 3));
+  PetscCall(VKYarnSetUp(y));
+  PetscCall(VKYarnGetMass(y, &mass, &length));
+  par.ks     = 50;
+  par.kb     = 1e-7;
+  par.kc     = 1e3;
+  par.radius = y->radius;
+  par.nq     = 3;
+  PetscCall(VKRodModelCreate(&y->curves, &par, mass / length, &m));
+  PetscCall(PetscMalloc3(3 * m.nv, &x, 3 * m.nv, &g, 3 * m.nv, &dx));
+  PetscCall(PetscArraycpy(x, y->curves.x, 3 * m.nv));
+  {
+    PetscReal gmax = 0;
+    PetscCall(VKRodModelEnergy(&m, x, 0, NULL, E, g));
+    for (PetscInt i = 0; i < 3 * m.nv; i++) gmax = PetscMax(gmax, PetscAbsReal(g[i]));
+    PetscCall(VKTestCheck((PetscBool)(E[0] == 0 && E[1] <= 1e-30 && gmax <= 1e-10 * par.ks), NULL, "rest state: stretch energy %.1e J, bending %.1e J, largest force %.1e N (%d vertices, %d bending triples)", (double)E[0], (double)E[1], (double)gmax, (int)m.nv, (int)m.nbend));
+    PetscReal msum = 0;
+    for (PetscInt v = 0; v < m.nv; v++) msum += m.mass[v];
+    PetscCall(VKTestClose(msum, mass, 1e-12 * mass, "vertex masses add up to the yarn mass"));
+  }
+  PetscCall(ComparePairs(&m, x, "rest state"));
+  for (PetscInt i = 0; i < 3 * m.nv; i++) x[i] += 0.3 * y->radius * Rand();
+  PetscCall(ComparePairs(&m, x, "randomly deformed by 0.3 r"));
+  { /* Taylor: energy -> gradient of the whole model, fixed pairs */
+    PetscInt  np, *pairs, pe;
+    PetscReal E0, dE = 0, e[8], order, Ep[3];
+    PetscCall(VKRodModelFindPairs(&m, x, 2 * y->radius, &np, &pairs));
+    PetscCall(VKRodModelEnergy(&m, x, np, pairs, E, g));
+    E0 = E[0] + E[1] + E[2];
+    for (PetscInt i = 0; i < 3 * m.nv; i++) {
+      dx[i] = 1e-3 * y->radius * Rand();
+      dE += g[i] * dx[i];
+    }
+    for (int k = 0; k < 8; k++) {
+      PetscReal *xh, t = PetscPowReal(2, -k);
+      PetscCall(PetscMalloc1(3 * m.nv, &xh));
+      for (PetscInt i = 0; i < 3 * m.nv; i++) xh[i] = x[i] + t * dx[i];
+      PetscCall(VKRodModelEnergy(&m, xh, np, pairs, Ep, NULL));
+      e[k] = PetscAbsReal(Ep[0] + Ep[1] + Ep[2] - E0 - t * dE);
+      PetscCall(PetscFree(xh));
+    }
+    order = VKTestTaylorOrder(8, e, 1e-14 * E0, &pe);
+    PetscCall(VKTestCheck((PetscBool)(pe >= 3 && order > 1.8 && E[2] > 0), NULL, "whole patch (stretch %.2e, bending %.2e, contact %.2e J over %d pairs): Taylor energy -> gradient, order %.2f (%d pairs)", (double)E[0], (double)E[1], (double)E[2], (int)np, (double)order, pe));
+    PetscCall(PetscFree(pairs));
+  }
+  PetscCall(PetscFree3(x, g, dx));
+  PetscCall(VKRodModelDestroy(&m));
+  PetscCall(VKYarnDestroy(&y));
+  PetscCall(PetscRandomDestroy(&rnd));
+  {
+    int rc = VKTestFinish();
+    PetscCall(PetscFinalize());
+    return rc;
+  }
+}
