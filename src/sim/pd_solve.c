@@ -5,8 +5,8 @@
  * P the projection out of the colliders (VKSceneCollide, with friction);
  * their local step adds w_i P(x_i) to b, and w_i is already in K.
  * True residual grad Phi(x) = K x - b(x) on free nodes.
- * Global step: Kel x = b - K x_D (handle values x_D on handle rows), one
- * KSP solve per coordinate.  Optional Chebyshev acceleration (Wang 2015,
+ * Global step: Kel x = b - K x_D (handle values x_D on handle rows), the
+ * three coordinates as one KSPMatSolve.  Optional Chebyshev acceleration (Wang 2015,
  * "A Chebyshev semi-iterative approach for accelerating projective and
  * position-based dynamics"):
  *   x_{k+1} = w_{k+1} (gamma (xhat_{k+1} - x_k) + x_k - x_{k-1}) + x_{k-1},
