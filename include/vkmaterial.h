@@ -98,3 +98,21 @@ PETSC_EXTERN PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial, Mat *J);
 PETSC_EXTERN PetscErrorCode VKMaterialGammaJacobian(VKMaterial, Vec x, Mat J);
 /* A node vector of block size 3 with the rest positions. */
 PETSC_EXTERN PetscErrorCode VKMeshGetRestPositions(VKMesh, Vec x);
+/* Positions of the owned and ghost nodes of a ghosted node vector (ghosts
+ * updated first; 3 per local node), and their release. */
+PETSC_EXTERN PetscErrorCode VKMeshGetLocalPositions(Vec x, Vec *local, const PetscScalar **a);
+PETSC_EXTERN PetscErrorCode VKMeshRestoreLocalPositions(Vec x, Vec *local, const PetscScalar **a);
+/* Node positions X (12) of owned tet e from local positions a, and the
+ * sum of a tet's nodal values v (12) into a local node array out. */
+static inline void VKLayoutGatherTet(const VKLayout *L, PetscInt e, const PetscScalar *a, PetscReal X[])
+{
+  const PetscInt *t = L->local_tet + 4 * e;
+  for (int k = 0; k < 4; k++)
+    for (int r = 0; r < 3; r++) X[3 * k + r] = a[3 * t[k] + r];
+}
+static inline void VKLayoutAddTet(const VKLayout *L, PetscInt e, const PetscReal v[], PetscScalar *out)
+{
+  const PetscInt *t = L->local_tet + 4 * e;
+  for (int k = 0; k < 4; k++)
+    for (int r = 0; r < 3; r++) out[3 * t[k] + r] += v[3 * k + r];
+}

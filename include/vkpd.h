@@ -82,10 +82,11 @@ struct _n_VKPD {
   KSP       ksp;
   Vec       xc, bc, rc, xd[3];   /* scalar work; handle values per coordinate */
   Mat       B, X;                /* dense n x 3: right-hand sides and solutions of the global step */
-  Vec       b, My, xold, xhat, x1, r; /* block-3 ghosted work */
+  Vec       b, My, xold, xhat, r; /* block-3 ghosted work */
   /* Newton */
   SNES      snes;
   Mat       H;
+  Vec       hdiag; /* diagonal added to the material Hessian: M/dt^2 + contact weights */
   const Vec *ysnes; /* inertial target seen by the SNES callbacks */
   PetscInt   step;  /* time step number for messages (set by the caller) */
   /* Phi and |grad Phi| at every iteration of the last solve (max_it + 1) */

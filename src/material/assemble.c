@@ -20,8 +20,7 @@ PetscErrorCode VKMeshGetRestPositions(VKMesh mesh, Vec x)
   PetscFunctionReturn(0);
 }
 
-/* Positions of the owned and ghost nodes (3 per local node). */
-static PetscErrorCode LocalPositions(Vec x, Vec *local, const PetscScalar **a)
+PetscErrorCode VKMeshGetLocalPositions(Vec x, Vec *local, const PetscScalar **a)
 {
   PetscFunctionBegin;
   PetscCall(VecGhostUpdateBegin(x, INSERT_VALUES, SCATTER_FORWARD));
@@ -31,19 +30,12 @@ static PetscErrorCode LocalPositions(Vec x, Vec *local, const PetscScalar **a)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode RestoreLocalPositions(Vec x, Vec *local, const PetscScalar **a)
+PetscErrorCode VKMeshRestoreLocalPositions(Vec x, Vec *local, const PetscScalar **a)
 {
   PetscFunctionBegin;
   PetscCall(VecRestoreArrayRead(*local, a));
   PetscCall(VecGhostRestoreLocalForm(x, local));
   PetscFunctionReturn(0);
-}
-
-static inline void GatherTet(const VKLayout *L, PetscInt e, const PetscScalar *a, PetscReal X[])
-{
-  const PetscInt *t = L->local_tet + 4 * e;
-  for (int k = 0; k < 4; k++)
-    for (int r = 0; r < 3; r++) X[3 * k + r] = a[3 * t[k] + r];
 }
 
 PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
@@ -56,14 +48,14 @@ PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
   PetscReal          mine;
 
   PetscFunctionBegin;
-  PetscCall(LocalPositions(x, &local, &a));
+  PetscCall(VKMeshGetLocalPositions(x, &local, &a));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], Ee;
-    GatherTet(L, e, a, X);
+    VKLayoutGatherTet(L, e, a, X);
     PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, &Ee, NULL, NULL, NULL));
     VKSumAdd(&sum, Ee);
   }
-  PetscCall(RestoreLocalPositions(x, &local, &a));
+  PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
   mine = VKSumValue(&sum);
   PetscCallMPI(MPI_Allreduce(&mine, E, 1, MPIU_REAL, MPIU_SUM, m->comm));
   PetscFunctionReturn(0);
@@ -78,21 +70,19 @@ PetscErrorCode VKMaterialGradient(VKMaterial m, Vec x, Vec g)
   PetscScalar       *ga;
 
   PetscFunctionBegin;
-  PetscCall(LocalPositions(x, &local, &a));
+  PetscCall(VKMeshGetLocalPositions(x, &local, &a));
   PetscCall(VecGhostGetLocalForm(g, &glocal));
   PetscCall(VecSet(glocal, 0));
   PetscCall(VecGetArray(glocal, &ga));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    PetscReal       X[12], ge[12];
-    const PetscInt *t = L->local_tet + 4 * e;
-    GatherTet(L, e, a, X);
+    PetscReal X[12], ge[12];
+    VKLayoutGatherTet(L, e, a, X);
     PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, ge, NULL, NULL));
-    for (int k = 0; k < 4; k++)
-      for (int r = 0; r < 3; r++) ga[3 * t[k] + r] += ge[3 * k + r];
+    VKLayoutAddTet(L, e, ge, ga);
   }
   PetscCall(VecRestoreArray(glocal, &ga));
   PetscCall(VecGhostRestoreLocalForm(g, &glocal));
-  PetscCall(RestoreLocalPositions(x, &local, &a));
+  PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
   PetscCall(VecGhostUpdateBegin(g, ADD_VALUES, SCATTER_REVERSE));
   PetscCall(VecGhostUpdateEnd(g, ADD_VALUES, SCATTER_REVERSE));
   PetscFunctionReturn(0);
@@ -107,14 +97,14 @@ PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
 
   PetscFunctionBegin;
   PetscCall(MatZeroEntries(H));
-  PetscCall(LocalPositions(x, &local, &a));
+  PetscCall(VKMeshGetLocalPositions(x, &local, &a));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], He[144];
-    GatherTet(L, e, a, X);
+    VKLayoutGatherTet(L, e, a, X);
     PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], psd, NULL, NULL, He, NULL));
     PetscCall(MatSetValuesBlockedLocal(H, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, He, ADD_VALUES));
   }
-  PetscCall(RestoreLocalPositions(x, &local, &a));
+  PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
   PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
   PetscFunctionReturn(0);
@@ -158,11 +148,11 @@ PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
 
   PetscFunctionBegin;
   PetscCall(MatZeroEntries(J));
-  PetscCall(LocalPositions(x, &local, &a));
+  PetscCall(VKMeshGetLocalPositions(x, &local, &a));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], dgdg[24], vals[24];
     PetscInt  rows[12], cols[2] = {2 * (L->eStart + e), 2 * (L->eStart + e) + 1};
-    GatherTet(L, e, a, X);
+    VKLayoutGatherTet(L, e, a, X);
     PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
     for (int k = 0; k < 4; k++)
       for (int r = 0; r < 3; r++) {
@@ -172,7 +162,7 @@ PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
       }
     PetscCall(MatSetValues(J, 12, rows, 2, cols, vals, INSERT_VALUES));
   }
-  PetscCall(RestoreLocalPositions(x, &local, &a));
+  PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
   PetscFunctionReturn(0);

@@ -78,7 +78,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(VecDestroy(&pd->My));
   PetscCall(VecDestroy(&pd->xold));
   PetscCall(VecDestroy(&pd->xhat));
-  PetscCall(VecDestroy(&pd->x1));
+  PetscCall(VecDestroy(&pd->hdiag));
   PetscCall(VecDestroy(&pd->r));
   PetscCall(PetscFree(*p));
   PetscFunctionReturn(0);
@@ -195,15 +195,6 @@ static PetscErrorCode AssembleK(VKPD pd)
   PetscCall(MatAssemblyBegin(pd->K, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(pd->K, MAT_FINAL_ASSEMBLY));
   {
-    Vec d;
-    PetscCall(MatCreateVecs(pd->K, &d, NULL));
-    PetscCall(MatGetDiagonal(pd->K, d));
-    PetscCall(VecSum(d, &dsum));
-    PetscCall(VecGetSize(d, &N));
-    PetscCall(VecDestroy(&d));
-  }
-  pd->kdiag = dsum / N;
-  {
     /* Nodes with neither mass nor stiffness (g = 0 all around, no yarn
      * mass) are undetermined: they are frozen where they are, eliminated
      * like handles. */
@@ -212,6 +203,9 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscInt           nown = L->nEnd - L->nStart;
     PetscCall(MatCreateVecs(pd->K, &d, NULL));
     PetscCall(MatGetDiagonal(pd->K, d));
+    PetscCall(VecSum(d, &dsum));
+    PetscCall(VecGetSize(d, &N));
+    pd->kdiag = dsum / N;
     PetscCall(VecGetArrayRead(d, &da));
     pd->nhandle = pd->nscene;
     for (PetscInt i = 0; i < nown; i++) {
@@ -270,7 +264,6 @@ PetscErrorCode VKPDSetUp(VKPD pd)
     PetscCall(VecDuplicate(pd->b, &pd->My));
     PetscCall(VecDuplicate(pd->b, &pd->xold));
     PetscCall(VecDuplicate(pd->b, &pd->xhat));
-    PetscCall(VecDuplicate(pd->b, &pd->x1));
     PetscCall(VecDuplicate(pd->b, &pd->r));
     pd->setup = PETSC_TRUE;
   }

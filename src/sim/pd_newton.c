@@ -29,20 +29,17 @@ static PetscErrorCode NewtonJacobian(SNES snes, Vec x, Mat J, Mat P, void *ctx)
   VKPD            pd = (VKPD)ctx;
   const VKLayout *L  = &pd->mesh->layout;
   PetscInt        nown = L->nEnd - L->nStart, *rows;
-  Vec             m;
   PetscScalar    *ma;
 
   PetscFunctionBegin;
   (void)snes;
   (void)J;
   PetscCall(VKMaterialHessian(pd->mat, x, PETSC_FALSE, P));
-  PetscCall(VecDuplicate(x, &m));
-  PetscCall(VecGetArray(m, &ma));
+  PetscCall(VecGetArray(pd->hdiag, &ma));
   for (PetscInt i = 0; i < nown; i++)
     for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
-  PetscCall(VecRestoreArray(m, &ma));
-  PetscCall(MatDiagonalSet(P, m, ADD_VALUES));
-  PetscCall(VecDestroy(&m));
+  PetscCall(VecRestoreArray(pd->hdiag, &ma));
+  PetscCall(MatDiagonalSet(P, pd->hdiag, ADD_VALUES));
   PetscCall(PetscMalloc1(3 * pd->nhandle + 1, &rows));
   for (PetscInt i = 0; i < pd->nhandle; i++)
     for (int c = 0; c < 3; c++) rows[3 * i + c] = 3 * pd->handle_row[i] + c;
@@ -69,6 +66,7 @@ static PetscErrorCode NewtonCreate(VKPD pd)
   PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
+  PetscCall(VecDuplicate(pd->b, &pd->hdiag));
   PetscCall(SNESSetFunction(pd->snes, NULL, NewtonFunction, pd));
   PetscCall(SNESSetJacobian(pd->snes, pd->H, pd->H, NewtonJacobian, pd));
   PetscCall(SNESSetFromOptions(pd->snes));

@@ -28,28 +28,21 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_PDLocal, 0, 0, 0, 0));
-  PetscCall(VecGhostUpdateBegin(x, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecGhostUpdateEnd(x, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecGhostGetLocalForm(x, &xl));
+  PetscCall(VKMeshGetLocalPositions(x, &xl, &a));
   PetscCall(VecGhostGetLocalForm(b, &bl));
   PetscCall(VecSet(bl, 0));
-  PetscCall(VecGetArrayRead(xl, &a));
   PetscCall(VecGetArray(bl, &ba));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    const PetscInt *t = L->local_tet + 4 * e;
-    PetscReal       X[12], rhs[12], Ee, det;
-    for (int k = 0; k < 4; k++)
-      for (int r = 0; r < 3; r++) X[3 * k + r] = a[3 * t[k] + r];
+    PetscReal X[12], rhs[12], Ee, det;
+    VKLayoutGatherTet(L, e, a, X);
     PetscCall(VKTetProject(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, pd->mat->gamma[2 * e], pd->mat->gamma[2 * e + 1], pd->tetW + 9 * e, &Ee, rhs, &det));
     VKSumAdd(&sum, Ee);
     if (!(det > 0)) ninv++;
-    for (int k = 0; k < 4; k++)
-      for (int r = 0; r < 3; r++) ba[3 * t[k] + r] += rhs[3 * k + r];
+    VKLayoutAddTet(L, e, rhs, ba);
   }
   PetscCall(VecRestoreArray(bl, &ba));
-  PetscCall(VecRestoreArrayRead(xl, &a));
   PetscCall(VecGhostRestoreLocalForm(b, &bl));
-  PetscCall(VecGhostRestoreLocalForm(x, &xl));
+  PetscCall(VKMeshRestoreLocalPositions(x, &xl, &a));
   PetscCall(VecGhostUpdateBegin(b, ADD_VALUES, SCATTER_REVERSE));
   PetscCall(VecGhostUpdateEnd(b, ADD_VALUES, SCATTER_REVERSE));
   Emine   = VKSumValue(&sum);
