@@ -16,4 +16,5 @@ PETSC_EXTERN PetscErrorCode  VKGetOutputDirectory(MPI_Comm, char dir[], size_t s
 PETSC_EXTERN PetscErrorCode  VKCommandYarn(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandMesh(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandSim(MPI_Comm);
+PETSC_EXTERN PetscErrorCode  VKCommandYLS(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandRun(MPI_Comm);

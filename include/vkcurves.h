@@ -55,6 +55,9 @@ PETSC_EXTERN PetscErrorCode VKCurvesResample(const VKCurves *in, PetscReal lengt
 /* Unit normal n1 per segment by parallel transport along each curve
  * (n2 = t x n1). */
 PETSC_EXTERN PetscErrorCode VKCurvesTransportFrames(const VKCurves *, PetscReal n1[]);
+/* Time-parallel transport (DESIGN §3): every segment's n1 rotated by the
+ * minimal rotation taking its tangent at xold to its tangent at xnew. */
+PETSC_EXTERN PetscErrorCode VKTransportFramesInTime(PetscInt nseg, const PetscInt seg[], const PetscReal xold[], const PetscReal xnew[], PetscReal n1[]);
 /* Half the typical distance between touching non-adjacent yarn parts. */
 PETSC_EXTERN PetscErrorCode VKCurvesEstimateRadius(const VKCurves *, PetscReal *radius);
 

@@ -53,9 +53,10 @@ typedef struct {
 PETSC_EXTERN PetscErrorCode VKRodModelCreate(const VKCurves *rest, const VKRodParams *, PetscReal density, VKRodModel *);
 PETSC_EXTERN PetscErrorCode VKRodModelDestroy(VKRodModel *);
 /* Candidate contact pairs at positions x (3 nv): every admissible segment
- * pair with axes closer than 2r + margin, by a spatial hash (linear in the
- * number of segments).  *pairs is PetscMalloc'ed, 2 per pair, a < b. */
-PETSC_EXTERN PetscErrorCode VKRodModelFindPairs(const VKRodModel *, const PetscReal x[], PetscReal margin, PetscInt *npairs, PetscInt **pairs);
+ * pair (a, b), a < b, a in [abeg, aend), with axes closer than 2r + margin,
+ * by a spatial hash (linear in the number of segments).  *pairs is
+ * PetscMalloc'ed, 2 per pair, in increasing order of a. */
+PETSC_EXTERN PetscErrorCode VKRodModelFindPairs(const VKRodModel *, const PetscReal x[], PetscReal margin, PetscInt abeg, PetscInt aend, PetscInt *npairs, PetscInt **pairs);
 /* Whether segments a and b may interact (no shared vertex, not neighbours
  * along a curve), and the distance between two segments' axes. */
 PETSC_EXTERN PetscBool VKRodModelPairAdmissible(const VKRodModel *, PetscInt a, PetscInt b);

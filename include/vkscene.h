@@ -75,6 +75,10 @@ PETSC_EXTERN PetscInt VKSceneHandleOf(VKScene, const PetscReal X[]);
 PETSC_EXTERN void VKSceneHandlePosition(VKScene, PetscInt handle, const PetscReal X[], PetscReal t, PetscReal p[]);
 /* How deep p lies inside the colliders at time t (0 outside all). */
 PETSC_EXTERN PetscReal VKSceneDepth(VKScene, PetscReal t, const PetscReal p[]);
+/* The deepest penetration of p into the colliders grown by `inflate` (a
+ * yarn's radius) at time t: the depth (0 outside all), the outward normal
+ * there and the collider (*which = -1 when outside all). */
+PETSC_EXTERN PetscReal VKSceneContact(VKScene, PetscReal t, const PetscReal p[], PetscReal inflate, PetscReal normal[], PetscInt *which);
 /* Push a point out of every collider at time t (closest surface point),
  * with Coulomb friction against its motion since `prev` (position at the
  * start of the step, dt before t): the tangential motion relative to the

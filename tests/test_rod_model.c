@@ -62,7 +62,7 @@ static PetscErrorCode ComparePairs(const VKRodModel *m, const PetscReal x[], con
   PetscBool *inhash;
 
   PetscFunctionBegin;
-  PetscCall(VKRodModelFindPairs(m, x, 0, &np, &pairs));
+  PetscCall(VKRodModelFindPairs(m, x, 0, 0, m->nseg, &np, &pairs));
   PetscCall(PetscCalloc1((size_t)m->nseg * m->nseg + 1, &inhash));
   for (PetscInt k = 0; k < np; k++) inhash[pairs[2 * k] * m->nseg + pairs[2 * k + 1]] = PETSC_TRUE;
   for (PetscInt a = 0; a < m->nseg; a++)
@@ -120,7 +120,7 @@ int main(int argc, char **argv)
   { /* Taylor: energy -> gradient of the whole model, fixed pairs */
     PetscInt  np, *pairs, pe;
     PetscReal E0, dE = 0, e[8], order, Ep[3];
-    PetscCall(VKRodModelFindPairs(&m, x, 2 * y->radius, &np, &pairs));
+    PetscCall(VKRodModelFindPairs(&m, x, 2 * y->radius, 0, m.nseg, &np, &pairs));
     PetscCall(VKRodModelEnergy(&m, x, np, pairs, E, g));
     E0 = E[0] + E[1] + E[2];
     for (PetscInt i = 0; i < 3 * m.nv; i++) {

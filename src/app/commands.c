@@ -2,12 +2,14 @@
  *   yarn  build or read a yarn model          -> DIR/yarn.h5 .xdmf .json
  *   mesh  enclose it in a voxel tet mesh      -> DIR/mesh.h5 .xdmf .json
  *   sim   simulate the homogenized model over a scene -> DIR/sim.h5 .xdmf .json
+ *   yls   simulate the yarns themselves over a scene -> DIR/yls.h5 .xdmf .csv .json
  *   run   the stages the scene needs, in order (today: yarn, mesh, sim)
  * Each runs in its own PetscLogStage, so -log_view splits the time by
  * stage.  With -help a command lists its options and stops. */
 #include <vkapp.h>
 #include <vkmesh.h>
 #include <vksim.h>
+#include <vkyls.h>
 #include <vkio.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -16,6 +18,7 @@ const VKCommand VKCommands[] = {
   {"yarn", "build or read a yarn model (knit chart, weave, BCC, pyp, HDF5): DIR/yarn.{h5,xdmf,json}", VKCommandYarn},
   {"mesh", "enclose the yarn model in a voxel tet mesh with masses, embedding, METIS domains: DIR/mesh.{h5,xdmf,json}", VKCommandMesh},
   {"sim",  "simulate the homogenized mesh over a scene by projective dynamics (reads DIR/mesh.h5): DIR/sim.{h5,xdmf,json}", VKCommandSim},
+  {"yls",  "simulate the yarn-level model over a scene (reads DIR/yarn.h5 or the -yarn_ options): DIR/yls.{h5,xdmf,csv,json}", VKCommandYLS},
   {"run",  "run the stages the scene needs (today: yarn, mesh, sim)", VKCommandRun},
   {NULL,   NULL, NULL}
 };
@@ -205,26 +208,38 @@ static PetscErrorCode HasYarnOptions(PetscBool *has)
   PetscFunctionReturn(0);
 }
 
+/* The yarn model of a stage that reads it: DIR/yarn.h5 when it exists and
+ * no -yarn_ option is given, otherwise the options. */
+static PetscErrorCode YarnForStage(MPI_Comm comm, const char dir[], VKYarn *y)
+{
+  char      path[PETSC_MAX_PATH_LEN];
+  PetscBool exists = PETSC_FALSE, yarnopts = PETSC_FALSE;
+
+  PetscFunctionBegin;
+  PetscCall(VKPathJoin(dir, "yarn.h5", path, sizeof(path)));
+  PetscCall(VKFileExists(comm, path, &exists));
+  PetscCall(HasYarnOptions(&yarnopts));
+  PetscCall(YarnFromOptions(comm, y));
+  if (exists && !yarnopts) {
+    PetscCall(PetscStrncpy((*y)->file, path, sizeof((*y)->file)));
+    (*y)->source = VK_YARN_H5;
+  }
+  PetscFunctionReturn(0);
+}
+
 /* mesh: the yarn model comes from DIR/yarn.h5 when it exists and no -yarn_
  * option is given, otherwise from the options; only mesh.* is written
  * (mesh.h5 carries the yarn model). */
 PetscErrorCode VKCommandMesh(MPI_Comm comm)
 {
-  char      dir[PETSC_MAX_PATH_LEN], path[PETSC_MAX_PATH_LEN];
+  char      dir[PETSC_MAX_PATH_LEN];
   VKYarn    y;
   VKMesh    m;
-  PetscBool exists = PETSC_FALSE, yarnopts = PETSC_FALSE, help;
+  PetscBool help;
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
-  PetscCall(VKPathJoin(dir, "yarn.h5", path, sizeof(path)));
-  PetscCall(VKFileExists(comm, path, &exists));
-  PetscCall(HasYarnOptions(&yarnopts));
-  PetscCall(YarnFromOptions(comm, &y));
-  if (exists && !yarnopts) {
-    PetscCall(PetscStrncpy(y->file, path, sizeof(y->file)));
-    y->source = VK_YARN_H5;
-  }
+  PetscCall(YarnForStage(comm, dir, &y));
   PetscCall(MeshFromOptions(comm, y, &m));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
@@ -261,6 +276,47 @@ PetscErrorCode VKCommandSim(MPI_Comm comm)
   }
   PetscCall(SimPartsDestroy(&p));
   PetscCall(VKMeshDestroy(&m));
+  PetscCall(VKYarnDestroy(&y));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode YLSView(void *y, PetscViewer v)
+{
+  return VKYLSView((VKYLS)y, v);
+}
+
+/* yls: the yarn-level reference run of the scene. */
+PetscErrorCode VKCommandYLS(MPI_Comm comm)
+{
+  char      dir[PETSC_MAX_PATH_LEN];
+  VKYarn    y;
+  VKScene   scene;
+  VKYLS     yls;
+  PetscBool help;
+
+  PetscFunctionBegin;
+  PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
+  PetscCall(YarnForStage(comm, dir, &y));
+  PetscCall(VKSceneCreate(comm, &scene));
+  PetscCall(VKSceneSetFromOptions(scene));
+  PetscCall(VKYLSCreate(y, scene, &yls));
+  PetscCall(VKYLSSetFromOptions(yls));
+  PetscCall(VKYLSSetOutputDirectory(yls, dir));
+  PetscOptionsBegin(comm, NULL, "Yarn-level simulation outputs", "volknit yls");
+  PetscCall(PetscOptionsName("-yls_view", "Print the simulator, scene and solver after set-up", "VKYLSView", NULL));
+  PetscOptionsEnd();
+  PetscCall(PetscOptionsHasHelp(NULL, &help));
+  if (!help) {
+    if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit yls: yarn model read from %s\n", y->file));
+    PetscCall(YarnStage(y, dir, PETSC_FALSE));
+    PetscCall(PetscLogStagePush(VK_STAGE_YLS));
+    PetscCall(VKYLSSetUp(yls));
+    PetscCall(ViewFromOptions(comm, "-yls_view", YLSView, yls));
+    PetscCall(VKYLSRun(yls));
+    PetscCall(PetscLogStagePop());
+  }
+  PetscCall(VKYLSDestroy(&yls));
+  PetscCall(VKSceneDestroy(&scene));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
 }

@@ -11,8 +11,11 @@
  *    there is no subtraction), projected by a 9x9 eigensolve.
  *  - Contact: a sum of point-pair potentials phi(|r|), r = p - q linear in
  *    the 12 coordinates: d phi/dr = phi' r^, d2 phi/dr2 = phi'' r^ r^T +
- *    (phi'/|r|) (I - r^ r^T); the element Hessian is projected by a 12x12
- *    eigensolve. */
+ *    (phi'/|r|) (I - r^ r^T).  phi'' > 0 always and phi' < 0 (repulsion)
+ *    inside the range, so each point pair's Hessian is PSD once its
+ *    transverse term is dropped: the projection clamps phi'/|r| at 0 point
+ *    by point (a sum of PSD terms, no eigensolve; the contact Hessian is the
+ *    hottest kernel of a yarn-level Newton step). */
 #include <vkrod.h>
 #include <vkutil.h>
 #include <complex.h>
@@ -176,16 +179,12 @@ PetscReal VKRodContact(const PetscReal x[], PetscReal La, PetscReal Lb, PetscRea
         if (H)
           for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++) {
-              PetscReal h = f2 * rh[i] * rh[j] + f1 / rho * ((i == j) - rh[i] * rh[j]);
+              PetscReal h = f2 * rh[i] * rh[j] + (psd ? PetscMax(f1, 0) : f1) / rho * ((i == j) - rh[i] * rh[j]);
               for (int A = 0; A < 4; A++)
                 for (int B = 0; B < 4; B++) H[12 * (3 * A + i) + 3 * B + j] += c[A] * c[B] * h;
             }
       }
     }
-  if (H && psd && n) {
-    PetscReal work[2 * 144 + 12];
-    VKProjectPSD(12, H, work);
-  }
   if (npairs) *npairs = n;
   return E;
 }

@@ -130,7 +130,7 @@ PetscReal VKRodSegmentDistance(const PetscReal p0[], const PetscReal p1[], const
   return PetscSqrtReal(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
 }
 
-PetscErrorCode VKRodModelFindPairs(const VKRodModel *m, const PetscReal x[], PetscReal margin, PetscInt *npairs, PetscInt **pairs)
+PetscErrorCode VKRodModelFindPairs(const VKRodModel *m, const PetscReal x[], PetscReal margin, PetscInt abeg, PetscInt aend, PetscInt *npairs, PetscInt **pairs)
 {
   PetscReal    *lo, *hi, reach = m->par.radius + 0.5 * margin, cell = 0;
   PetscInt     *seen, n = 0, cap = 4 * m->nseg + 16, *out;
@@ -149,7 +149,7 @@ PetscErrorCode VKRodModelFindPairs(const VKRodModel *m, const PetscReal x[], Pet
     seen[s] = -1;
   }
   if (m->nseg) PetscCall(VKSpatialHashBuild(&h, m->nseg, lo, hi, cell));
-  for (PetscInt a = 0; a < m->nseg; a++) {
+  for (PetscInt a = abeg; a < aend; a++) {
     PetscInt c0[3], c1[3], cc[3];
     VKSpatialHashCellOf(&h, lo + 3 * a, c0);
     VKSpatialHashCellOf(&h, hi + 3 * a, c1);

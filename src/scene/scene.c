@@ -264,6 +264,22 @@ PetscReal VKSceneDepth(VKScene s, PetscReal t, const PetscReal p[])
   return depth;
 }
 
+PetscReal VKSceneContact(VKScene s, PetscReal t, const PetscReal p[], PetscReal inflate, PetscReal normal[], PetscInt *which)
+{
+  PetscReal depth = 0, n[3];
+
+  *which = -1;
+  for (PetscInt i = 0; i < s->ncolliders; i++) {
+    PetscReal d = inflate - ColliderDistance(&s->collider[i], t, p, n);
+    if (d > depth) {
+      depth  = d;
+      *which = i;
+      for (int a = 0; a < 3; a++) normal[a] = n[a];
+    }
+  }
+  return depth;
+}
+
 PetscBool VKSceneCollide(VKScene s, PetscReal t, PetscReal dt, const PetscReal prev[], PetscReal p[], PetscReal normal[])
 {
   PetscBool touched = PETSC_FALSE;

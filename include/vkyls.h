@@ -1,0 +1,112 @@
+/* vkyls.h: the yarn-level reference simulator (DESIGN §4).
+ *
+ * DOFs are the yarn vertex positions.  A time step is implicit Euler
+ * written as the minimization of the incremental potential
+ *   Phi(x) = sum_i m_i/(2 dt^2) |x_i - x_n,i - dt v_n,i|^2 + E(x) - sum_i m_i g . x_i
+ *          + damping + colliders,
+ * E the rod energy of vkrod.h (stretch, bending, Kaldor contact) plus glue
+ * springs of the bound edges, damping the viscous term
+ * c_v m_i/(2 dt) |x_i - x_n,i|^2 and the along-segment dashpots
+ * c_s/(2 dt L) ((e_j - e_n,j) . t_n,j)^2, colliders (inflated by r) the
+ * penalty 1/2 k_w depth^2 with lagged, smoothed Coulomb friction.  Newton
+ * steps through a PETSc SNES (prefix -yls_) with the element Hessians
+ * assembled into a parallel Mat (exact, or PSD-projected element by element
+ * when the exact one gives no descent: -yls_hessian); a line search of our
+ * own scales every Newton step so no vertex moves more than -yls_cap x r and
+ * backtracks on Phi, while the contact pairs are re-found before each
+ * Newton iteration within 2r + 2 cap, so no pair can come into range unseen
+ * and no yarn passes through another.  Handle vertices are Dirichlet
+ * vertices placed by the scene.
+ *
+ * Vertices are distributed in contiguous ranges (curve order); each rank
+ * assembles the elements whose first vertex (contact: first segment) it
+ * owns, from a copy of all positions. */
+#pragma once
+#include <petscsnes.h>
+#include <vkrod.h>
+#include <vkscene.h>
+#include <vkyarn.h>
+
+/* Newton's Hessian: every element projected onto the PSD cone; exact; or
+ * exact while it gives a descent direction, projected otherwise. */
+typedef enum { VK_YLS_HESSIAN_PROJECTED, VK_YLS_HESSIAN_EXACT, VK_YLS_HESSIAN_AUTO } VKYLSHessianType;
+PETSC_EXTERN const char *const VKYLSHessianTypes[];
+
+typedef struct {
+  PetscInt       projected_fallbacks;
+  PetscInt       steps, newton_its, newton_its_max, pairs_max, line_search_cuts, capped_steps, pattern_rebuilds;
+  PetscReal      dmin_over_2r; /* smallest distance between non-adjacent segment axes / 2r seen */
+  PetscLogDouble time_assemble, time_solve, time_pairs;
+} VKYLSStats;
+
+typedef struct _n_VKYLS *VKYLS;
+struct _n_VKYLS {
+  MPI_Comm   comm;
+  VKYarn     yarn;
+  VKScene    scene;
+  VKRodModel model;
+  /* parameters */
+  VKRodParams par;
+  PetscReal   density, cv, cs, kw, friction_eps, cap, dt;
+  PetscInt    ls_max_it;
+  PetscBool   relax;                         /* relax the rest state before the run */
+  PetscReal   relax_tau, relax_radius_start; /* pseudo time step; first contact radius / r */
+  PetscInt    relax_stages, relax_max_steps, relax_steps;
+  PetscLogDouble relax_time;
+  PetscInt    nglue;
+  PetscInt   *glue;  /* 2 per glue spring */
+  PetscReal  *Lglue; /* rest lengths */
+  /* layout */
+  PetscInt vbeg, vend, sbeg, send; /* owned vertices and segments */
+  PetscInt *handle;                /* per vertex: scene handle or -1 */
+  PetscInt  nhandle_vertices;
+  /* state */
+  PetscReal t;
+  PetscInt  step;
+  Vec       x, v;                   /* positions and velocities (parallel, 3 per vertex) */
+  PetscReal *xall, *xn, *vn, *tn;   /* replicated: evaluation point, start of step, velocity, start-of-step tangents */
+  PetscReal *normal;                /* per segment n1, carried by time-parallel transport */
+  PetscReal *friction;              /* per vertex: mu x lagged collider normal force, 0 if none */
+  PetscReal *contact_normal;        /* per vertex, 3: lagged collider normal */
+  PetscInt  *contact_collider;      /* per vertex: the collider touched at the start of the step */
+  PetscInt   npairs, *pairs;
+  PetscInt   npattern, *pattern;   /* the pairs the Hessian is preallocated for */
+  VecScatter toall;
+  Vec        xseq;
+  SNES       snes;
+  Mat        J;
+  PetscBool  setup, quiet, relaxing;
+  VKYLSHessianType hessian;
+  PetscBool  psd_now; /* element Hessians of the current Newton iteration projected */
+  VKYLSStats stats;
+  PetscReal  energy[6]; /* last frame: stretch, bending, contact, kinetic, gravity, glue */
+  char       dir[PETSC_MAX_PATH_LEN];
+  void      *out;
+  PetscReal  next_output;
+  PetscInt   frames;
+  PetscLogDouble time_run;
+};
+
+PETSC_EXTERN PetscErrorCode VKYLSCreate(VKYarn, VKScene, VKYLS *);
+/* -yls_* options (stiffnesses, damping, cap, -yls_dt) and the SNES/KSP
+ * options under the prefix yls_. */
+PETSC_EXTERN PetscErrorCode VKYLSSetFromOptions(VKYLS);
+PETSC_EXTERN PetscErrorCode VKYLSSetOutputDirectory(VKYLS, const char dir[]);
+PETSC_EXTERN PetscErrorCode VKYLSSetUp(VKYLS);
+/* Relax the rest state (relax.c): quasi-static solve with the contact
+ * radius grown to r, then rest lengths, curvatures and contact radius reset
+ * to the relaxed state, which becomes the yarn model's rest geometry.
+ * VKYLSRun calls it first unless -yls_relax 0. */
+PETSC_EXTERN PetscErrorCode VKYLSRelax(VKYLS);
+/* One implicit Euler step of dt from the current state. */
+PETSC_EXTERN PetscErrorCode VKYLSStep(VKYLS);
+/* Steps over the scene's duration, frames at its output interval. */
+PETSC_EXTERN PetscErrorCode VKYLSRun(VKYLS);
+PETSC_EXTERN PetscErrorCode VKYLSView(VKYLS, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKYLSDestroy(VKYLS *);
+/* Energies of the current state: stretch, bending, contact, kinetic,
+ * gravity (-sum m g . x), glue; and the total linear momentum. */
+PETSC_EXTERN PetscErrorCode VKYLSEnergies(VKYLS, PetscReal e[6], PetscReal momentum[3]);
+/* Smallest distance between the axes of admissible segment pairs, over 2r
+ * (1 if no pair is within 2r), and the number of pairs within 2r. */
+PETSC_EXTERN PetscErrorCode VKYLSMinDistance(VKYLS, PetscReal *dmin, PetscInt *npairs);

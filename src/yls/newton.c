@@ -1,0 +1,242 @@
+/* newton.c: the SNES that minimizes the incremental potential of a step
+ * (DESIGN §4): Newton (SNESNEWTONLS) on grad Phi = 0 with the PSD-projected
+ * Hessian of potential.c, linear solves by the KSP under the prefix yls_
+ * (default: Cholesky by MUMPS), and a line search of our own (a shell
+ * SNESLineSearch) that
+ *   1. scales the Newton step so no vertex moves more than cap = -yls_cap x r,
+ *   2. backtracks from the capped step until Phi decreases (Armijo, 1e-4).
+ * Contact pairs are re-found before every Newton iteration (SNESSetUpdate)
+ * with a margin of 2 cap: within one line search no segment pair can come
+ * closer than 2r unseen, so Phi is evaluated exactly and the barrier of
+ * every pair that could touch is in it, which is what keeps yarns from
+ * passing through each other.  The Hessian is preallocated for a wider
+ * set of pairs and rebuilt only when a pair outside it appears. */
+#include "ylsimpl.h"
+
+static PetscErrorCode FormFunction(SNES snes, Vec X, Vec F, void *ctx)
+{
+  VKYLS y = (VKYLS)ctx;
+
+  PetscFunctionBegin;
+  (void)snes;
+  PetscCall(PetscLogEventBegin(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
+  PetscCall(VKYLSGather(y, X, y->xall));
+  PetscCall(VKYLSGradient(y, y->xall, F));
+  PetscCall(PetscLogEventEnd(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
+{
+  VKYLS y = (VKYLS)ctx;
+
+  PetscFunctionBegin;
+  (void)snes;
+  (void)J;
+  PetscCall(PetscLogEventBegin(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
+  PetscCall(VKYLSGather(y, X, y->xall));
+  y->psd_now = y->hessian == VK_YLS_HESSIAN_PROJECTED ? PETSC_TRUE : PETSC_FALSE;
+  PetscCall(VKYLSHessian(y, y->xall, P));
+  PetscCall(PetscLogEventEnd(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode SortPairs(VKYLS y, PetscInt n, PetscInt pairs[])
+{
+  uint64_t *key;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(n + 1, &key));
+  for (PetscInt k = 0; k < n; k++) key[k] = (uint64_t)pairs[2 * k] * (uint64_t)y->model.nseg + (uint64_t)pairs[2 * k + 1];
+  PetscCall(VKSortU64(n, key, NULL));
+  for (PetscInt k = 0; k < n; k++) {
+    pairs[2 * k]     = (PetscInt)(key[k] / (uint64_t)y->model.nseg);
+    pairs[2 * k + 1] = (PetscInt)(key[k] % (uint64_t)y->model.nseg);
+  }
+  PetscCall(PetscFree(key));
+  PetscFunctionReturn(0);
+}
+
+/* Whether every pair of the sorted list a is in the sorted list b. */
+static PetscBool Subset(PetscInt na, const PetscInt a[], PetscInt nb, const PetscInt b[])
+{
+  PetscInt j = 0;
+  for (PetscInt i = 0; i < na; i++) {
+    while (j < nb && (b[2 * j] < a[2 * i] || (b[2 * j] == a[2 * i] && b[2 * j + 1] < a[2 * i + 1]))) j++;
+    if (j == nb || b[2 * j] != a[2 * i] || b[2 * j + 1] != a[2 * i + 1]) return PETSC_FALSE;
+  }
+  return PETSC_TRUE;
+}
+
+PetscErrorCode VKYLSFindPairs(VKYLS y, const PetscReal x[])
+{
+  PetscReal      cap = y->cap * y->par.radius;
+  PetscMPIInt    rebuild, any;
+  PetscLogDouble t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_YLSPairs, 0, 0, 0, 0));
+  PetscCall(PetscFree(y->pairs));
+  PetscCall(VKRodModelFindPairs(&y->model, x, 2 * cap, y->sbeg, y->send, &y->npairs, &y->pairs));
+  PetscCall(SortPairs(y, y->npairs, y->pairs));
+  rebuild = !y->J || !Subset(y->npairs, y->pairs, y->npattern, y->pattern);
+  PetscCallMPI(MPI_Allreduce(&rebuild, &any, 1, MPI_INT, MPI_MAX, y->comm));
+  if (any) { /* a wider pattern, so the next few iterations and steps fit in it */
+    Mat J;
+    PetscCall(PetscFree(y->pattern));
+    PetscCall(VKRodModelFindPairs(&y->model, x, 2 * cap + 0.5 * y->par.radius, y->sbeg, y->send, &y->npattern, &y->pattern));
+    PetscCall(SortPairs(y, y->npattern, y->pattern));
+    PetscCall(VKYLSCreateHessian(y, &J));
+    PetscCall(SNESSetJacobian(y->snes, J, J, FormJacobian, y));
+    PetscCall(MatDestroy(&y->J));
+    y->J = J;
+    y->stats.pattern_rebuilds++;
+  }
+  PetscCall(PetscLogEventEnd(VK_EVENT_YLSPairs, 0, 0, 0, 0));
+  y->stats.time_pairs += VKWallTime() - t0;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Update(SNES snes, PetscInt it)
+{
+  VKYLS y;
+  Vec   X;
+
+  PetscFunctionBegin;
+  if (it == 0) PetscFunctionReturn(0); /* VKYLSStep found the pairs at the initial guess */
+  PetscCall(SNESGetApplicationContext(snes, &y));
+  PetscCall(SNESGetSolution(snes, &X));
+  PetscCall(VKYLSGather(y, X, y->xall));
+  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PotentialAt(VKYLS y, Vec X, PetscReal *phi, PetscReal *scale)
+{
+  PetscReal term[YLS_NTERMS];
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGather(y, X, y->xall));
+  PetscCall(VKYLSPotential(y, y->xall, term, NULL, phi));
+  *scale = 0;
+  for (int k = 0; k < YLS_NTERMS; k++) *scale += PetscAbsReal(term[k]);
+  PetscFunctionReturn(0);
+}
+
+/* Scale Y so no vertex moves more than cap; returns the largest motion
+ * before scaling (Inf/NaN when Y is not finite). */
+static PetscErrorCode CapStep(VKYLS y, Vec Y, PetscReal *ymax)
+{
+  const PetscScalar *ya;
+  PetscReal          m = 0, cap = y->cap * y->par.radius;
+  PetscInt           n;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetLocalSize(Y, &n));
+  PetscCall(VecGetArrayRead(Y, &ya));
+  for (PetscInt i = 0; i < n; i += 3) m = PetscMax(m, ya[i] * ya[i] + ya[i + 1] * ya[i + 1] + ya[i + 2] * ya[i + 2]);
+  PetscCall(VecRestoreArrayRead(Y, &ya));
+  PetscCall(MPIU_Allreduce(&m, ymax, 1, MPIU_REAL, MPIU_MAX, y->comm));
+  *ymax = PetscSqrtReal(*ymax);
+  if (*ymax > cap && *ymax < PETSC_INFINITY) {
+    PetscCall(VecScale(Y, cap / *ymax));
+    y->stats.capped_steps++;
+  }
+  PetscFunctionReturn(0);
+}
+
+/* The step is X - lambda Y (SNES convention).  With -yls_hessian auto, an
+ * exact-Hessian direction that does not descend is replaced by the
+ * projected-Hessian one. */
+static PetscErrorCode LineSearch(SNESLineSearch ls, void *ctx)
+{
+  VKYLS     y = (VKYLS)ctx;
+  SNES      snes;
+  Vec       X, F, Y, W, G;
+  PetscReal ymaxall, cap = y->cap * y->par.radius, slope, phi0, phi, scale, lambda = 1, xnorm, fnorm, ynorm;
+  PetscInt  it;
+  PetscBool ok = PETSC_FALSE;
+
+  PetscFunctionBegin;
+  PetscCall(SNESLineSearchGetSNES(ls, &snes));
+  PetscCall(SNESLineSearchGetVecs(ls, &X, &F, &Y, &W, &G));
+  PetscCall(CapStep(y, Y, &ymaxall));
+  PetscCall(VecDot(F, Y, &slope));
+  slope = -slope; /* d Phi(X - lambda Y) / d lambda at 0 */
+  if (!y->psd_now && y->hessian == VK_YLS_HESSIAN_AUTO && !(slope < 0 && ymaxall < PETSC_INFINITY)) {
+    KSP ksp;
+    y->psd_now = PETSC_TRUE;
+    y->stats.projected_fallbacks++;
+    PetscCall(VKYLSGather(y, X, y->xall));
+    PetscCall(VKYLSHessian(y, y->xall, y->J));
+    PetscCall(SNESGetKSP(snes, &ksp));
+    PetscCall(KSPSetOperators(ksp, y->J, y->J));
+    PetscCall(KSPSolve(ksp, F, Y));
+    PetscCall(CapStep(y, Y, &ymaxall));
+    PetscCall(VecDot(F, Y, &slope));
+    slope = -slope;
+  }
+  if (!(ymaxall < PETSC_INFINITY)) {
+    PetscCall(SNESLineSearchSetReason(ls, SNES_LINESEARCH_FAILED_NANORINF));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(PotentialAt(y, X, &phi0, &scale));
+  for (it = 0; it < y->ls_max_it; it++) {
+    PetscCall(VecWAXPY(W, -lambda, Y, X));
+    PetscCall(PotentialAt(y, W, &phi, &scale));
+    /* Armijo, or a change below the round-off of Phi near convergence */
+    if (phi <= phi0 + 1e-4 * lambda * slope || (it == 0 && PetscAbsReal(phi - phi0) <= 1e-13 * scale)) {
+      ok = PETSC_TRUE;
+      break;
+    }
+    lambda *= 0.5;
+    y->stats.line_search_cuts++;
+  }
+  if (!ok || !(slope < 0 || phi <= phi0)) {
+    PetscCall(SNESLineSearchSetReason(ls, SNES_LINESEARCH_FAILED_REDUCT));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(PetscInfo(snes, "yls line search: largest vertex step %g r%s, lambda %g, Phi %.12g -> %.12g\n", (double)(ymaxall / y->par.radius), ymaxall > cap ? " (capped)" : "", (double)lambda, (double)phi0, (double)phi));
+  PetscCall(VecCopy(W, X));
+  PetscCall(SNESComputeFunction(snes, X, F));
+  PetscCall(VecNorm(X, NORM_2, &xnorm));
+  PetscCall(VecNorm(F, NORM_2, &fnorm));
+  PetscCall(VecNorm(Y, NORM_2, &ynorm));
+  PetscCall(SNESLineSearchSetNorms(ls, xnorm, fnorm, lambda * ynorm));
+  PetscCall(SNESLineSearchSetLambda(ls, lambda));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSCreateSNES(VKYLS y)
+{
+  SNESLineSearch ls;
+  KSP            ksp;
+  PC             pc;
+  Vec            r;
+
+  PetscFunctionBegin;
+  PetscCall(SNESCreate(y->comm, &y->snes));
+  PetscCall(SNESSetOptionsPrefix(y->snes, "yls_"));
+  PetscCall(SNESSetType(y->snes, SNESNEWTONLS));
+  PetscCall(SNESSetApplicationContext(y->snes, y));
+  PetscCall(VecDuplicate(y->x, &r));
+  PetscCall(SNESSetFunction(y->snes, r, FormFunction, y));
+  PetscCall(VecDestroy(&r));
+  PetscCall(SNESSetUpdate(y->snes, Update));
+  PetscCall(SNESSetTolerances(y->snes, 1e-10 * PetscMax(y->par.ks, PETSC_SMALL), 1e-6, 1e-10, 50, PETSC_MAX_INT));
+  PetscCall(SNESGetKSP(y->snes, &ksp));
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCCHOLESKY));
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(SNESGetLineSearch(y->snes, &ls));
+  PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
+  PetscCall(SNESSetFromOptions(y->snes));
+  PetscCall(SNESGetLineSearch(y->snes, &ls));
+  {
+    PetscBool shell;
+    PetscCall(PetscObjectTypeCompare((PetscObject)ls, SNESLINESEARCHSHELL, &shell));
+    if (shell) PetscCall(SNESLineSearchShellSetUserFunc(ls, LineSearch, y));
+  }
+  PetscFunctionReturn(0);
+}

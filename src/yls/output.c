@@ -1,0 +1,297 @@
+/* output.c: the frames of a yarn-level run (DESIGN §4):
+ *   DIR/yls.h5    /yarn/... (the yarn model), /frames/NNNNNN/x (n_Y x 3
+ *                 positions), /frames/NNNNNN/normal (n1 per segment, by
+ *                 time-parallel transport), /yls/time, /yls/energy
+ *   DIR/yls.xdmf  a temporal collection of polylines with the normals as a
+ *                 cell attribute, for ParaView
+ *   DIR/yls.csv   one row per frame: time, energies (stretch, bending,
+ *                 contact, glue, kinetic, gravity), contact pairs, minimum
+ *                 distance between non-adjacent segments over 2r, Newton
+ *                 iterations since the previous frame, wall time
+ *   DIR/yls.json  totals, parameters and status.
+ * Every rank holds all positions (the simulator's replicated copy), rank 0
+ * writes; files are written under temporary names and renamed at the end,
+ * also after a failure, with every good frame up to it. */
+#include "ylsimpl.h"
+#include <vkio.h>
+
+#define YLS_FORMAT "volknit-yls 1"
+#define NCOL       11
+
+typedef struct {
+  VKOutput   h5out;
+  VKH5       h5;
+  PetscBool  open;
+  PetscInt   n, cap, its_last;
+  PetscReal *row; /* NCOL per frame */
+} YLSOutput;
+
+static const char *const columns[NCOL] = {"time", "stretch", "bending", "contact", "glue", "kinetic", "gravity", "contact_pairs", "min_distance_over_2r", "newton_its", "wall_time"};
+
+PetscErrorCode VKYLSOutputOpen(VKYLS y)
+{
+  YLSOutput     *o;
+  char           path[PETSC_MAX_PATH_LEN];
+  PetscErrorCode ierr = 0;
+  PetscMPIInt    rank;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSOutputDestroy(y));
+  PetscCall(PetscNew(&o));
+  y->out = o;
+  if (!y->dir[0]) PetscFunctionReturn(0);
+  PetscCall(VKMakeDirectory(y->comm, y->dir));
+  PetscCall(VKPathJoin(y->dir, "yls.h5", path, sizeof(path)));
+  PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
+  if (rank == 0) {
+    ierr = VKOutputBegin(path, PETSC_FALSE, &o->h5out);
+    if (!ierr) ierr = VKH5Create(o->h5out.tmp, &o->h5);
+    if (!ierr) {
+      o->open = PETSC_TRUE;
+      ierr    = VKYarnWriteToH5(y->yarn, &o->h5);
+    }
+    if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "format", YLS_FORMAT);
+    if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "units", "m, kg, s, J");
+    if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "scene", y->scene->name);
+  }
+  PetscCall(VKCollective(y->comm, ierr, "Creating yls.h5"));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSOutputFrame(VKYLS y)
+{
+  YLSOutput     *o = (YLSOutput *)y->out;
+  PetscReal      e[6], dmin, *r;
+  PetscInt       np;
+  PetscErrorCode ierr = 0;
+  PetscMPIInt    rank;
+
+  PetscFunctionBegin;
+  PetscCheck(o, y->comm, PETSC_ERR_ORDER, "VKYLSOutputOpen() first");
+  PetscCall(PetscLogEventBegin(VK_EVENT_Write, 0, 0, 0, 0));
+  PetscCall(VKYLSEnergies(y, e, NULL));
+  PetscCall(VKYLSMinDistance(y, &dmin, &np)); /* leaves the positions in y->xall */
+  PetscCall(PetscArraycpy(y->energy, e, 6));
+  y->stats.pairs_max    = PetscMax(y->stats.pairs_max, np);
+  y->stats.dmin_over_2r = PetscMin(y->stats.dmin_over_2r, dmin);
+  if (o->n == o->cap) {
+    o->cap = PetscMax(64, 2 * o->cap);
+    PetscCall(PetscRealloc(sizeof(PetscReal) * NCOL * o->cap, &o->row));
+  }
+  r      = o->row + NCOL * o->n;
+  r[0]   = y->t;
+  r[1]   = e[0];
+  r[2]   = e[1];
+  r[3]   = e[2];
+  r[4]   = e[5];
+  r[5]   = e[3];
+  r[6]   = e[4];
+  r[7]   = np;
+  r[8]   = dmin;
+  r[9]   = y->stats.newton_its - o->its_last;
+  r[10]  = y->stats.time_solve;
+  o->its_last = y->stats.newton_its;
+  PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
+  if (rank == 0 && o->open) {
+    char name[64];
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/x", (int)o->n));
+    ierr = VKH5WriteReal(&o->h5, name, y->model.nv, 3, y->xall);
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/normal", (int)o->n));
+    if (!ierr) ierr = VKH5WriteReal(&o->h5, name, y->model.nseg, 3, y->normal);
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
+    if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", y->t);
+  }
+  PetscCall(VKCollective(y->comm, ierr, "Writing a frame to yls.h5"));
+  o->n++;
+  y->frames++;
+  PetscCall(PetscLogEventEnd(VK_EVENT_Write, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
+{
+  VKYLS      y = (VKYLS)ctx;
+  YLSOutput *o = (YLSOutput *)y->out;
+  FILE      *fp = out->fp;
+  char       ds[64];
+
+  PetscFunctionBegin;
+  PetscCall(VKXdmfBegin(fp));
+  PetscCall(VKXdmfCollectionBegin(fp, "yarn"));
+  for (PetscInt f = 0; f < o->n; f++) {
+    PetscCall(VKXdmfGridBegin(fp, "yarn"));
+    PetscCall(VKXdmfTime(fp, o->row[NCOL * f]));
+    PetscCall(VKXdmfTopology(fp, "Polyline", y->model.nseg, 2, "yls.h5", "/yarn/segments"));
+    PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/x", (int)f));
+    PetscCall(VKXdmfGeometry(fp, y->model.nv, "yls.h5", ds));
+    PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/normal", (int)f));
+    PetscCall(VKXdmfAttribute(fp, "normal", "Cell", y->model.nseg, 3, PETSC_FALSE, "yls.h5", ds));
+    PetscCall(VKXdmfGridEnd(fp));
+  }
+  PetscCall(VKXdmfCollectionEnd(fp));
+  PetscCall(VKXdmfEnd(fp));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode WriteCSV(void *ctx, VKOutput *out)
+{
+  VKYLS      y = (VKYLS)ctx;
+  YLSOutput *o = (YLSOutput *)y->out;
+
+  PetscFunctionBegin;
+  fprintf(out->fp, "frame");
+  for (int c = 0; c < NCOL; c++) fprintf(out->fp, ",%s", columns[c]);
+  fprintf(out->fp, "\n");
+  for (PetscInt f = 0; f < o->n; f++) {
+    const PetscReal *r = o->row + NCOL * f;
+    fprintf(out->fp, "%d", (int)f);
+    for (int c = 0; c < NCOL; c++) {
+      if (c == 7 || c == 9) fprintf(out->fp, ",%d", (int)r[c]);
+      else fprintf(out->fp, ",%.10g", (double)r[c]);
+    }
+    fprintf(out->fp, "\n");
+  }
+  PetscCheck(!ferror(out->fp), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "Error writing %s", out->tmp);
+  PetscFunctionReturn(0);
+}
+
+typedef struct {
+  VKYLS       y;
+  const char *failure;
+} JSONCtx;
+
+static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
+{
+  JSONCtx    *c = (JSONCtx *)ctx;
+  VKYLS       y = c->y;
+  VKJSON      j;
+  PetscMPIInt size;
+  PetscInt    steps = PetscMax(y->stats.steps, 1);
+  const char *pc;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(y->comm, &size));
+  {
+    KSP ksp;
+    PC  p;
+    PetscCall(SNESGetKSP(y->snes, &ksp));
+    PetscCall(KSPGetPC(ksp, &p));
+    PetscCall(PCGetType(p, &pc));
+  }
+  PetscCall(VKJSONBegin(&j, out->fp));
+  PetscCall(VKJSONString(&j, "format", "volknit-yls-summary 1"));
+  PetscCall(VKJSONString(&j, "scene", y->scene->name));
+  PetscCall(VKJSONString(&j, "status", c->failure ? "failed" : "completed"));
+  if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
+  PetscCall(VKJSONInt(&j, "ranks", size));
+  PetscCall(VKJSONInt(&j, "vertices", y->model.nv));
+  PetscCall(VKJSONInt(&j, "segments", y->model.nseg));
+  PetscCall(VKJSONInt(&j, "glue_springs", y->nglue));
+  PetscCall(VKJSONInt(&j, "handle_vertices", y->nhandle_vertices));
+  PetscCall(VKJSONObjectBegin(&j, "parameters"));
+  PetscCall(VKJSONReal(&j, "radius_m", y->par.radius));
+  PetscCall(VKJSONReal(&j, "density_kg_per_m", y->density));
+  PetscCall(VKJSONReal(&j, "ks_N", y->par.ks));
+  PetscCall(VKJSONReal(&j, "kb_N_m2", y->par.kb));
+  PetscCall(VKJSONReal(&j, "kc_N_per_m", y->par.kc));
+  PetscCall(VKJSONReal(&j, "contact_radius_m", y->model.par.radius));
+  PetscCall(VKJSONInt(&j, "quadrature_points", y->par.nq));
+  PetscCall(VKJSONReal(&j, "damping_per_s", y->cv));
+  PetscCall(VKJSONReal(&j, "dashpot_N_s", y->cs));
+  PetscCall(VKJSONReal(&j, "cap_radii", y->cap));
+  PetscCall(VKJSONString(&j, "hessian", VKYLSHessianTypes[y->hessian]));
+  PetscCall(VKJSONReal(&j, "dt", y->dt));
+  PetscCall(VKJSONString(&j, "linear_solver", pc));
+  PetscCall(VKJSONObjectEnd(&j));
+  PetscCall(VKJSONObjectBegin(&j, "relaxation"));
+  PetscCall(VKJSONBool(&j, "done", y->relax));
+  PetscCall(VKJSONInt(&j, "proximal_steps", y->relax_steps));
+  PetscCall(VKJSONReal(&j, "wall_time", y->relax_time));
+  PetscCall(VKJSONObjectEnd(&j));
+  PetscCall(VKJSONReal(&j, "time_reached", y->t));
+  PetscCall(VKJSONInt(&j, "steps", y->stats.steps));
+  PetscCall(VKJSONInt(&j, "frames", y->frames));
+  PetscCall(VKJSONReal(&j, "newton_its_mean", (PetscReal)y->stats.newton_its / steps));
+  PetscCall(VKJSONInt(&j, "newton_its_max", y->stats.newton_its_max));
+  PetscCall(VKJSONInt(&j, "line_search_halvings", y->stats.line_search_cuts));
+  PetscCall(VKJSONInt(&j, "capped_newton_steps", y->stats.capped_steps));
+  PetscCall(VKJSONInt(&j, "projected_hessian_fallbacks", y->stats.projected_fallbacks));
+  PetscCall(VKJSONInt(&j, "hessian_pattern_rebuilds", y->stats.pattern_rebuilds));
+  PetscCall(VKJSONInt(&j, "contact_pairs_max", y->stats.pairs_max));
+  PetscCall(VKJSONReal(&j, "min_distance_over_2r", y->stats.dmin_over_2r));
+  PetscCall(VKJSONReal(&j, "wall_time", y->time_run));
+  PetscCall(VKJSONReal(&j, "wall_time_per_step", y->time_run / steps));
+  PetscCall(VKJSONReal(&j, "wall_time_per_simulated_second", y->t > 0 ? y->time_run / y->t : 0));
+  PetscCall(VKJSONReal(&j, "time_finding_pairs", y->stats.time_pairs));
+  PetscCall(VKJSONObjectBegin(&j, "energy_last_frame"));
+  PetscCall(VKJSONReal(&j, "stretch", y->energy[0]));
+  PetscCall(VKJSONReal(&j, "bending", y->energy[1]));
+  PetscCall(VKJSONReal(&j, "contact", y->energy[2]));
+  PetscCall(VKJSONReal(&j, "glue", y->energy[5]));
+  PetscCall(VKJSONReal(&j, "kinetic", y->energy[3]));
+  PetscCall(VKJSONReal(&j, "gravity", y->energy[4]));
+  PetscCall(VKJSONObjectEnd(&j));
+  PetscCall(VKJSONEnd(&j));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
+{
+  YLSOutput *o = (YLSOutput *)y->out;
+  char       path[PETSC_MAX_PATH_LEN];
+  JSONCtx    ctx = {y, failure};
+  PetscReal *t, *e;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc2(o->n + 1, &t, 6 * o->n + 1, &e));
+  for (PetscInt f = 0; f < o->n; f++) {
+    t[f] = o->row[NCOL * f];
+    for (int k = 0; k < 6; k++) e[6 * f + k] = o->row[NCOL * f + 1 + k];
+  }
+  PetscCall(VKH5WriteReal(&o->h5, "/yls/time", o->n, 1, t));
+  PetscCall(VKH5WriteReal(&o->h5, "/yls/energy", o->n, 6, e));
+  PetscCall(PetscFree2(t, e));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/yls/energy", "columns", "stretch bending contact glue kinetic gravity"));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/yls", "status", failure ? failure : "completed"));
+  PetscCall(VKH5WriteAttrInt(&o->h5, "/yls", "frames", o->n));
+  o->open = PETSC_FALSE;
+  PetscCall(VKH5Close(&o->h5));
+  PetscCall(VKOutputCommit(&o->h5out));
+  PetscCall(VKPathJoin(y->dir, "yls.xdmf", path, sizeof(path)));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteXdmf, y));
+  PetscCall(VKPathJoin(y->dir, "yls.csv", path, sizeof(path)));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteCSV, y));
+  PetscCall(VKPathJoin(y->dir, "yls.json", path, sizeof(path)));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteJSON, &ctx));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSOutputClose(VKYLS y, const char failure[])
+{
+  PetscErrorCode ierr = 0;
+  PetscMPIInt    rank;
+
+  PetscFunctionBegin;
+  if (!y->out) PetscFunctionReturn(0);
+  if (y->dir[0]) {
+    PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
+    if (rank == 0) ierr = CloseRank0(y, failure);
+    PetscCall(VKCollective(y->comm, ierr, "Finishing yls.h5, yls.xdmf, yls.csv, yls.json"));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSOutputDestroy(VKYLS y)
+{
+  YLSOutput *o = (YLSOutput *)y->out;
+
+  PetscFunctionBegin;
+  if (!o) PetscFunctionReturn(0);
+  if (o->open) { /* an error path: never leave a half-written yls.h5 */
+    (void)VKH5Close(&o->h5);
+    (void)VKOutputAbandon(&o->h5out);
+  }
+  PetscCall(PetscFree(o->row));
+  PetscCall(PetscFree(y->out));
+  PetscFunctionReturn(0);
+}

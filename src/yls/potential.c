@@ -1,0 +1,288 @@
+/* potential.c: the incremental potential of one implicit Euler step of the
+ * yarn-level simulator (DESIGN §4) and its derivatives:
+ *   Phi(x) = sum_i [ m_i/(2 dt^2) |x_i - xhat_i|^2 - m_i g . (x_i - x_n,i)
+ *                    + c_v m_i/(2 dt) |x_i - x_n,i|^2
+ *                    + k_w/2 depth_i(x_i)^2 + mu lambda_i f0(|P_i u_i|) ]
+ *          + sum_segments [ stretch + c_s/(2 dt L) ((e - e_n) . t_n)^2 ]
+ *          + sum_triples bending + sum_glue stretch + sum_pairs contact,
+ * xhat = x_n + dt v_n.  depth_i is the penetration of vertex i into the
+ * colliders grown by the yarn radius; the friction term is the smoothed
+ * Coulomb potential of Li et al. (IPC, 2020) with the normal force
+ * lambda_i = k_w depth and the tangent plane P_i lagged from the start of
+ * the step, u_i the displacement relative to the collider since x_n and
+ * f0(y) = -y^3/(3 eps^2) + y^2/eps + eps/3 below eps = -yls_friction_eps x dt,
+ * y above.  Every element's Hessian is projected onto the PSD cone, so the
+ * assembled Hessian is SPD (the mass term is positive).
+ *
+ * Each rank evaluates the vertex terms of its vertices and the elements
+ * whose first vertex (pairs: first segment) it owns, from a full copy of
+ * the positions; handle vertices are Dirichlet: their rows and columns are
+ * dropped (negative indices) and replaced by the identity. */
+#include "ylsimpl.h"
+
+/* What an evaluation accumulates: the potential split into its terms, the
+ * gradient (full length, replicated; NULL to skip) and the Hessian. */
+typedef struct {
+  VKSum      term[YLS_NTERMS];
+  PetscReal *g;
+  Mat        H;
+  PetscInt   active_pairs;
+} Accum;
+
+static PetscErrorCode AddElement(VKYLS y, Accum *acc, PetscInt nv, const PetscInt v[], const PetscReal ge[], const PetscReal He[])
+{
+  PetscFunctionBegin;
+  if (acc->g)
+    for (PetscInt a = 0; a < nv; a++)
+      for (int i = 0; i < 3; i++) acc->g[3 * v[a] + i] += ge[3 * a + i];
+  if (acc->H) {
+    PetscInt idx[4];
+    for (PetscInt a = 0; a < nv; a++) idx[a] = y->handle[v[a]] >= 0 ? -1 : v[a];
+    PetscCall(MatSetValuesBlocked(acc->H, nv, idx, nv, idx, He, ADD_VALUES));
+  }
+  PetscFunctionReturn(0);
+}
+
+static void Gather(const PetscReal x[], PetscInt nv, const PetscInt v[], PetscReal xe[])
+{
+  for (PetscInt a = 0; a < nv; a++)
+    for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
+}
+
+/* Smoothed Coulomb friction potential f0 and the factors of its gradient
+ * and Hessian: f1 = f0', f1/y and f1'. */
+static PetscReal Friction(PetscReal yv, PetscReal eps, PetscReal *f1, PetscReal *f1_over_y, PetscReal *df1)
+{
+  if (yv >= eps) {
+    *f1        = 1;
+    *f1_over_y = 1 / yv;
+    *df1       = 0;
+    return yv;
+  }
+  *f1        = 2 * yv / eps - yv * yv / (eps * eps);
+  *f1_over_y = 2 / eps - yv / (eps * eps);
+  *df1       = 2 / eps - 2 * yv / (eps * eps);
+  return -yv * yv * yv / (3 * eps * eps) + yv * yv / eps + eps / 3;
+}
+
+/* Inertia, gravity, viscous damping, colliders and friction of vertex i. */
+static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accum *acc)
+{
+  const PetscReal *xi = x + 3 * i, *xn = y->xn + 3 * i, *vn = y->vn + 3 * i, *grav = y->scene->gravity;
+  PetscReal        m = y->model.mass[i], dt = y->dt, ge[3] = {0, 0, 0}, He[9] = {0}, d2 = 0, u2 = 0, work = 0, diag;
+  PetscReal        n[3], depth, t1 = y->t + dt;
+  PetscInt         which;
+
+  PetscFunctionBegin;
+  for (int k = 0; k < 3; k++) {
+    PetscReal dx = xi[k] - xn[k] - dt * vn[k], du = xi[k] - xn[k];
+    d2 += dx * dx;
+    u2 += du * du;
+    work -= m * grav[k] * du;
+    ge[k] = m * dx / (dt * dt) - m * grav[k] + y->cv * m * du / dt;
+  }
+  VKSumAdd(&acc->term[YLS_INERTIA], 0.5 * m * d2 / (dt * dt));
+  VKSumAdd(&acc->term[YLS_GRAVITY], work);
+  VKSumAdd(&acc->term[YLS_DAMPING], 0.5 * y->cv * m * u2 / dt);
+  diag = m / (dt * dt) + y->cv * m / dt;
+  for (int k = 0; k < 3; k++) He[4 * k] = diag;
+  depth = y->scene->ncolliders ? VKSceneContact(y->scene, t1, xi, y->par.radius, n, &which) : 0;
+  if (depth > 0) {
+    VKSumAdd(&acc->term[YLS_COLLIDER], 0.5 * y->kw * depth * depth);
+    for (int k = 0; k < 3; k++) {
+      ge[k] -= y->kw * depth * n[k];
+      for (int l = 0; l < 3; l++) He[3 * k + l] += y->kw * n[k] * n[l];
+    }
+  }
+  if (y->friction[i] > 0) { /* lagged normal force and tangent plane */
+    const PetscReal *nl = y->contact_normal + 3 * i, *vc = y->scene->collider[y->contact_collider[i]].velocity;
+    PetscReal        u[3], un = 0, yv, f1, f1y, df1, mul = y->friction[i], eps = y->friction_eps * dt;
+    for (int k = 0; k < 3; k++) {
+      u[k] = xi[k] - xn[k] - vc[k] * dt;
+      un += u[k] * nl[k];
+    }
+    for (int k = 0; k < 3; k++) u[k] -= un * nl[k];
+    yv = PetscSqrtReal(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    VKSumAdd(&acc->term[YLS_COLLIDER], mul * Friction(yv, eps, &f1, &f1y, &df1));
+    for (int k = 0; k < 3; k++) {
+      ge[k] += mul * f1y * u[k];
+      for (int l = 0; l < 3; l++) {
+        PetscReal P = (k == l) - nl[k] * nl[l], uu = yv > 0 ? u[k] * u[l] / (yv * yv) : 0;
+        He[3 * k + l] += mul * (df1 * uu + f1y * (P - uu));
+      }
+    }
+  }
+  PetscCall(AddElement(y, acc, 1, &i, ge, He));
+  PetscFunctionReturn(0);
+}
+
+/* Along-segment dashpot c_s/(2 dt L) ((e - e_n) . t_n)^2. */
+static PetscErrorCode Dashpot(VKYLS y, const PetscReal x[], PetscInt s, Accum *acc)
+{
+  const PetscInt v[2] = {y->model.seg[2 * s], y->model.seg[2 * s + 1]};
+  const PetscReal *tn = y->tn + 3 * s;
+  PetscReal        c = y->cs / (y->dt * y->model.L[s]), w = 0, ge[6], He[36];
+
+  PetscFunctionBegin;
+  for (int k = 0; k < 3; k++) w += (x[3 * v[1] + k] - x[3 * v[0] + k] - y->xn[3 * v[1] + k] + y->xn[3 * v[0] + k]) * tn[k];
+  VKSumAdd(&acc->term[YLS_DAMPING], 0.5 * c * w * w);
+  for (int k = 0; k < 3; k++) {
+    ge[k]     = -c * w * tn[k];
+    ge[3 + k] = c * w * tn[k];
+    for (int l = 0; l < 3; l++) {
+      PetscReal h = c * tn[k] * tn[l];
+      He[6 * k + l] = He[6 * (k + 3) + l + 3] = h;
+      He[6 * k + l + 3] = He[6 * (k + 3) + l] = -h;
+    }
+  }
+  PetscCall(AddElement(y, acc, 2, v, ge, He));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], Accum *acc)
+{
+  const VKRodModel  *m    = &y->model;
+  const VKRodParams *p    = &m->par;
+  const PetscBool    want = acc->g || acc->H ? PETSC_TRUE : PETSC_FALSE;
+  PetscReal          ge[12], He[144], xe[12];
+
+  PetscFunctionBegin;
+  for (PetscInt i = y->vbeg; i < y->vend; i++)
+    if (y->handle[i] < 0) PetscCall(VertexTerms(y, x, i, acc));
+  for (PetscInt s = y->sbeg; s < y->send; s++) {
+    const PetscInt *v = m->seg + 2 * s;
+    Gather(x, 2, v, xe);
+    VKSumAdd(&acc->term[YLS_STRETCH], VKRodStretch(xe, xe + 3, m->L[s], p->ks, y->psd_now, want ? ge : NULL, acc->H ? He : NULL));
+    if (want) PetscCall(AddElement(y, acc, 2, v, ge, He));
+    if (y->cs > 0) PetscCall(Dashpot(y, x, s, acc));
+  }
+  for (PetscInt k = 0; k < m->nbend; k++) {
+    const PetscInt *v = m->bend + 3 * k;
+    if (v[1] < y->vbeg || v[1] >= y->vend) continue;
+    Gather(x, 3, v, xe);
+    VKSumAdd(&acc->term[YLS_BEND], VKRodBend(xe, m->kbar[k], m->lbar[k], p->kb, y->psd_now, want ? ge : NULL, acc->H ? He : NULL));
+    if (want) PetscCall(AddElement(y, acc, 3, v, ge, He));
+  }
+  for (PetscInt k = 0; k < y->nglue; k++) {
+    const PetscInt *v = y->glue + 2 * k;
+    if (v[0] < y->vbeg || v[0] >= y->vend) continue;
+    Gather(x, 2, v, xe);
+    VKSumAdd(&acc->term[YLS_GLUE], VKRodStretch(xe, xe + 3, y->Lglue[k], p->ks, y->psd_now, want ? ge : NULL, acc->H ? He : NULL));
+    if (want) PetscCall(AddElement(y, acc, 2, v, ge, He));
+  }
+  for (PetscInt k = 0; k < y->npairs; k++) {
+    PetscInt  sa = y->pairs[2 * k], sb = y->pairs[2 * k + 1], v[4] = {m->seg[2 * sa], m->seg[2 * sa + 1], m->seg[2 * sb], m->seg[2 * sb + 1]}, near = 0;
+    PetscReal E;
+    Gather(x, 4, v, xe);
+    E = VKRodContact(xe, m->L[sa], m->L[sb], p->kc, p->radius, p->nq, y->psd_now, want ? ge : NULL, acc->H ? He : NULL, &near);
+    if (!near) continue;
+    acc->active_pairs++;
+    VKSumAdd(&acc->term[YLS_CONTACT], E);
+    if (want) PetscCall(AddElement(y, acc, 4, v, ge, He));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSPotential(VKYLS y, const PetscReal x[], PetscReal term[], PetscInt *active_pairs, PetscReal *phi)
+{
+  Accum     acc;
+  PetscReal local[YLS_NTERMS + 1], sum[YLS_NTERMS + 1];
+
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(&acc, sizeof(acc)));
+  PetscCall(Accumulate(y, x, &acc));
+  for (int k = 0; k < YLS_NTERMS; k++) local[k] = VKSumValue(&acc.term[k]);
+  local[YLS_NTERMS] = acc.active_pairs;
+  PetscCall(MPIU_Allreduce(local, sum, YLS_NTERMS + 1, MPIU_REAL, MPIU_SUM, y->comm));
+  *phi = 0;
+  for (int k = 0; k < YLS_NTERMS; k++) {
+    if (term) term[k] = sum[k];
+    *phi += sum[k];
+  }
+  if (active_pairs) *active_pairs = (PetscInt)sum[YLS_NTERMS];
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSGradient(VKYLS y, const PetscReal x[], Vec G)
+{
+  Accum      acc;
+  PetscReal *g;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(&acc, sizeof(acc)));
+  PetscCall(VecGetArray(y->xseq, &g)); /* the replicated work vector; y->xall holds the positions */
+  PetscCall(PetscArrayzero(g, 3 * y->model.nv));
+  acc.g = g;
+  PetscCall(Accumulate(y, x, &acc));
+  for (PetscInt i = 0; i < y->model.nv; i++)
+    if (y->handle[i] >= 0)
+      for (int k = 0; k < 3; k++) g[3 * i + k] = 0;
+  PetscCall(VecRestoreArray(y->xseq, &g));
+  PetscCall(VecSet(G, 0));
+  PetscCall(VecScatterBegin(y->toall, y->xseq, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(y->toall, y->xseq, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSHessian(VKYLS y, const PetscReal x[], Mat H)
+{
+  Accum           acc;
+  const PetscReal one[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(&acc, sizeof(acc)));
+  PetscCall(MatZeroEntries(H));
+  acc.H = H;
+  PetscCall(Accumulate(y, x, &acc));
+  for (PetscInt i = y->vbeg; i < y->vend; i++)
+    if (y->handle[i] >= 0) PetscCall(MatSetValuesBlocked(H, 1, &i, 1, &i, one, ADD_VALUES));
+  PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+/* The Hessian's nonzero pattern: vertex diagonals, segments, triples, glue
+ * and the contact pairs of y->pattern. */
+PetscErrorCode VKYLSCreateHessian(VKYLS y, Mat *H)
+{
+  const VKRodModel *m = &y->model;
+  Mat               pre;
+  PetscInt          n = 3 * (y->vend - y->vbeg), N = 3 * m->nv;
+  PetscReal        *zero;
+
+  PetscFunctionBegin;
+  PetscCall(PetscCalloc1(144, &zero));
+  PetscCall(MatCreate(y->comm, &pre));
+  PetscCall(MatSetType(pre, MATPREALLOCATOR));
+  PetscCall(MatSetSizes(pre, n, n, N, N));
+  PetscCall(MatSetBlockSize(pre, 3));
+  PetscCall(MatSetUp(pre));
+  for (PetscInt i = y->vbeg; i < y->vend; i++) PetscCall(MatSetValuesBlocked(pre, 1, &i, 1, &i, zero, INSERT_VALUES));
+  for (PetscInt s = y->sbeg; s < y->send; s++) PetscCall(MatSetValuesBlocked(pre, 2, m->seg + 2 * s, 2, m->seg + 2 * s, zero, INSERT_VALUES));
+  for (PetscInt k = 0; k < m->nbend; k++) {
+    const PetscInt *v = m->bend + 3 * k;
+    if (v[1] >= y->vbeg && v[1] < y->vend) PetscCall(MatSetValuesBlocked(pre, 3, v, 3, v, zero, INSERT_VALUES));
+  }
+  for (PetscInt k = 0; k < y->nglue; k++) {
+    const PetscInt *v = y->glue + 2 * k;
+    if (v[0] >= y->vbeg && v[0] < y->vend) PetscCall(MatSetValuesBlocked(pre, 2, v, 2, v, zero, INSERT_VALUES));
+  }
+  for (PetscInt k = 0; k < y->npattern; k++) {
+    PetscInt sa = y->pattern[2 * k], sb = y->pattern[2 * k + 1], v[4] = {m->seg[2 * sa], m->seg[2 * sa + 1], m->seg[2 * sb], m->seg[2 * sb + 1]};
+    PetscCall(MatSetValuesBlocked(pre, 4, v, 4, v, zero, INSERT_VALUES));
+  }
+  PetscCall(MatAssemblyBegin(pre, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(pre, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatCreate(y->comm, H));
+  PetscCall(MatSetType(*H, MATAIJ));
+  PetscCall(MatSetSizes(*H, n, n, N, N));
+  PetscCall(MatSetBlockSize(*H, 3));
+  PetscCall(MatSetOptionsPrefix(*H, "yls_"));
+  PetscCall(MatPreallocatorPreallocate(pre, PETSC_TRUE, *H));
+  PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  PetscCall(MatSetOption(*H, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatSetOption(*H, MAT_SYMMETRY_ETERNAL, PETSC_TRUE));
+  PetscCall(MatDestroy(&pre));
+  PetscCall(PetscFree(zero));
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,104 @@
+/* relax.c: relaxation of procedural or loaded yarn geometry (DESIGN §4).
+ * Procedural knits interpenetrate a little and are not in equilibrium.
+ * The relaxation is a quasi-static solve by proximal steps: repeated
+ * implicit Euler steps from rest with a long pseudo time step, no scene
+ * (no gravity, handles or colliders) and no damping, until no vertex moves
+ * more than 1e-4 r in a step.  The contact radius is grown from
+ * -yls_relax_radius_start x r to r in -yls_relax_stages stages, so yarns
+ * that start inside each other are pushed apart gradually (the similarity
+ * idea of Leaf et al. 2018, applied to the contact radius only).  Then the
+ * rest state is reset to the relaxed one: rest lengths, rest curvatures,
+ * masses, glue lengths and frames from the relaxed polylines, which become
+ * the yarn model's rest geometry, and the contact radius becomes the one
+ * the relaxed state honours (at most r, and no larger than half the closest
+ * approach of two segments), so the rest state is stress-free: it carries
+ * no stretch, bending or contact energy and stays still. */
+#include "ylsimpl.h"
+
+/* Proximal steps at the current contact radius until the motion stops. */
+static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
+{
+  PetscReal tol = 1e-4 * y->par.radius;
+
+  PetscFunctionBegin;
+  for (PetscInt k = 0; k < y->relax_max_steps; k++) {
+    PetscReal move = 0, all;
+    PetscCall(VecSet(y->v, 0));
+    PetscCall(VKYLSStep(y));
+    (*steps)++;
+    for (PetscInt i = y->vbeg; i < y->vend; i++) move = PetscMax(move, PetscSqr(y->xall[3 * i] - y->xn[3 * i]) + PetscSqr(y->xall[3 * i + 1] - y->xn[3 * i + 1]) + PetscSqr(y->xall[3 * i + 2] - y->xn[3 * i + 2]));
+    PetscCall(MPIU_Allreduce(&move, &all, 1, MPIU_REAL, MPIU_MAX, y->comm));
+    if (PetscSqrtReal(all) < tol) break;
+  }
+  PetscFunctionReturn(0);
+}
+
+/* The relaxed positions become the rest state. */
+static PetscErrorCode ResetRest(VKYLS y)
+{
+  VKRodParams par = y->model.par;
+  PetscReal   dmin;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSMinDistance(y, &dmin, NULL)); /* over 2 x the current contact radius; fills y->xall */
+  par.radius = PetscMin(y->par.radius, dmin * par.radius * (1 - 1e-9));
+  PetscCall(PetscArraycpy(y->yarn->curves.x, y->xall, 3 * y->model.nv));
+  PetscCall(VKRodModelDestroy(&y->model));
+  PetscCall(VKRodModelCreate(&y->yarn->curves, &par, y->density, &y->model));
+  for (PetscInt k = 0; k < y->nglue; k++) {
+    const PetscReal *p = y->xall + 3 * y->glue[2 * k], *q = y->xall + 3 * y->glue[2 * k + 1];
+    y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));
+  }
+  PetscCall(VKCurvesTransportFrames(&y->yarn->curves, y->yarn->normal));
+  PetscCall(PetscArraycpy(y->normal, y->yarn->normal, 3 * y->model.nseg));
+  PetscCall(VecSet(y->v, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSRelax(VKYLS y)
+{
+  PetscInt      *handle, steps = 0, nhandles = y->scene->nhandles, ncolliders = y->scene->ncolliders;
+  PetscReal      g[3], dt = y->dt, cv = y->cv, cs = y->cs, r = y->par.radius;
+  VKYLSStats     stats = y->stats;
+  PetscLogDouble t0    = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSSetUp(y));
+  PetscCheck(y->step == 0, y->comm, PETSC_ERR_ORDER, "Relax before the first time step");
+  /* no scene, no damping, a long pseudo time step */
+  PetscCall(PetscMalloc1(y->model.nv, &handle));
+  PetscCall(PetscArraycpy(handle, y->handle, y->model.nv));
+  for (PetscInt i = 0; i < y->model.nv; i++) y->handle[i] = -1;
+  for (int k = 0; k < 3; k++) {
+    g[k]                  = y->scene->gravity[k];
+    y->scene->gravity[k]  = 0;
+  }
+  y->scene->nhandles = y->scene->ncolliders = 0;
+  y->dt       = y->relax_tau;
+  y->cv       = y->cs = 0;
+  y->relaxing = PETSC_TRUE;
+  for (PetscInt s = 1; s <= y->relax_stages; s++) {
+    PetscReal f            = y->relax_radius_start + (1 - y->relax_radius_start) * (PetscReal)s / (PetscReal)y->relax_stages;
+    y->model.par.radius    = f * r;
+    PetscCall(RelaxStage(y, &steps));
+  }
+  PetscCall(ResetRest(y));
+  /* the scene back */
+  PetscCall(PetscArraycpy(y->handle, handle, y->model.nv));
+  PetscCall(PetscFree(handle));
+  for (int k = 0; k < 3; k++) y->scene->gravity[k] = g[k];
+  y->scene->nhandles   = nhandles;
+  y->scene->ncolliders = ncolliders;
+  y->relaxing          = PETSC_FALSE;
+  y->dt                = dt;
+  y->cv                = cv;
+  y->cs                = cs;
+  y->t                 = 0;
+  y->step              = 0;
+  y->relax_steps       = steps;
+  y->relax_time        = VKWallTime() - t0;
+  y->stats             = stats;
+  y->stats.dmin_over_2r = PETSC_INFINITY;
+  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d radius stages from %g r), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->model.par.radius, (double)r, y->relax_time));
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,409 @@
+/* yls.c: the VKYLS object (DESIGN §4): the rod model of a yarn set driven
+ * by a scene, one implicit Euler step at a time (potential.c, newton.c),
+ * the time loop with frames at the scene's output interval (output.c), and
+ * the checks that turn a scene it cannot honour into a clear error. */
+#include "ylsimpl.h"
+#include <vkio.h>
+
+/* Defaults for the default yarn (r = 1 mm, 3e-4 kg/m, a worsted wool). */
+#define YLS_KS  100.0  /* N: tension per unit strain */
+#define YLS_KB  2.0e-7 /* N m^2: bending length (k_b / (rho g))^(1/3) about 4 cm */
+#define YLS_KC  1.0e3  /* N/m */
+#define YLS_KW  1.0e3  /* N/m */
+#define YLS_CV  1.0    /* 1/s */
+#define YLS_CS  1.0e-3 /* N s */
+#define YLS_CAP 0.25   /* of r */
+
+const char *const VKYLSHessianTypes[] = {"projected", "exact", "auto", "VKYLSHessianType", "VK_YLS_HESSIAN_", NULL};
+
+PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
+{
+  VKYLS y;
+
+  PetscFunctionBegin;
+  PetscCall(VKInitializePackage());
+  PetscCall(PetscNew(&y));
+  y->comm         = yarn->comm;
+  y->yarn         = yarn;
+  y->scene        = scene;
+  y->par.ks       = YLS_KS;
+  y->par.kb       = YLS_KB;
+  y->par.kc       = YLS_KC;
+  y->par.nq       = 3;
+  y->kw           = YLS_KW;
+  y->cv           = YLS_CV;
+  y->cs           = YLS_CS;
+  y->friction_eps = 1e-3;
+  y->cap          = YLS_CAP;
+  y->ls_max_it    = 30;
+  y->dt           = 0; /* from the scene unless given */
+  y->hessian      = VK_YLS_HESSIAN_AUTO;
+  y->relax        = PETSC_TRUE;
+  y->relax_tau    = 0.01;
+  y->relax_stages = 4;
+  y->relax_radius_start = 0.8;
+  y->relax_max_steps    = 50;
+  *out            = y;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSSetFromOptions(VKYLS y)
+{
+  PetscFunctionBegin;
+  PetscOptionsBegin(y->comm, NULL, "Yarn-level simulation (DESIGN 4)", "VKYLS");
+  PetscCall(PetscOptionsReal("-yls_ks", "Stretching stiffness k_s: tension per unit strain, N", "VKYLSSetFromOptions", y->par.ks, &y->par.ks, NULL));
+  PetscCall(PetscOptionsReal("-yls_kb", "Bending stiffness k_b, N m^2", "VKYLSSetFromOptions", y->par.kb, &y->par.kb, NULL));
+  PetscCall(PetscOptionsReal("-yls_kc", "Contact stiffness k_c of Kaldor's penalty, N/m", "VKYLSSetFromOptions", y->par.kc, &y->par.kc, NULL));
+  PetscCall(PetscOptionsInt("-yls_nq", "Contact quadrature points per segment", "VKYLSSetFromOptions", y->par.nq, &y->par.nq, NULL));
+  PetscCall(PetscOptionsReal("-yls_damping", "Viscous (mass-proportional) damping c_v, 1/s", "VKYLSSetFromOptions", y->cv, &y->cv, NULL));
+  PetscCall(PetscOptionsReal("-yls_dashpot", "Along-segment dashpot c_s: force per unit strain rate, N s", "VKYLSSetFromOptions", y->cs, &y->cs, NULL));
+  PetscCall(PetscOptionsReal("-yls_collider_stiffness", "Collider penalty k_w, N/m", "VKYLSSetFromOptions", y->kw, &y->kw, NULL));
+  PetscCall(PetscOptionsReal("-yls_friction_eps", "Sliding speed below which collider friction is smoothed, m/s", "VKYLSSetFromOptions", y->friction_eps, &y->friction_eps, NULL));
+  PetscCall(PetscOptionsReal("-yls_cap", "Largest vertex motion per Newton iteration, in yarn radii", "VKYLSSetFromOptions", y->cap, &y->cap, NULL));
+  PetscCall(PetscOptionsInt("-yls_line_search_max_it", "Halvings of a Newton step before the line search gives up", "VKYLSSetFromOptions", y->ls_max_it, &y->ls_max_it, NULL));
+  PetscCall(PetscOptionsReal("-yls_dt", "Time step, s (default: 1 ms, less if a handle would move more than the cap per step)", "VKYLSSetFromOptions", y->dt, &y->dt, NULL));
+  PetscCall(PetscOptionsEnum("-yls_hessian", "Newton Hessian: element-wise PSD projection, exact, or exact with a projected fallback when it is not a descent direction", "VKYLSSetFromOptions", VKYLSHessianTypes, (PetscEnum)y->hessian, (PetscEnum *)&y->hessian, NULL));
+  PetscCall(PetscOptionsBool("-yls_relax", "Relax the yarns and reset their rest state before the run", "VKYLSRelax", y->relax, &y->relax, NULL));
+  PetscCall(PetscOptionsReal("-yls_relax_tau", "Pseudo time step of the relaxation, s", "VKYLSRelax", y->relax_tau, &y->relax_tau, NULL));
+  PetscCall(PetscOptionsInt("-yls_relax_stages", "Stages of contact-radius growth in the relaxation", "VKYLSRelax", y->relax_stages, &y->relax_stages, NULL));
+  PetscCall(PetscOptionsReal("-yls_relax_radius_start", "Contact radius of the first relaxation stage, in r", "VKYLSRelax", y->relax_radius_start, &y->relax_radius_start, NULL));
+  PetscCall(PetscOptionsInt("-yls_relax_max_steps", "Proximal steps per relaxation stage at most", "VKYLSRelax", y->relax_max_steps, &y->relax_max_steps, NULL));
+  PetscCall(PetscOptionsBool("-yls_quiet", "Do not print the summary line", "VKYLSRun", y->quiet, &y->quiet, NULL));
+  PetscOptionsEnd();
+  PetscCheck(y->par.ks >= 0 && y->par.kb >= 0 && y->par.kc >= 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Rod stiffnesses must be >= 0: -yls_ks %g -yls_kb %g -yls_kc %g", (double)y->par.ks, (double)y->par.kb, (double)y->par.kc);
+  PetscCheck(y->par.ks > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_ks must be positive (yarns are nearly inextensible), got %g", (double)y->par.ks);
+  PetscCheck(y->par.nq >= 1 && y->par.nq <= 16, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_nq must be in 1..16, got %d", (int)y->par.nq);
+  PetscCheck(y->cv >= 0 && y->cs >= 0 && y->kw > 0 && y->friction_eps > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_damping >= 0, -yls_dashpot >= 0, -yls_collider_stiffness > 0, -yls_friction_eps > 0");
+  PetscCheck(y->cap > 0 && y->cap <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_cap must be in (0, 1] yarn radii, got %g", (double)y->cap);
+  PetscCheck(y->ls_max_it >= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_line_search_max_it must be >= 1");
+  PetscCheck(y->relax_tau > 0 && y->relax_stages >= 1 && y->relax_max_steps >= 1 && y->relax_radius_start > 0 && y->relax_radius_start <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_relax_tau > 0, -yls_relax_stages >= 1, -yls_relax_max_steps >= 1, 0 < -yls_relax_radius_start <= 1");
+  PetscCheck(y->dt >= 0 && y->dt < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt must be positive, got %g", (double)y->dt);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSSetOutputDirectory(VKYLS y, const char dir[])
+{
+  PetscFunctionBegin;
+  PetscCall(PetscStrncpy(y->dir, dir ? dir : "", sizeof(y->dir)));
+  PetscFunctionReturn(0);
+}
+
+/* Largest distance a handle vertex travels in one step of dt. */
+static PetscReal HandleTravel(VKYLS y, PetscReal dt)
+{
+  const PetscReal *X   = y->yarn->curves.x;
+  PetscReal        top = 0;
+  for (PetscInt i = 0; i < y->model.nv; i++) {
+    const VKHandle *h = y->handle[i] >= 0 ? &y->scene->handle[y->handle[i]] : NULL;
+    PetscReal       r[3], rr = 0, v;
+    if (!h) continue;
+    for (int a = 0; a < 3; a++) {
+      r[a] = X[3 * i + a] - h->center[a];
+      rr += r[a] * r[a];
+    }
+    v   = PetscSqrtReal(h->velocity[0] * h->velocity[0] + h->velocity[1] * h->velocity[1] + h->velocity[2] * h->velocity[2]) + PetscAbsReal(h->omega) * PetscSqrtReal(rr);
+    top = PetscMax(top, v * dt);
+  }
+  return top;
+}
+
+/* Handles, the time step, and the checks of what the scene asks. */
+static PetscErrorCode SetUpScene(VKYLS y)
+{
+  PetscReal lo[3], hi[3], travel, capm = y->cap * y->par.radius;
+  PetscInt  held[VK_SCENE_MAX] = {0};
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesBoundingBox(&y->yarn->curves, lo, hi));
+  PetscCall(VKSceneSetUp(y->scene, lo, hi));
+  PetscCall(PetscMalloc1(y->model.nv, &y->handle));
+  y->nhandle_vertices = 0;
+  for (PetscInt i = 0; i < y->model.nv; i++) {
+    y->handle[i] = VKSceneHandleOf(y->scene, y->yarn->curves.x + 3 * i);
+    if (y->handle[i] >= 0) {
+      held[y->handle[i]]++;
+      y->nhandle_vertices++;
+    }
+  }
+  for (PetscInt h = 0; h < y->scene->nhandles; h++) {
+    const PetscReal *b = y->scene->handle[h].box;
+    PetscCheck(held[h] > 0, y->comm, PETSC_ERR_ARG_WRONG, "Scene %s: handle %d (box [%g %g %g] - [%g %g %g] m) holds no yarn vertex, so the scene pins nothing there; check -scene_handle%d_box against the patch", y->scene->name, (int)h, (double)b[0], (double)b[1], (double)b[2], (double)b[3], (double)b[4], (double)b[5], (int)h);
+  }
+  if (y->dt == 0) {
+    PetscReal need = HandleTravel(y, 1.0);
+    y->dt          = PetscMin(1e-3, y->scene->output_interval);
+    if (need > 0) y->dt = PetscMin(y->dt, 0.5 * capm / need);
+  }
+  travel = HandleTravel(y, y->dt);
+  PetscCheck(travel <= capm * (1 + 1e-12), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt %g s moves a handle vertex by %g m per step, more than the contact cap %g m (-yls_cap %g x r): a yarn could pass through another; use -yls_dt <= %g", (double)y->dt, (double)travel, (double)capm, (double)y->cap, (double)(y->dt * capm / travel));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSSetUp(VKYLS y)
+{
+  PetscMPIInt rank, size;
+  PetscInt    nv, n;
+
+  PetscFunctionBegin;
+  if (y->setup) PetscFunctionReturn(0);
+  PetscCheck(y->yarn->setup, y->comm, PETSC_ERR_ORDER, "Call VKYarnSetUp() before VKYLSSetUp()");
+  y->par.radius = y->yarn->radius;
+  y->density    = y->yarn->density;
+  PetscCall(VKRodModelCreate(&y->yarn->curves, &y->par, y->density, &y->model));
+  nv = y->model.nv;
+  /* glue springs of the bound edges, at their rest length */
+  y->nglue = y->yarn->nbind;
+  PetscCall(PetscMalloc2(2 * y->nglue + 1, &y->glue, y->nglue + 1, &y->Lglue));
+  for (PetscInt k = 0; k < y->nglue; k++) {
+    const PetscReal *p = y->yarn->curves.x + 3 * y->yarn->bind[2 * k], *q = y->yarn->curves.x + 3 * y->yarn->bind[2 * k + 1];
+    y->glue[2 * k]     = PetscMin(y->yarn->bind[2 * k], y->yarn->bind[2 * k + 1]);
+    y->glue[2 * k + 1] = PetscMax(y->yarn->bind[2 * k], y->yarn->bind[2 * k + 1]);
+    y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));
+  }
+  PetscCall(SetUpScene(y));
+  /* contiguous vertex ranges; the segments whose first vertex is owned */
+  PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
+  PetscCallMPI(MPI_Comm_size(y->comm, &size));
+  n = PETSC_DECIDE;
+  PetscCall(PetscSplitOwnership(y->comm, &n, &nv));
+  PetscCallMPI(MPI_Scan(&n, &y->vend, 1, MPIU_INT, MPI_SUM, y->comm));
+  y->vbeg = y->vend - n;
+  y->sbeg = y->send = 0;
+  while (y->sbeg < y->model.nseg && y->model.seg[2 * y->sbeg] < y->vbeg) y->sbeg++;
+  y->send = y->sbeg;
+  while (y->send < y->model.nseg && y->model.seg[2 * y->send] < y->vend) y->send++;
+  PetscCall(VecCreateMPI(y->comm, 3 * n, 3 * nv, &y->x));
+  PetscCall(VecSetBlockSize(y->x, 3));
+  PetscCall(VecDuplicate(y->x, &y->v));
+  PetscCall(VecScatterCreateToAll(y->x, &y->toall, &y->xseq));
+  PetscCall(PetscMalloc5(3 * nv, &y->xall, 3 * nv, &y->xn, 3 * nv, &y->vn, 3 * y->model.nseg + 3, &y->tn, 3 * y->model.nseg + 3, &y->normal));
+  PetscCall(PetscCalloc3(nv, &y->friction, 3 * nv, &y->contact_normal, nv, &y->contact_collider));
+  /* rest state, at rest; frames from the yarn model */
+  {
+    PetscScalar *xa;
+    PetscCall(VecGetArray(y->x, &xa));
+    PetscCall(PetscArraycpy(xa, y->yarn->curves.x + 3 * y->vbeg, 3 * n));
+    PetscCall(VecRestoreArray(y->x, &xa));
+  }
+  PetscCall(VecSet(y->v, 0));
+  PetscCall(PetscArraycpy(y->normal, y->yarn->normal, 3 * y->model.nseg));
+  PetscCall(VKYLSCreateSNES(y));
+  y->stats.dmin_over_2r = PETSC_INFINITY;
+  y->setup              = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+/* A parallel vector's values on every rank, in dst (3 per vertex). */
+PetscErrorCode VKYLSGather(VKYLS y, Vec X, PetscReal dst[])
+{
+  const PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(VecScatterBegin(y->toall, X, y->xseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(y->toall, X, y->xseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGetArrayRead(y->xseq, &a));
+  PetscCall(PetscArraycpy(dst, a, 3 * y->model.nv));
+  PetscCall(VecRestoreArrayRead(y->xseq, &a));
+  PetscFunctionReturn(0);
+}
+
+/* Start of step: x_n, v_n, tangents, lagged friction, handle positions. */
+static PetscErrorCode BeginStep(VKYLS y)
+{
+  const VKRodModel *m = &y->model;
+  PetscReal         t1 = y->t + y->dt;
+  PetscScalar      *xa;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGather(y, y->v, y->vn));
+  PetscCall(VKYLSGather(y, y->x, y->xn));
+  for (PetscInt s = 0; s < m->nseg; s++) {
+    PetscReal *t = y->tn + 3 * s;
+    for (int k = 0; k < 3; k++) t[k] = y->xn[3 * m->seg[2 * s + 1] + k] - y->xn[3 * m->seg[2 * s] + k];
+    VKNormalize3(t);
+  }
+  for (PetscInt i = y->vbeg; i < y->vend; i++) {
+    PetscInt  which = -1;
+    PetscReal depth = y->scene->ncolliders ? VKSceneContact(y->scene, y->t, y->xn + 3 * i, y->par.radius, y->contact_normal + 3 * i, &which) : 0;
+    y->friction[i]  = depth > 0 && which >= 0 ? y->scene->collider[which].friction * y->kw * depth : 0;
+    y->contact_collider[i] = PetscMax(which, 0);
+  }
+  PetscCall(VecGetArray(y->x, &xa));
+  for (PetscInt i = y->vbeg; i < y->vend; i++)
+    if (y->handle[i] >= 0) VKSceneHandlePosition(y->scene, y->handle[i], y->yarn->curves.x + 3 * i, t1, xa + 3 * (i - y->vbeg));
+  PetscCall(VecRestoreArray(y->x, &xa));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSStep(VKYLS y)
+{
+  SNESConvergedReason reason;
+  PetscInt            its;
+  PetscLogDouble      t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSSetUp(y));
+  PetscCall(BeginStep(y));
+  PetscCall(VKYLSGather(y, y->x, y->xall));
+  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscCall(PetscLogEventBegin(VK_EVENT_YLSSolve, 0, 0, 0, 0));
+  PetscCall(SNESSolve(y->snes, NULL, y->x));
+  PetscCall(PetscLogEventEnd(VK_EVENT_YLSSolve, 0, 0, 0, 0));
+  PetscCall(SNESGetConvergedReason(y->snes, &reason));
+  PetscCall(SNESGetIterationNumber(y->snes, &its));
+  y->stats.newton_its += its;
+  y->stats.newton_its_max = PetscMax(y->stats.newton_its_max, its);
+  if (y->relaxing && (reason == SNES_DIVERGED_MAX_IT || reason == SNES_DIVERGED_LINE_SEARCH)) reason = SNES_CONVERGED_ITS; /* every iteration lowered Phi: a proximal step needs no more */
+  PetscCheck(reason > 0, y->comm, PETSC_ERR_NOT_CONVERGED, "Yarn-level step %d (t = %g s -> %g s): Newton failed after %d iterations (%s); try a smaller -yls_dt or look at -yls_snes_monitor", (int)y->step + 1, (double)y->t, (double)(y->t + y->dt), (int)its, SNESConvergedReasons[reason]);
+  /* v = (x - x_n) / dt, frames carried along */
+  PetscCall(VKYLSGather(y, y->x, y->xall));
+  {
+    PetscScalar *va;
+    PetscCall(VecGetArray(y->v, &va));
+    for (PetscInt k = 0; k < 3 * (y->vend - y->vbeg); k++) va[k] = (y->xall[3 * y->vbeg + k] - y->xn[3 * y->vbeg + k]) / y->dt;
+    PetscCall(VecRestoreArray(y->v, &va));
+  }
+  PetscCall(VKTransportFramesInTime(y->model.nseg, y->model.seg, y->xn, y->xall, y->normal));
+  y->t += y->dt;
+  y->step++;
+  y->stats.steps++;
+  y->stats.time_solve += VKWallTime() - t0;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSEnergies(VKYLS y, PetscReal e[6], PetscReal momentum[3])
+{
+  const VKRodModel *m = &y->model;
+  PetscReal         E[3], glue = 0, kin = 0, grav = 0, p[3] = {0, 0, 0}, loc[8], sum[8];
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGather(y, y->x, y->xall));
+  PetscCall(VKYLSGather(y, y->v, y->vn));
+  PetscCall(VKRodModelEnergy(m, y->xall, 0, NULL, E, NULL));
+  {
+    PetscInt *pairs, np;
+    PetscReal Ec[3];
+    PetscCall(VKRodModelFindPairs(m, y->xall, 0, 0, m->nseg, &np, &pairs));
+    PetscCall(VKRodModelEnergy(m, y->xall, np, pairs, Ec, NULL));
+    E[2] = Ec[2];
+    PetscCall(PetscFree(pairs));
+  }
+  for (PetscInt k = 0; k < y->nglue; k++) glue += VKRodStretch(y->xall + 3 * y->glue[2 * k], y->xall + 3 * y->glue[2 * k + 1], y->Lglue[k], m->par.ks, PETSC_FALSE, NULL, NULL);
+  for (PetscInt i = y->vbeg; i < y->vend; i++)
+    for (int k = 0; k < 3; k++) {
+      kin += 0.5 * m->mass[i] * PetscSqr(y->vn[3 * i + k]);
+      grav -= m->mass[i] * y->scene->gravity[k] * y->xall[3 * i + k];
+      p[k] += m->mass[i] * y->vn[3 * i + k];
+    }
+  loc[0] = kin;
+  loc[1] = grav;
+  for (int k = 0; k < 3; k++) loc[2 + k] = p[k];
+  PetscCall(MPIU_Allreduce(loc, sum, 5, MPIU_REAL, MPIU_SUM, y->comm));
+  e[0] = E[0];
+  e[1] = E[1];
+  e[2] = E[2];
+  e[3] = sum[0];
+  e[4] = sum[1];
+  e[5] = glue;
+  if (momentum)
+    for (int k = 0; k < 3; k++) momentum[k] = sum[2 + k];
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSMinDistance(VKYLS y, PetscReal *dmin, PetscInt *npairs)
+{
+  const VKRodModel *m = &y->model;
+  PetscInt         *pairs, np;
+  PetscReal         d = 2 * m->par.radius;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGather(y, y->x, y->xall));
+  PetscCall(VKRodModelFindPairs(m, y->xall, 0, 0, m->nseg, &np, &pairs));
+  for (PetscInt k = 0; k < np; k++) {
+    const PetscInt *a = m->seg + 2 * pairs[2 * k], *b = m->seg + 2 * pairs[2 * k + 1];
+    d = PetscMin(d, VKRodSegmentDistance(y->xall + 3 * a[0], y->xall + 3 * a[1], y->xall + 3 * b[0], y->xall + 3 * b[1]));
+  }
+  PetscCall(PetscFree(pairs));
+  *dmin = d / (2 * m->par.radius);
+  if (npairs) *npairs = np;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSRun(VKYLS y)
+{
+  PetscInt       nsteps;
+  PetscErrorCode ierr;
+  char           failure[256] = "";
+  PetscLogDouble t0           = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSSetUp(y));
+  if (y->relax) PetscCall(VKYLSRelax(y));
+  nsteps = (PetscInt)PetscFloorReal(y->scene->duration / y->dt + 0.5);
+  PetscCall(VKYLSOutputOpen(y));
+  PetscCall(VKYLSOutputFrame(y));
+  y->next_output = y->scene->output_interval;
+  for (PetscInt k = 0; k < nsteps; k++) {
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = VKYLSStep(y);
+    PetscCall(PetscPopErrorHandler());
+    if (ierr) {
+      const char *text;
+      char       *spec = NULL;
+      PetscErrorMessage(ierr, &text, &spec);
+      PetscCall(PetscSNPrintf(failure, sizeof(failure), "%s", spec && spec[0] ? spec : text));
+      break;
+    }
+    if (y->t >= y->next_output - 1e-6 * y->dt || k == nsteps - 1) {
+      PetscCall(VKYLSOutputFrame(y));
+      while (y->next_output <= y->t + 1e-6 * y->dt) y->next_output += y->scene->output_interval;
+    }
+  }
+  y->time_run = VKWallTime() - t0;
+  PetscCall(VKYLSOutputClose(y, failure[0] ? failure : NULL));
+  PetscCheck(!failure[0], y->comm, PETSC_ERR_NOT_CONVERGED, "%s (the frames up to t = %g s are written)", failure, (double)y->t);
+  if (!y->quiet)
+    PetscCall(PetscPrintf(y->comm, "volknit yls: %d vertices, %d steps of %g s to t = %g s, Newton its %.2f/step (max %d), contact pairs max %d, min distance %.3f x 2r, %d frames (%.2f s, %.3g s per simulated second)\n", (int)y->model.nv, (int)y->stats.steps, (double)y->dt, (double)y->t, (double)y->stats.newton_its / PetscMax(1, y->stats.steps), (int)y->stats.newton_its_max, (int)y->stats.pairs_max,
+                          (double)y->stats.dmin_over_2r, (int)y->frames, y->time_run, y->time_run / PetscMax(y->t, PETSC_SMALL)));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSView(VKYLS y, PetscViewer viewer)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Yarn-level simulator: k_s %g N, k_b %g N m^2, k_c %g N/m (%d x %d quadrature), damping %g 1/s, dashpot %g N s, colliders %g N/m, cap %g r, dt %g s\n", (double)y->par.ks, (double)y->par.kb, (double)y->par.kc, (int)y->par.nq, (int)y->par.nq, (double)y->cv, (double)y->cs, (double)y->kw, (double)y->cap, (double)y->dt));
+  if (y->setup) {
+    PetscCall(PetscViewerASCIIPrintf(viewer, "  %d vertices, %d segments, %d bending triples, %d glue springs, %d handle vertices\n", (int)y->model.nv, (int)y->model.nseg, (int)y->model.nbend, (int)y->nglue, (int)y->nhandle_vertices));
+    PetscCall(PetscViewerASCIIPushTab(viewer));
+    PetscCall(VKSceneView(y->scene, viewer));
+    PetscCall(SNESView(y->snes, viewer));
+    PetscCall(PetscViewerASCIIPopTab(viewer));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSDestroy(VKYLS *py)
+{
+  VKYLS y = *py;
+
+  PetscFunctionBegin;
+  if (!y) PetscFunctionReturn(0);
+  PetscCall(VKYLSOutputDestroy(y));
+  if (y->setup) {
+    PetscCall(VKRodModelDestroy(&y->model));
+    PetscCall(PetscFree2(y->glue, y->Lglue));
+    PetscCall(PetscFree(y->handle));
+    PetscCall(PetscFree5(y->xall, y->xn, y->vn, y->tn, y->normal));
+    PetscCall(PetscFree3(y->friction, y->contact_normal, y->contact_collider));
+  }
+  PetscCall(PetscFree(y->pairs));
+  PetscCall(PetscFree(y->pattern));
+  PetscCall(VecDestroy(&y->x));
+  PetscCall(VecDestroy(&y->v));
+  PetscCall(VecDestroy(&y->xseq));
+  PetscCall(VecScatterDestroy(&y->toall));
+  PetscCall(MatDestroy(&y->J));
+  PetscCall(SNESDestroy(&y->snes));
+  PetscCall(PetscFree(*py));
+  PetscFunctionReturn(0);
+}

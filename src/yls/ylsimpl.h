@@ -1,0 +1,27 @@
+/* ylsimpl.h: internals of the yarn-level simulator shared by its files
+ * (potential.c: the incremental potential; newton.c: the SNES around it;
+ * yls.c: the object and the time loop; output.c: the frames). */
+#pragma once
+#include <vkyls.h>
+#include <vkutil.h>
+#include <vklog.h>
+
+/* The terms of the incremental potential, reported separately. */
+enum { YLS_INERTIA, YLS_GRAVITY, YLS_DAMPING, YLS_COLLIDER, YLS_STRETCH, YLS_BEND, YLS_CONTACT, YLS_GLUE, YLS_NTERMS };
+
+/* The values of a parallel vector (3 per vertex) on every rank, in dst. */
+PETSC_INTERN PetscErrorCode VKYLSGather(VKYLS, Vec X, PetscReal dst[]);
+/* Phi at the replicated positions x (every rank), split into its terms;
+ * active_pairs: contact pairs closer than 2r. */
+PETSC_INTERN PetscErrorCode VKYLSPotential(VKYLS, const PetscReal x[], PetscReal term[], PetscInt *active_pairs, PetscReal *phi);
+PETSC_INTERN PetscErrorCode VKYLSGradient(VKYLS, const PetscReal x[], Vec G);
+PETSC_INTERN PetscErrorCode VKYLSHessian(VKYLS, const PetscReal x[], Mat H);
+PETSC_INTERN PetscErrorCode VKYLSCreateHessian(VKYLS, Mat *H);
+/* The SNES of a step (newton.c). */
+PETSC_INTERN PetscErrorCode VKYLSCreateSNES(VKYLS);
+PETSC_INTERN PetscErrorCode VKYLSFindPairs(VKYLS, const PetscReal x[]);
+/* Frames (output.c). */
+PETSC_INTERN PetscErrorCode VKYLSOutputOpen(VKYLS);
+PETSC_INTERN PetscErrorCode VKYLSOutputFrame(VKYLS);
+PETSC_INTERN PetscErrorCode VKYLSOutputClose(VKYLS, const char failure[]);
+PETSC_INTERN PetscErrorCode VKYLSOutputDestroy(VKYLS);

@@ -1,0 +1,273 @@
+/* test_yls.c: the yarn-level simulator (DESIGN §4) against numbers:
+ *  - force-extension: a straight yarn hanging from its top end under a
+ *    strong gravity, solved to static equilibrium: every segment's strain is
+ *    the analytic T_j / k_s, T_j the weight of the yarn below it;
+ *  - two crossing yarns, the lower one pinned, the upper one pressed onto it
+ *    by a gravity 1000 x g: the axes never come closer than the distance
+ *    h* at which the contact force of a straight crossing (the same
+ *    quadrature) carries the whole weight; the load spread by the upper yarn
+ *    draping over the lower one can only keep them further apart;
+ *  - with no damping, handles or gravity, a relaxed patch stretched by 2 %
+ *    and released with a drift velocity: total energy never increases, linear momentum stays;
+ *  - a relaxed 1x1 rib patch left alone stays still (stress-free rest);
+ *  - 1 and 2 ranks give the same trajectory (the test runs on both).
+ * ranks: 1 2 */
+#include <vkyls.h>
+#include "vktest.h"
+
+typedef struct {
+  VKYarn  y;
+  VKScene s;
+  VKYLS   yls;
+} Run;
+
+static PetscErrorCode RunDestroy(Run *r)
+{
+  PetscFunctionBegin;
+  PetscCall(VKYLSDestroy(&r->yls));
+  PetscCall(VKSceneDestroy(&r->s));
+  PetscCall(VKYarnDestroy(&r->y));
+  PetscFunctionReturn(0);
+}
+
+/* A yarn model of given polylines, a scene in metres, the simulator. */
+static PetscErrorCode RunCreate(MPI_Comm comm, const VKCurves *c, Run *r)
+{
+  PetscFunctionBegin;
+  PetscCall(VKYarnCreate(comm, &r->y));
+  if (c) PetscCall(VKYarnSetCurves(r->y, c));
+  else PetscCall(VKYarnSetKnit(r->y, "rib1x1", 3, 3));
+  PetscCall(VKYarnSetUp(r->y));
+  PetscCall(VKSceneCreate(comm, &r->s));
+  r->s->relative = PETSC_FALSE;
+  for (int k = 0; k < 3; k++) r->s->gravity[k] = 0;
+  PetscCall(VKYLSCreate(r->y, r->s, &r->yls));
+  r->yls->quiet = PETSC_TRUE;
+  r->yls->relax = PETSC_FALSE;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Line(VKCurves *c, PetscInt n, const PetscReal a[], const PetscReal b[])
+{
+  PetscReal *x;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(3 * n, &x));
+  for (PetscInt i = 0; i < n; i++)
+    for (int k = 0; k < 3; k++) x[3 * i + k] = a[k] + (b[k] - a[k]) * i / (n - 1);
+  PetscCall(VKCurvesAdd(c, n, x, PETSC_FALSE));
+  PetscCall(PetscFree(x));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestForceExtension(MPI_Comm comm)
+{
+  VKCurves   c;
+  Run        r;
+  PetscReal  a[3] = {0, 0, 0}, b[3] = {0, 0, -0.05}, G = 1000, err = 0, emax = 0;
+  VKYLS      y;
+  PetscInt   n = 51;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(Line(&c, n, a, b));
+  PetscCall(RunCreate(comm, &c, &r));
+  y                    = r.yls;
+  r.s->gravity[2]      = -G;
+  r.s->nhandles        = 1; /* the top vertex */
+  r.s->handle[0].box[0] = r.s->handle[0].box[1] = r.s->handle[0].box[2] = -1e-4;
+  r.s->handle[0].box[3] = r.s->handle[0].box[4] = r.s->handle[0].box[5] = 1e-4;
+  r.s->handle[0].window[1] = 1;
+  r.s->handle[0].axis[2]   = 1;
+  r.s->duration            = 1;
+  y->dt                    = 10; /* one step is the static solve up to 1e-... of inertia */
+  y->cv = y->cs = 0;
+  PetscCall(VKYLSSetUp(y));
+  PetscCall(SNESSetTolerances(y->snes, 1e-11, 1e-12, PETSC_DEFAULT, 200, PETSC_MAX_INT));
+  for (int k = 0; k < 3; k++) PetscCall(VKYLSStep(y)); /* the inertia of the first step dies out */
+  {
+    const VKRodModel *m = &y->model;
+    PetscReal         below = 0; /* weight carried by segment s: everything after its upper vertex */
+    for (PetscInt s = m->nseg - 1; s >= 0; s--) {
+      PetscInt  v0 = m->seg[2 * s], v1 = m->seg[2 * s + 1];
+      PetscReal l  = PetscSqrtReal(PetscSqr(y->xall[3 * v1] - y->xall[3 * v0]) + PetscSqr(y->xall[3 * v1 + 1] - y->xall[3 * v0 + 1]) + PetscSqr(y->xall[3 * v1 + 2] - y->xall[3 * v0 + 2]));
+      PetscReal strain, want;
+      below += m->mass[v1] * G;
+      strain = l / m->L[s] - 1;
+      want   = below / m->par.ks;
+      err    = PetscMax(err, PetscAbsReal(strain - want));
+      emax   = PetscMax(emax, want);
+    }
+  }
+  PetscCall(VKTestCheck((PetscBool)(err <= 1e-6 * emax), NULL, "hanging yarn, g = %g: segment strains match T/k_s (largest %.3e), max error %.2e", (double)G, (double)emax, (double)err));
+  PetscCall(RunDestroy(&r));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+/* Contact force between two perpendicular straight yarns at axis distance
+ * h, from the same elements: -dE/dh by central differences. */
+static PetscReal CrossingForce(const VKRodModel *m, PetscReal L, PetscInt n, PetscReal h)
+{
+  PetscReal E[2];
+  for (int side = 0; side < 2; side++) {
+    PetscReal hh = h + (side ? 1e-9 : -1e-9), sum = 0, ds = L / (n - 1);
+    for (PetscInt i = 0; i + 1 < n; i++)
+      for (PetscInt j = 0; j + 1 < n; j++) {
+        PetscReal x[12] = {-L / 2 + i * ds, 0, 0, -L / 2 + (i + 1) * ds, 0, 0, 0, -L / 2 + j * ds, hh, 0, -L / 2 + (j + 1) * ds, hh};
+        sum += VKRodContact(x, ds, ds, m->par.kc, m->par.radius, m->par.nq, PETSC_FALSE, NULL, NULL, NULL);
+      }
+    E[side] = sum;
+  }
+  return -(E[1] - E[0]) / 2e-9;
+}
+
+static PetscErrorCode TestCrossing(MPI_Comm comm, PetscReal **xout)
+{
+  VKCurves   c;
+  Run        r;
+  const PetscReal R = 1e-3, L = 0.02, G = 9810;
+  PetscReal  a0[3] = {-L / 2, 0, 0}, a1[3] = {L / 2, 0, 0}, b0[3] = {0, -L / 2, 2 * R}, b1[3] = {0, L / 2, 2 * R}, W, lo = 0.05, hi = 1, dmin, zc = 0;
+  VKYLS      y;
+  PetscInt   n = 21;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(Line(&c, n, a0, a1));
+  PetscCall(Line(&c, n, b0, b1));
+  PetscCall(RunCreate(comm, &c, &r));
+  y               = r.yls;
+  r.s->gravity[2] = -G;
+  r.s->nhandles   = 1; /* the whole lower yarn */
+  {
+    PetscReal box[6] = {-L, -R / 2, -R / 2, L, R / 2, R / 2};
+    PetscCall(PetscArraycpy(r.s->handle[0].box, box, 6));
+  }
+  r.s->handle[0].window[1] = 1;
+  r.s->handle[0].axis[2]   = 1;
+  r.s->duration            = 0.05;
+  y->dt                    = 1e-4;
+  y->cv                    = 1e4; /* overdamped: falls at g / c_v = 1 m/s, 0.1 r per step */
+  PetscCall(VKYLSSetUp(y));
+  W = 0;
+  for (PetscInt i = n; i < 2 * n; i++) W += y->model.mass[i] * G;
+  for (int it = 0; it < 60; it++) { /* h* by bisection: F decreases with h */
+    PetscReal mid = 0.5 * (lo + hi);
+    if (CrossingForce(&y->model, L, n, mid * 2 * R) > W) lo = mid;
+    else hi = mid;
+  }
+  dmin = PETSC_MAX_REAL;
+  for (PetscInt k = 0; k < 150; k++) {
+    PetscReal d;
+    PetscCall(VKYLSStep(y));
+    PetscCall(VKYLSMinDistance(y, &d, NULL));
+    dmin = PetscMin(dmin, d);
+  }
+  zc = y->xall[3 * (n + n / 2) + 2]; /* middle of the upper yarn */
+  PetscCall(VKTestCheck((PetscBool)(dmin >= lo * (1 - 1e-3) && zc > 0), NULL, "crossing pressed by %.3g N: min distance %.4f x 2r >= %.4f x 2r (one straight crossing carrying the load), upper yarn above the lower (z %.3g m)", (double)W, (double)dmin, (double)lo, (double)zc));
+  PetscCall(PetscMalloc1(3 * y->model.nv, xout));
+  PetscCall(PetscArraycpy(*xout, y->xall, 3 * y->model.nv));
+  PetscCall(RunDestroy(&r));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestConservation(MPI_Comm comm)
+{
+  Run       r;
+  VKYLS     y;
+  PetscReal e[6], p0[3], p[3], Eprev, E, worst = 0, dp = 0, pn;
+
+  PetscFunctionBegin;
+  PetscCall(RunCreate(comm, NULL, &r));
+  y = r.yls;
+  y->cv = y->cs = 0;
+  y->dt         = 1e-3;
+  r.s->duration = 1;
+  PetscCall(VKYLSSetUp(y));
+  PetscCall(VKYLSRelax(y));
+  PetscCall(SNESSetTolerances(y->snes, 1e-10, 1e-12, PETSC_DEFAULT, 500, PETSC_MAX_INT));
+  { /* the relaxed patch stretched by 2 % along x, drifting at 0.05 m/s along y */
+    PetscScalar *xa, *va;
+    PetscInt     n;
+    PetscCall(VecGetLocalSize(y->x, &n));
+    PetscCall(VecGetArray(y->x, &xa));
+    PetscCall(VecGetArray(y->v, &va));
+    for (PetscInt i = 0; i < n; i += 3) {
+      xa[i] *= 1.02;
+      va[i] = 0;
+      va[i + 1] = 0.05;
+      va[i + 2] = 0;
+    }
+    PetscCall(VecRestoreArray(y->x, &xa));
+    PetscCall(VecRestoreArray(y->v, &va));
+  }
+  PetscCall(VKYLSEnergies(y, e, p0));
+  Eprev = e[0] + e[1] + e[2] + e[3] + e[5];
+  pn    = PetscSqrtReal(p0[0] * p0[0] + p0[1] * p0[1] + p0[2] * p0[2]);
+  for (PetscInt k = 0; k < 10; k++) {
+    PetscCall(VKYLSStep(y));
+    PetscCall(VKYLSEnergies(y, e, p));
+    E     = e[0] + e[1] + e[2] + e[3] + e[5];
+    worst = PetscMax(worst, (E - Eprev) / Eprev);
+    Eprev = E;
+    for (int a = 0; a < 3; a++) dp = PetscMax(dp, PetscAbsReal(p[a] - p0[a]) / pn);
+  }
+  PetscCall(VKTestCheck((PetscBool)(worst <= 1e-10), NULL, "no damping, handles or gravity: total energy never increases (largest relative change per step %+.2e)", (double)worst));
+  PetscCall(VKTestCheck((PetscBool)(dp <= 1e-8), NULL, "linear momentum conserved over 10 steps to %.1e relative", (double)dp));
+  PetscCall(RunDestroy(&r));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestRelaxedStill(MPI_Comm comm)
+{
+  Run       r;
+  VKYLS     y;
+  PetscReal e[6], kmax = 0, move = 0, *x0;
+
+  PetscFunctionBegin;
+  PetscCall(RunCreate(comm, NULL, &r));
+  y = r.yls;
+  PetscCall(VKYLSSetUp(y));
+  y->quiet = PETSC_TRUE;
+  PetscCall(VKYLSRelax(y));
+  PetscCall(PetscMalloc1(3 * y->model.nv, &x0));
+  PetscCall(PetscArraycpy(x0, y->yarn->curves.x, 3 * y->model.nv));
+  for (PetscInt k = 0; k < 20; k++) {
+    PetscCall(VKYLSStep(y));
+    PetscCall(VKYLSEnergies(y, e, NULL));
+    kmax = PetscMax(kmax, e[3]);
+  }
+  for (PetscInt i = 0; i < 3 * y->model.nv; i++) move = PetscMax(move, PetscAbsReal(y->xall[i] - x0[i]));
+  PetscCall(VKTestCheck((PetscBool)(kmax <= 1e-24 && move <= 1e-12), NULL, "relaxed 3x3 rib left alone: kinetic energy <= %.1e J, largest motion %.1e m over 20 steps", (double)kmax, (double)move));
+  PetscCall(VKTestCheck((PetscBool)(e[0] + e[1] + e[2] + e[5] <= 1e-20), NULL, "the relaxed rest state is stress-free (elastic energy %.1e J)", (double)(e[0] + e[1] + e[2] + e[5])));
+  PetscCall(PetscFree(x0));
+  PetscCall(RunDestroy(&r));
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  PetscMPIInt size;
+  PetscReal  *xworld, *xself, d = 0;
+
+  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  VKTestInit(PETSC_COMM_WORLD);
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscCall(TestForceExtension(PETSC_COMM_WORLD));
+  PetscCall(TestCrossing(PETSC_COMM_WORLD, &xworld));
+  PetscCall(TestConservation(PETSC_COMM_WORLD));
+  PetscCall(TestRelaxedStill(PETSC_COMM_WORLD));
+  if (size > 1) { /* the same crossing on one rank (every rank runs its own copy) */
+    PetscCall(TestCrossing(PETSC_COMM_SELF, &xself));
+    for (PetscInt i = 0; i < 2 * 21 * 3; i++) d = PetscMax(d, PetscAbsReal(xworld[i] - xself[i]));
+    PetscCall(VKTestCheck((PetscBool)(d <= 1e-10), NULL, "crossing: %d ranks and 1 rank give the same positions to %.1e m", (int)size, (double)d));
+    PetscCall(PetscFree(xself));
+  }
+  PetscCall(PetscFree(xworld));
+  {
+    int rc = VKTestFinish();
+    PetscCall(PetscFinalize());
+    return rc;
+  }
+}
