@@ -11,8 +11,9 @@
  * lambda_i = k_w depth and the tangent plane P_i lagged from the start of
  * the step, u_i the displacement relative to the collider since x_n and
  * f0(y) = -y^3/(3 eps^2) + y^2/eps + eps/3 below eps = -yls_friction_eps x dt,
- * y above.  Every element's Hessian is projected onto the PSD cone, so the
- * assembled Hessian is SPD (the mass term is positive).
+ * y above.  Element Hessians are exact, or projected onto the PSD cone
+ * element by element when y->psd_now is set (then the assembled Hessian is
+ * SPD: the mass term is positive).
  *
  * Each rank evaluates the vertex terms of its vertices and the elements
  * whose first vertex (pairs: first segment) it owns, from a full copy of
