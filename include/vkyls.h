@@ -36,7 +36,7 @@ typedef struct {
   PetscInt       projected_fallbacks;
   PetscInt       steps, newton_its, newton_its_max, pairs_max, line_search_cuts, capped_steps, pattern_rebuilds;
   PetscReal      dmin_over_2r; /* smallest distance between non-adjacent segment axes / 2r seen */
-  PetscLogDouble time_assemble, time_solve, time_pairs;
+  PetscLogDouble time_solve, time_pairs;
 } VKYLSStats;
 
 typedef struct _n_VKYLS *VKYLS;
@@ -77,7 +77,9 @@ struct _n_VKYLS {
   Mat        J;
   PetscBool  setup, quiet, relaxing;
   VKYLSHessianType hessian;
-  PetscBool  psd_now; /* element Hessians of the current Newton iteration projected */
+  PetscBool  psd_now;   /* element Hessians of the current Newton iteration projected */
+  PetscReal  phi;       /* Phi at the SNES iterate, when phi_valid (set by the line search) */
+  PetscBool  phi_valid;
   VKYLSStats stats;
   PetscReal  energy[6]; /* last frame: stretch, bending, contact, kinetic, gravity, glue */
   char       dir[PETSC_MAX_PATH_LEN];

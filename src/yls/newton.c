@@ -182,7 +182,8 @@ static PetscErrorCode LineSearch(SNESLineSearch ls, void *ctx)
     PetscCall(SNESLineSearchSetReason(ls, SNES_LINESEARCH_FAILED_NANORINF));
     PetscFunctionReturn(0);
   }
-  PetscCall(PotentialAt(y, X, &phi0, &scale));
+  if (y->phi_valid) phi0 = y->phi; /* Phi at X, from the previous line search (exact: no pair came into range) */
+  else PetscCall(PotentialAt(y, X, &phi0, &scale));
   for (it = 0; it < y->ls_max_it; it++) {
     PetscCall(VecWAXPY(W, -lambda, Y, X));
     PetscCall(PotentialAt(y, W, &phi, &scale));
@@ -198,6 +199,8 @@ static PetscErrorCode LineSearch(SNESLineSearch ls, void *ctx)
     PetscCall(SNESLineSearchSetReason(ls, SNES_LINESEARCH_FAILED_REDUCT));
     PetscFunctionReturn(0);
   }
+  y->phi       = phi;
+  y->phi_valid = PETSC_TRUE;
   PetscCall(PetscInfo(snes, "yls line search: largest vertex step %g r%s, lambda %g, Phi %.12g -> %.12g\n", (double)(ymaxall / y->par.radius), ymaxall > cap ? " (capped)" : "", (double)lambda, (double)phi0, (double)phi));
   PetscCall(VecCopy(W, X));
   PetscCall(SNESComputeFunction(snes, X, F));

@@ -69,8 +69,7 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   PetscFunctionBegin;
   PetscCheck(o, y->comm, PETSC_ERR_ORDER, "VKYLSOutputOpen() first");
   PetscCall(PetscLogEventBegin(VK_EVENT_Write, 0, 0, 0, 0));
-  PetscCall(VKYLSEnergies(y, e, NULL));
-  PetscCall(VKYLSMinDistance(y, &dmin, &np)); /* leaves the positions in y->xall */
+  PetscCall(VKYLSMeasure(y, e, NULL, &dmin, &np)); /* leaves the positions in y->xall */
   PetscCall(PetscArraycpy(y->energy, e, 6));
   y->stats.pairs_max    = PetscMax(y->stats.pairs_max, np);
   y->stats.dmin_over_2r = PetscMin(y->stats.dmin_over_2r, dmin);

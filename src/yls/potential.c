@@ -44,7 +44,7 @@ static PetscErrorCode AddElement(VKYLS y, Accum *acc, PetscInt nv, const PetscIn
   PetscFunctionReturn(0);
 }
 
-static void Gather(const PetscReal x[], PetscInt nv, const PetscInt v[], PetscReal xe[])
+static void GatherElement(const PetscReal x[], PetscInt nv, const PetscInt v[], PetscReal xe[])
 {
   for (PetscInt a = 0; a < nv; a++)
     for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
@@ -152,7 +152,7 @@ static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], Accum *acc)
     if (y->handle[i] < 0) PetscCall(VertexTerms(y, x, i, acc));
   for (PetscInt s = y->sbeg; s < y->send; s++) {
     const PetscInt *v = m->seg + 2 * s;
-    Gather(x, 2, v, xe);
+    GatherElement(x, 2, v, xe);
     VKSumAdd(&acc->term[YLS_STRETCH], VKRodStretch(xe, xe + 3, m->L[s], p->ks, y->psd_now, want ? ge : NULL, acc->H ? He : NULL));
     if (want) PetscCall(AddElement(y, acc, 2, v, ge, He));
     if (y->cs > 0) PetscCall(Dashpot(y, x, s, acc));
@@ -160,21 +160,21 @@ static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], Accum *acc)
   for (PetscInt k = 0; k < m->nbend; k++) {
     const PetscInt *v = m->bend + 3 * k;
     if (v[1] < y->vbeg || v[1] >= y->vend) continue;
-    Gather(x, 3, v, xe);
+    GatherElement(x, 3, v, xe);
     VKSumAdd(&acc->term[YLS_BEND], VKRodBend(xe, m->kbar[k], m->lbar[k], p->kb, y->psd_now, want ? ge : NULL, acc->H ? He : NULL));
     if (want) PetscCall(AddElement(y, acc, 3, v, ge, He));
   }
   for (PetscInt k = 0; k < y->nglue; k++) {
     const PetscInt *v = y->glue + 2 * k;
     if (v[0] < y->vbeg || v[0] >= y->vend) continue;
-    Gather(x, 2, v, xe);
+    GatherElement(x, 2, v, xe);
     VKSumAdd(&acc->term[YLS_GLUE], VKRodStretch(xe, xe + 3, y->Lglue[k], p->ks, y->psd_now, want ? ge : NULL, acc->H ? He : NULL));
     if (want) PetscCall(AddElement(y, acc, 2, v, ge, He));
   }
   for (PetscInt k = 0; k < y->npairs; k++) {
     PetscInt  sa = y->pairs[2 * k], sb = y->pairs[2 * k + 1], v[4] = {m->seg[2 * sa], m->seg[2 * sa + 1], m->seg[2 * sb], m->seg[2 * sb + 1]}, near = 0;
     PetscReal E;
-    Gather(x, 4, v, xe);
+    GatherElement(x, 4, v, xe);
     E = VKRodContact(xe, m->L[sa], m->L[sb], p->kc, p->radius, p->nq, y->psd_now, want ? ge : NULL, acc->H ? He : NULL, &near);
     if (!near) continue;
     acc->active_pairs++;

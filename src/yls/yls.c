@@ -246,6 +246,7 @@ PetscErrorCode VKYLSStep(VKYLS y)
   PetscCall(BeginStep(y));
   PetscCall(VKYLSGather(y, y->x, y->xall));
   PetscCall(VKYLSFindPairs(y, y->xall));
+  y->phi_valid = PETSC_FALSE; /* a new potential */
   PetscCall(PetscLogEventBegin(VK_EVENT_YLSSolve, 0, 0, 0, 0));
   PetscCall(SNESSolve(y->snes, NULL, y->x));
   PetscCall(PetscLogEventEnd(VK_EVENT_YLSSolve, 0, 0, 0, 0));
@@ -271,61 +272,65 @@ PetscErrorCode VKYLSStep(VKYLS y)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKYLSEnergies(VKYLS y, PetscReal e[6], PetscReal momentum[3])
+/* Energies, momentum, closest approach and pairs within 2r of the current
+ * state, from one search of the contact pairs (each output optional). */
+PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscReal *dmin, PetscInt *npairs)
 {
-  const VKRodModel *m = &y->model;
-  PetscReal         E[3], glue = 0, kin = 0, grav = 0, p[3] = {0, 0, 0}, loc[8], sum[8];
+  const VKRodModel  *m = &y->model;
+  const PetscScalar *va;
+  PetscInt          *pairs, np;
+  PetscReal          E[3], glue = 0, d = 2 * m->par.radius, loc[5] = {0, 0, 0, 0, 0}, sum[5];
 
   PetscFunctionBegin;
   PetscCall(VKYLSGather(y, y->x, y->xall));
-  PetscCall(VKYLSGather(y, y->v, y->vn));
-  PetscCall(VKRodModelEnergy(m, y->xall, 0, NULL, E, NULL));
-  {
-    PetscInt *pairs, np;
-    PetscReal Ec[3];
-    PetscCall(VKRodModelFindPairs(m, y->xall, 0, 0, m->nseg, &np, &pairs));
-    PetscCall(VKRodModelEnergy(m, y->xall, np, pairs, Ec, NULL));
-    E[2] = Ec[2];
-    PetscCall(PetscFree(pairs));
-  }
-  for (PetscInt k = 0; k < y->nglue; k++) glue += VKRodStretch(y->xall + 3 * y->glue[2 * k], y->xall + 3 * y->glue[2 * k + 1], y->Lglue[k], m->par.ks, PETSC_FALSE, NULL, NULL);
-  for (PetscInt i = y->vbeg; i < y->vend; i++)
-    for (int k = 0; k < 3; k++) {
-      kin += 0.5 * m->mass[i] * PetscSqr(y->vn[3 * i + k]);
-      grav -= m->mass[i] * y->scene->gravity[k] * y->xall[3 * i + k];
-      p[k] += m->mass[i] * y->vn[3 * i + k];
+  PetscCall(VKRodModelFindPairs(m, y->xall, 0, 0, m->nseg, &np, &pairs));
+  if (dmin) {
+    for (PetscInt k = 0; k < np; k++) {
+      const PetscInt *a = m->seg + 2 * pairs[2 * k], *b = m->seg + 2 * pairs[2 * k + 1];
+      d = PetscMin(d, VKRodSegmentDistance(y->xall + 3 * a[0], y->xall + 3 * a[1], y->xall + 3 * b[0], y->xall + 3 * b[1]));
     }
-  loc[0] = kin;
-  loc[1] = grav;
-  for (int k = 0; k < 3; k++) loc[2 + k] = p[k];
-  PetscCall(MPIU_Allreduce(loc, sum, 5, MPIU_REAL, MPIU_SUM, y->comm));
-  e[0] = E[0];
-  e[1] = E[1];
-  e[2] = E[2];
-  e[3] = sum[0];
-  e[4] = sum[1];
-  e[5] = glue;
-  if (momentum)
-    for (int k = 0; k < 3; k++) momentum[k] = sum[2 + k];
+    *dmin = d / (2 * m->par.radius);
+  }
+  if (npairs) *npairs = np;
+  if (e || momentum) {
+    PetscCall(VKRodModelEnergy(m, y->xall, np, pairs, E, NULL));
+    for (PetscInt k = 0; k < y->nglue; k++) glue += VKRodStretch(y->xall + 3 * y->glue[2 * k], y->xall + 3 * y->glue[2 * k + 1], y->Lglue[k], m->par.ks, PETSC_FALSE, NULL, NULL);
+    PetscCall(VecGetArrayRead(y->v, &va)); /* kinetic energy, gravity and momentum of the owned vertices */
+    for (PetscInt i = y->vbeg; i < y->vend; i++)
+      for (int k = 0; k < 3; k++) {
+        PetscReal vik = va[3 * (i - y->vbeg) + k];
+        loc[0] += 0.5 * m->mass[i] * vik * vik;
+        loc[1] -= m->mass[i] * y->scene->gravity[k] * y->xall[3 * i + k];
+        loc[2 + k] += m->mass[i] * vik;
+      }
+    PetscCall(VecRestoreArrayRead(y->v, &va));
+    PetscCall(MPIU_Allreduce(loc, sum, 5, MPIU_REAL, MPIU_SUM, y->comm));
+    if (e) {
+      e[0] = E[0];
+      e[1] = E[1];
+      e[2] = E[2];
+      e[3] = sum[0];
+      e[4] = sum[1];
+      e[5] = glue;
+    }
+    if (momentum)
+      for (int k = 0; k < 3; k++) momentum[k] = sum[2 + k];
+  }
+  PetscCall(PetscFree(pairs));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSEnergies(VKYLS y, PetscReal e[6], PetscReal momentum[3])
+{
+  PetscFunctionBegin;
+  PetscCall(VKYLSMeasure(y, e, momentum, NULL, NULL));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKYLSMinDistance(VKYLS y, PetscReal *dmin, PetscInt *npairs)
 {
-  const VKRodModel *m = &y->model;
-  PetscInt         *pairs, np;
-  PetscReal         d = 2 * m->par.radius;
-
   PetscFunctionBegin;
-  PetscCall(VKYLSGather(y, y->x, y->xall));
-  PetscCall(VKRodModelFindPairs(m, y->xall, 0, 0, m->nseg, &np, &pairs));
-  for (PetscInt k = 0; k < np; k++) {
-    const PetscInt *a = m->seg + 2 * pairs[2 * k], *b = m->seg + 2 * pairs[2 * k + 1];
-    d = PetscMin(d, VKRodSegmentDistance(y->xall + 3 * a[0], y->xall + 3 * a[1], y->xall + 3 * b[0], y->xall + 3 * b[1]));
-  }
-  PetscCall(PetscFree(pairs));
-  *dmin = d / (2 * m->par.radius);
-  if (npairs) *npairs = np;
+  PetscCall(VKYLSMeasure(y, NULL, NULL, dmin, npairs));
   PetscFunctionReturn(0);
 }
 

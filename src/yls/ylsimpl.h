@@ -17,6 +17,9 @@ PETSC_INTERN PetscErrorCode VKYLSPotential(VKYLS, const PetscReal x[], PetscReal
 PETSC_INTERN PetscErrorCode VKYLSGradient(VKYLS, const PetscReal x[], Vec G);
 PETSC_INTERN PetscErrorCode VKYLSHessian(VKYLS, const PetscReal x[], Mat H);
 PETSC_INTERN PetscErrorCode VKYLSCreateHessian(VKYLS, Mat *H);
+/* Energies (as VKYLSEnergies), momentum, closest approach / 2r and pairs
+ * within 2r of the current state from one pair search; outputs optional. */
+PETSC_INTERN PetscErrorCode VKYLSMeasure(VKYLS, PetscReal e[], PetscReal momentum[], PetscReal *dmin, PetscInt *npairs);
 /* The SNES of a step (newton.c). */
 PETSC_INTERN PetscErrorCode VKYLSCreateSNES(VKYLS);
 PETSC_INTERN PetscErrorCode VKYLSFindPairs(VKYLS, const PetscReal x[]);
