@@ -108,6 +108,7 @@ struct _n_VKYarn {
   PetscInt      weave_param[2];
   PetscInt      tiles[2];
   PetscReal     scale, radius, density, seglen;
+  PetscReal     contact_radius; /* > 0: the rest state is relaxed (VKYLSRelax) and honours this contact radius (<= radius) */
   PetscBool     radius_set, radius_estimated, seglen_set, knit_set[5], weave_set[2], weave_param_set;
   PetscBool     setup;
   /* the model */

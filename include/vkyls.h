@@ -98,8 +98,13 @@ PETSC_EXTERN PetscErrorCode VKYLSSetUp(VKYLS);
 /* Relax the rest state (relax.c): quasi-static solve with the contact
  * radius grown to r, then rest lengths, curvatures and contact radius reset
  * to the relaxed state, which becomes the yarn model's rest geometry.
- * VKYLSRun calls it first unless -yls_relax 0. */
+ * VKYLSRun calls it first unless -yls_relax 0 or the yarn model is relaxed
+ * already (yarn->contact_radius > 0). */
 PETSC_EXTERN PetscErrorCode VKYLSRelax(VKYLS);
+/* Relax a yarn model in place with the -yls_ options and no scene (volknit
+ * yarn -yarn_relax); afterwards yarn->contact_radius > 0 and VKYLSRun does
+ * not relax it again. */
+PETSC_EXTERN PetscErrorCode VKYLSRelaxYarn(VKYarn);
 /* One implicit Euler step of dt from the current state. */
 PETSC_EXTERN PetscErrorCode VKYLSStep(VKYLS);
 /* Steps over the scene's duration, frames at its output interval. */

@@ -19,7 +19,7 @@ const VKCommand VKCommands[] = {
   {"mesh", "enclose the yarn model in a voxel tet mesh with masses, embedding, METIS domains: DIR/mesh.{h5,xdmf,json}", VKCommandMesh},
   {"sim",  "simulate the homogenized mesh over a scene by projective dynamics (reads DIR/mesh.h5): DIR/sim.{h5,xdmf,json}", VKCommandSim},
   {"yls",  "simulate the yarn-level model over a scene (reads DIR/yarn.h5 or the -yarn_ options): DIR/yls.{h5,xdmf,csv,json}", VKCommandYLS},
-  {"run",  "run the stages the scene needs (today: yarn, mesh, sim)", VKCommandRun},
+  {"run",  "run the stages the scene needs (yarn, yls with -run_reference, mesh, sim)", VKCommandRun},
   {NULL,   NULL, NULL}
 };
 
@@ -77,6 +77,7 @@ static PetscErrorCode YarnFromOptions(MPI_Comm comm, VKYarn *y)
   PetscCall(PetscOptionsString("-yarn_write_bcc", "Also write the yarn model as a polyline BCC file", "VKBCCWrite", "", path, sizeof(path), &set));
   PetscCall(PetscOptionsString("-yarn_write_obj", "Also write the yarn model as OBJ polylines", "VKYarnWriteOBJ", "", path, sizeof(path), &set));
   PetscCall(PetscOptionsName("-yarn_view", "Print the yarn model summary", "VKYarnView", NULL));
+  PetscCall(PetscOptionsName("-yarn_relax", "Relax the yarn model with the yarn-level model (-yls_ options) before writing or using it", "VKYLSRelaxYarn", NULL));
   PetscOptionsEnd();
   PetscFunctionReturn(0);
 }
@@ -90,18 +91,21 @@ static PetscErrorCode MeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
   PetscFunctionReturn(0);
 }
 
-/* Build the yarn model; with `write`, write and report it. */
-static PetscErrorCode YarnStage(VKYarn y, const char dir[], PetscBool write)
+/* Build the yarn model, relaxed when `relax` or -yarn_relax asks and it is
+ * not relaxed yet; with `write`, write and report it. */
+static PetscErrorCode YarnStage(VKYarn y, const char dir[], PetscBool write, PetscBool relax)
 {
   MPI_Comm  comm = y->comm;
   char      path[PETSC_MAX_PATH_LEN];
-  PetscBool set;
+  PetscBool set, relax_opt = PETSC_FALSE;
   PetscReal mass, length;
 
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_YARN));
   PetscCall(VKYarnSetUp(y));
   if (y->radius_estimated) PetscCall(PetscPrintf(comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
+  PetscCall(PetscOptionsGetBool(NULL, NULL, "-yarn_relax", &relax_opt, NULL));
+  if ((relax || relax_opt) && !(y->contact_radius > 0)) PetscCall(VKYLSRelaxYarn(y));
   if (write) {
     PetscCall(VKYarnWriteOutputs(y, dir));
     PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_bcc", path, sizeof(path), &set));
@@ -117,7 +121,7 @@ static PetscErrorCode YarnStage(VKYarn y, const char dir[], PetscBool write)
   }
   PetscCall(ViewFromOptions(comm, "-yarn_view", YarnView, y));
   PetscCall(VKYarnGetMass(y, &mass, &length));
-  PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m%s%s%s (%.2f s)\n", y->description, (int)y->curves.n, (int)y->curves.nv, (double)length, (double)mass, (double)y->radius, write ? " -> " : "", write ? dir : "", write ? "/yarn.h5" : "", y->time_build));
+  PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m%s%s%s%s (%.2f s)\n", y->description, (int)y->curves.n, (int)y->curves.nv, (double)length, (double)mass, (double)y->radius, y->contact_radius > 0 ? ", relaxed" : "", write ? " -> " : "", write ? dir : "", write ? "/yarn.h5" : "", y->time_build));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
@@ -191,7 +195,7 @@ PetscErrorCode VKCommandYarn(MPI_Comm comm)
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
   PetscCall(YarnFromOptions(comm, &y));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
-  if (!help) PetscCall(YarnStage(y, dir, PETSC_TRUE));
+  if (!help) PetscCall(YarnStage(y, dir, PETSC_TRUE, PETSC_FALSE));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
 }
@@ -244,7 +248,7 @@ PetscErrorCode VKCommandMesh(MPI_Comm comm)
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
     if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit mesh: yarn model read from %s\n", y->file));
-    PetscCall(YarnStage(y, dir, PETSC_FALSE));
+    PetscCall(YarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
     PetscCall(MeshStage(m, dir));
   }
   PetscCall(VKMeshDestroy(&m));
@@ -285,6 +289,30 @@ static PetscErrorCode YLSView(void *y, PetscViewer v)
   return VKYLSView((VKYLS)y, v);
 }
 
+/* The yarn-level simulator of a scene, every option read. */
+static PetscErrorCode YLSFromOptions(VKYarn y, VKScene scene, const char dir[], VKYLS *yls)
+{
+  PetscFunctionBegin;
+  PetscCall(VKYLSCreate(y, scene, yls));
+  PetscCall(VKYLSSetFromOptions(*yls));
+  PetscCall(VKYLSSetOutputDirectory(*yls, dir));
+  PetscOptionsBegin(y->comm, NULL, "Yarn-level simulation outputs", "volknit yls");
+  PetscCall(PetscOptionsName("-yls_view", "Print the simulator, scene and solver after set-up", "VKYLSView", NULL));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode YLSStage(VKYLS yls)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscLogStagePush(VK_STAGE_YLS));
+  PetscCall(VKYLSSetUp(yls));
+  PetscCall(ViewFromOptions(yls->comm, "-yls_view", YLSView, yls));
+  PetscCall(VKYLSRun(yls));
+  PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(0);
+}
+
 /* yls: the yarn-level reference run of the scene. */
 PetscErrorCode VKCommandYLS(MPI_Comm comm)
 {
@@ -299,21 +327,12 @@ PetscErrorCode VKCommandYLS(MPI_Comm comm)
   PetscCall(YarnForStage(comm, dir, &y));
   PetscCall(VKSceneCreate(comm, &scene));
   PetscCall(VKSceneSetFromOptions(scene));
-  PetscCall(VKYLSCreate(y, scene, &yls));
-  PetscCall(VKYLSSetFromOptions(yls));
-  PetscCall(VKYLSSetOutputDirectory(yls, dir));
-  PetscOptionsBegin(comm, NULL, "Yarn-level simulation outputs", "volknit yls");
-  PetscCall(PetscOptionsName("-yls_view", "Print the simulator, scene and solver after set-up", "VKYLSView", NULL));
-  PetscOptionsEnd();
+  PetscCall(YLSFromOptions(y, scene, dir, &yls));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
     if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit yls: yarn model read from %s\n", y->file));
-    PetscCall(YarnStage(y, dir, PETSC_FALSE));
-    PetscCall(PetscLogStagePush(VK_STAGE_YLS));
-    PetscCall(VKYLSSetUp(yls));
-    PetscCall(ViewFromOptions(comm, "-yls_view", YLSView, yls));
-    PetscCall(VKYLSRun(yls));
-    PetscCall(PetscLogStagePop());
+    PetscCall(YarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
+    PetscCall(YLSStage(yls));
   }
   PetscCall(VKYLSDestroy(&yls));
   PetscCall(VKSceneDestroy(&scene));
@@ -327,22 +346,30 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
   char           dir[PETSC_MAX_PATH_LEN];
   VKYarn         y;
   VKMesh         m;
-  SimParts       p = {0};
-  PetscBool      help;
+  VKYLS          yls = NULL;
+  SimParts       p   = {0};
+  PetscBool      help, reference = PETSC_FALSE;
   PetscLogDouble t0 = VKWallTime();
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
+  PetscOptionsBegin(comm, NULL, "Pipeline", "volknit run");
+  PetscCall(PetscOptionsBool("-run_reference", "The scene needs yarn-level reference data: relax the yarns, run volknit yls on the scene (DIR/yls.*), then mesh the relaxed yarns", "volknit run", reference, &reference, NULL));
+  PetscOptionsEnd();
   PetscCall(YarnFromOptions(comm, &y));
   PetscCall(MeshFromOptions(comm, y, &m));
   PetscCall(SimFromOptions(m, dir, &p));
+  if (reference) PetscCall(YLSFromOptions(y, p.scene, dir, &yls));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
-    PetscCall(YarnStage(y, dir, PETSC_TRUE));
+    /* relaxed first, so yarn.h5, the reference run and the mesh share one rest state */
+    PetscCall(YarnStage(y, dir, PETSC_TRUE, reference));
+    if (reference) PetscCall(YLSStage(yls));
     PetscCall(MeshStage(m, dir));
     PetscCall(SimStage(&p));
-    PetscCall(PetscPrintf(comm, "volknit run: stages yarn, mesh, sim done in %.2f s; outputs in %s/\n", VKWallTime() - t0, dir));
+    PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, sim done in %.2f s; outputs in %s/\n", reference ? "yls, " : "", VKWallTime() - t0, dir));
   }
+  PetscCall(VKYLSDestroy(&yls));
   PetscCall(SimPartsDestroy(&p));
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));

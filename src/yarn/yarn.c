@@ -460,6 +460,7 @@ PetscErrorCode VKYarnView(VKYarn y, PetscViewer viewer)
   PetscCall(PetscViewerASCIIPrintf(viewer, "curves %d (%d closed), vertices %d, segments %d\n", (int)y->curves.n, (int)nclosed, (int)y->curves.nv, (int)VKCurvesNumSegments(&y->curves)));
   PetscCall(PetscViewerASCIIPrintf(viewer, "total length %g m, bounding box [%g, %g] x [%g, %g] x [%g, %g] m\n", (double)length, (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (double)lo[2], (double)hi[2]));
   PetscCall(PetscViewerASCIIPrintf(viewer, "radius %g m (%s), linear density %g kg/m, mass %g kg\n", (double)y->radius, y->radius_estimated ? "estimated" : "given", (double)y->density, (double)mass));
+  if (y->contact_radius > 0) PetscCall(PetscViewerASCIIPrintf(viewer, "rest state relaxed, contact radius %g m\n", (double)y->contact_radius));
   PetscCall(PetscViewerASCIIPrintf(viewer, "target segment length %g m, glue pairs %d\n", (double)y->seglen, (int)y->nbind));
   PetscCall(PetscViewerASCIIPopTab(viewer));
   PetscFunctionReturn(0);

@@ -6,7 +6,8 @@
  *   /yarn/segment_curve  nseg x 1 curve of each segment
  *   /yarn/normal         nseg x 3 rest frame normal n1
  *   /yarn/bind           nb x 2   glued vertex pairs
- *   attributes of /yarn: radius, density, radius_estimated, units, source
+ *   attributes of /yarn: radius, density, radius_estimated, contact_radius
+ *   (0 unless the rest state was relaxed, see VKYLSRelax), units, source
  * with a reader that checks every invariant before trusting the file, an
  * XDMF companion, the JSON summary, and OBJ polylines.  Writers run on
  * rank 0 into a temporary name that is renamed when complete. */
@@ -16,7 +17,7 @@
 #include <vkutil.h>
 #include <math.h>
 
-#define YARN_FORMAT "volknit-yarn 1"
+#define YARN_FORMAT "volknit-yarn 2" /* 2: contact_radius */
 
 PetscErrorCode VKYarnWriteToH5(VKYarn y, VKH5 *h)
 {
@@ -37,6 +38,7 @@ PetscErrorCode VKYarnWriteToH5(VKYarn y, VKH5 *h)
   PetscCall(VKH5WriteAttrReal(h, "/yarn", "radius", y->radius));
   PetscCall(VKH5WriteAttrReal(h, "/yarn", "density", y->density));
   PetscCall(VKH5WriteAttrInt(h, "/yarn", "radius_estimated", y->radius_estimated ? 1 : 0));
+  PetscCall(VKH5WriteAttrReal(h, "/yarn", "contact_radius", y->contact_radius));
   PetscCall(VKH5WriteAttrString(h, "/yarn", "units", "m, kg/m"));
   PetscCall(VKH5WriteAttrString(h, "/yarn", "format", YARN_FORMAT));
   PetscCall(VKH5WriteAttrString(h, "/yarn", "source", y->description));
@@ -149,6 +151,8 @@ static PetscErrorCode WriteJSONOutput(void *ctx, VKOutput *out)
   PetscCall(VKJSONArrayEnd(&j));
   PetscCall(VKJSONReal(&j, "radius_m", y->radius));
   PetscCall(VKJSONBool(&j, "radius_estimated", y->radius_estimated));
+  PetscCall(VKJSONBool(&j, "relaxed", y->contact_radius > 0 ? PETSC_TRUE : PETSC_FALSE));
+  if (y->contact_radius > 0) PetscCall(VKJSONReal(&j, "contact_radius_m", y->contact_radius));
   PetscCall(VKJSONReal(&j, "segment_length_m", y->seglen));
   PetscCall(VKJSONReal(&j, "linear_density_kg_per_m", y->density));
   PetscCall(VKJSONReal(&j, "total_mass_kg", mass));
@@ -235,9 +239,11 @@ PetscErrorCode VKYarnLoadFromH5(VKYarn y, VKH5 *h)
   if (!ierr) ierr = VKH5ReadAttrReal(h, "/yarn", "radius", &y->radius);
   if (!ierr) ierr = VKH5ReadAttrReal(h, "/yarn", "density", &y->density);
   if (!ierr) ierr = VKH5ReadAttrInt(h, "/yarn", "radius_estimated", &est);
+  if (!ierr) ierr = VKH5ReadAttrReal(h, "/yarn", "contact_radius", &y->contact_radius);
   if (!ierr) ierr = VKH5ReadAttrString(h, "/yarn", "source", source, sizeof(source));
   if (!ierr) ierr = CheckArrays(h->path, &a);
   if (!ierr && !(y->radius > 0 && isfinite(y->radius) && y->density > 0 && isfinite(y->density))) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: radius %g and density %g must be positive", h->path, (double)y->radius, (double)y->density);
+  if (!ierr && !(y->contact_radius >= 0 && y->contact_radius <= y->radius)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: contact radius %g must be in [0, radius %g]", h->path, (double)y->contact_radius, (double)y->radius);
   if (!ierr) {
     PetscCall(VKCurvesFree(&y->curves));
     PetscCall(VKCurvesInit(&y->curves));

@@ -203,7 +203,8 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONString(&j, "linear_solver", pc));
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONObjectBegin(&j, "relaxation"));
-  PetscCall(VKJSONBool(&j, "done", y->relax));
+  PetscCall(VKJSONBool(&j, "done_in_this_run", y->relax_time > 0 ? PETSC_TRUE : PETSC_FALSE));
+  PetscCall(VKJSONBool(&j, "rest_state_relaxed", y->yarn->contact_radius > 0 ? PETSC_TRUE : PETSC_FALSE));
   PetscCall(VKJSONInt(&j, "proximal_steps", y->relax_steps));
   PetscCall(VKJSONReal(&j, "wall_time", y->relax_time));
   PetscCall(VKJSONObjectEnd(&j));

@@ -43,6 +43,7 @@ static PetscErrorCode ResetRest(VKYLS y)
   PetscCall(VKYLSMinDistance(y, &dmin, NULL)); /* over 2 x the current contact radius; fills y->xall */
   par.radius = PetscMin(y->par.radius, dmin * par.radius * (1 - 1e-9));
   PetscCall(PetscArraycpy(y->yarn->curves.x, y->xall, 3 * y->model.nv));
+  y->yarn->contact_radius = par.radius;
   PetscCall(VKRodModelDestroy(&y->model));
   PetscCall(VKRodModelCreate(&y->yarn->curves, &par, y->density, &y->model));
   for (PetscInt k = 0; k < y->nglue; k++) {
@@ -57,13 +58,20 @@ static PetscErrorCode ResetRest(VKYLS y)
 
 PetscErrorCode VKYLSRelax(VKYLS y)
 {
-  PetscInt      *handle, steps = 0, nhandles = y->scene->nhandles, ncolliders = y->scene->ncolliders;
-  PetscReal      g[3], dt = y->dt, cv = y->cv, cs = y->cs, r = y->par.radius;
-  VKYLSStats     stats = y->stats;
-  PetscLogDouble t0    = VKWallTime();
+  PetscInt      *handle, steps = 0, nhandles, ncolliders;
+  PetscReal      g[3], dt, cv, cs, r;
+  VKYLSStats     stats;
+  PetscLogDouble t0 = VKWallTime();
 
   PetscFunctionBegin;
-  PetscCall(VKYLSSetUp(y));
+  PetscCall(VKYLSSetUp(y)); /* sets r and dt */
+  nhandles   = y->scene->nhandles;
+  ncolliders = y->scene->ncolliders;
+  dt         = y->dt;
+  cv         = y->cv;
+  cs         = y->cs;
+  r          = y->par.radius;
+  stats      = y->stats;
   PetscCheck(y->step == 0, y->comm, PETSC_ERR_ORDER, "Relax before the first time step");
   /* no scene, no damping, a long pseudo time step */
   PetscCall(PetscMalloc1(y->model.nv, &handle));
@@ -100,5 +108,20 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   y->stats             = stats;
   y->stats.dmin_over_2r = PETSC_INFINITY;
   if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d radius stages from %g r), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->model.par.radius, (double)r, y->relax_time));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSRelaxYarn(VKYarn yarn)
+{
+  VKScene scene;
+  VKYLS   y;
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(yarn->comm, &scene)); /* the relaxation ignores the scene */
+  PetscCall(VKYLSCreate(yarn, scene, &y));
+  PetscCall(VKYLSSetFromOptions(y));
+  PetscCall(VKYLSRelax(y));
+  PetscCall(VKYLSDestroy(&y));
+  PetscCall(VKSceneDestroy(&scene));
   PetscFunctionReturn(0);
 }

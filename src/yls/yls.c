@@ -63,7 +63,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsInt("-yls_line_search_max_it", "Halvings of a Newton step before the line search gives up", "VKYLSSetFromOptions", y->ls_max_it, &y->ls_max_it, NULL));
   PetscCall(PetscOptionsReal("-yls_dt", "Time step, s (default: 1 ms, less if a handle would move more than the cap per step)", "VKYLSSetFromOptions", y->dt, &y->dt, NULL));
   PetscCall(PetscOptionsEnum("-yls_hessian", "Newton Hessian: element-wise PSD projection, exact, or exact with a projected fallback when it is not a descent direction", "VKYLSSetFromOptions", VKYLSHessianTypes, (PetscEnum)y->hessian, (PetscEnum *)&y->hessian, NULL));
-  PetscCall(PetscOptionsBool("-yls_relax", "Relax the yarns and reset their rest state before the run", "VKYLSRelax", y->relax, &y->relax, NULL));
+  PetscCall(PetscOptionsBool("-yls_relax", "Relax the yarns and reset their rest state before the run (unless the yarn model is relaxed already)", "VKYLSRelax", y->relax, &y->relax, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_tau", "Pseudo time step of the relaxation, s", "VKYLSRelax", y->relax_tau, &y->relax_tau, NULL));
   PetscCall(PetscOptionsInt("-yls_relax_stages", "Stages of contact-radius growth in the relaxation", "VKYLSRelax", y->relax_stages, &y->relax_stages, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_radius_start", "Contact radius of the first relaxation stage, in r", "VKYLSRelax", y->relax_radius_start, &y->relax_radius_start, NULL));
@@ -149,7 +149,11 @@ PetscErrorCode VKYLSSetUp(VKYLS y)
   PetscCheck(y->yarn->setup, y->comm, PETSC_ERR_ORDER, "Call VKYarnSetUp() before VKYLSSetUp()");
   y->par.radius = y->yarn->radius;
   y->density    = y->yarn->density;
-  PetscCall(VKRodModelCreate(&y->yarn->curves, &y->par, y->density, &y->model));
+  {
+    VKRodParams par = y->par; /* a relaxed rest state keeps the contact radius it was relaxed to */
+    if (y->yarn->contact_radius > 0) par.radius = y->yarn->contact_radius;
+    PetscCall(VKRodModelCreate(&y->yarn->curves, &par, y->density, &y->model));
+  }
   nv = y->model.nv;
   /* glue springs of the bound edges, at their rest length */
   y->nglue = y->yarn->nbind;
@@ -343,7 +347,7 @@ PetscErrorCode VKYLSRun(VKYLS y)
 
   PetscFunctionBegin;
   PetscCall(VKYLSSetUp(y));
-  if (y->relax) PetscCall(VKYLSRelax(y));
+  if (y->relax && !(y->yarn->contact_radius > 0)) PetscCall(VKYLSRelax(y));
   nsteps = (PetscInt)PetscFloorReal(y->scene->duration / y->dt + 0.5);
   PetscCall(VKYLSOutputOpen(y));
   PetscCall(VKYLSOutputFrame(y));

@@ -50,7 +50,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     VKH5WriteAttrReal(&h, "/yarn", "radius", attr[0]);
     VKH5WriteAttrReal(&h, "/yarn", "density", attr[1]);
     VKH5WriteAttrInt(&h, "/yarn", "radius_estimated", 0);
-    VKH5WriteAttrString(&h, "/yarn", "format", "volknit-yarn 1");
+    VKH5WriteAttrReal(&h, "/yarn", "contact_radius", attr[0] * (attr[1] > 0 ? 0.9 : 0));
+    VKH5WriteAttrString(&h, "/yarn", "format", "volknit-yarn 2");
     VKH5WriteAttrString(&h, "/yarn", "source", "fuzz");
     VKH5Close(&h);
     if (!VKYarnCreate(PETSC_COMM_SELF, &y)) {
