@@ -50,6 +50,7 @@ struct _n_VKYLS {
   PetscReal   density, cv, cs, kw, friction_eps, cap, dt;
   PetscInt    ls_max_it;
   PetscBool   relax;                         /* relax the rest state before the run */
+  PetscBool   predict;                       /* Newton starts from x_n + dt v_n (capped) */
   PetscReal   relax_tau, relax_radius_start; /* pseudo time step; first contact radius / r */
   PetscInt    relax_stages, relax_max_steps, relax_steps;
   PetscLogDouble relax_time;

@@ -12,10 +12,16 @@
  *  - a 1x1 rib patch relaxed as volknit yarn -yarn_relax does, written to
  *    yarn.h5 and read back, is not relaxed again and, left alone, stays
  *    still (stress-free rest);
+ *  - the same patch pulled by its side edges to 150 % of its width: every
+ *    crossing of two yarns in contact at the start, followed as the yarns
+ *    slide, keeps its side (no pull-through) and its contact (no
+ *    unravelling); with the contact energy switched off 20 of its 21
+ *    crossings change sides, so the check can fail;
  *  - 1 and 2 ranks give the same trajectory (the test runs on both).
  * ranks: 1 2 */
 #include <vkyls.h>
 #include <vkio.h>
+#include <vkutil.h>
 #include "vktest.h"
 
 typedef struct {
@@ -268,6 +274,123 @@ static PetscErrorCode TestRelaxedStill(MPI_Comm comm, const char dir[])
   PetscFunctionReturn(0);
 }
 
+/* A crossing between segments a and b: the side of b on which a passes,
+ * sign((m_a - m_b) . (t_a x t_b)) with m the midpoints (the same for any
+ * points of the two axes); 0 while the segments are nearly parallel. */
+static int CrossingSide(const VKRodModel *m, const PetscReal x[], PetscInt a, PetscInt b)
+{
+  const PetscReal *a0 = x + 3 * m->seg[2 * a], *a1 = x + 3 * m->seg[2 * a + 1], *b0 = x + 3 * m->seg[2 * b], *b1 = x + 3 * m->seg[2 * b + 1];
+  PetscReal        ta[3], tb[3], n[3], d = 0, nn;
+
+  for (int k = 0; k < 3; k++) {
+    ta[k] = a1[k] - a0[k];
+    tb[k] = b1[k] - b0[k];
+  }
+  VKNormalize3(ta);
+  VKNormalize3(tb);
+  n[0] = ta[1] * tb[2] - ta[2] * tb[1];
+  n[1] = ta[2] * tb[0] - ta[0] * tb[2];
+  n[2] = ta[0] * tb[1] - ta[1] * tb[0];
+  nn   = PetscSqrtReal(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  if (nn < 0.3) return 0;
+  for (int k = 0; k < 3; k++) d += 0.5 * (a0[k] + a1[k] - b0[k] - b1[k]) * n[k];
+  return d > 0 ? 1 : -1;
+}
+
+/* Follow a crossing as the yarns slide: the closest admissible pair within
+ * 3 segments of (a, b) along each curve. */
+static PetscReal FollowCrossing(const VKRodModel *m, const PetscReal x[], PetscInt *a, PetscInt *b)
+{
+  PetscInt  a0 = *a, b0 = *b;
+  PetscReal best = PETSC_MAX_REAL;
+
+  for (PetscInt i = a0 - 3; i <= a0 + 3; i++)
+    for (PetscInt j = b0 - 3; j <= b0 + 3; j++) {
+      PetscReal d;
+      if (i < 0 || j < 0 || i >= m->nseg || j >= m->nseg || m->segcurve[i] != m->segcurve[a0] || m->segcurve[j] != m->segcurve[b0] || !VKRodModelPairAdmissible(m, i, j)) continue;
+      d = VKRodSegmentDistance(x + 3 * m->seg[2 * i], x + 3 * m->seg[2 * i + 1], x + 3 * m->seg[2 * j], x + 3 * m->seg[2 * j + 1]);
+      if (d < best) {
+        best = d;
+        *a   = i;
+        *b   = j;
+      }
+    }
+  return best;
+}
+
+/* A relaxed 3x3 rib pulled by its two side edges to 150 % of its width in
+ * 0.1 s: every crossing of two yarn axes in contact at the start is
+ * followed through the motion; none may change sides (a pull-through) and
+ * none may come apart (unravelling: its axes further than 3r). */
+static PetscErrorCode TestStretchCrossings(MPI_Comm comm)
+{
+  Run        r;
+  VKYLS      y;
+  const PetscReal T = 0.1;
+  PetscReal  lo = PETSC_MAX_REAL, hi = -PETSC_MAX_REAL, w0 = 0, w1, dmax = 0, rad;
+  PetscInt   np, *pairs, n = 0, *cross, flips = 0, apart = 0, nsteps;
+  int       *side;
+
+  PetscFunctionBegin;
+  PetscCall(RunCreate(comm, NULL, &r));
+  y = r.yls;
+  for (PetscInt i = 0; i < r.y->curves.nv; i++) {
+    lo = PetscMin(lo, r.y->curves.x[3 * i]);
+    hi = PetscMax(hi, r.y->curves.x[3 * i]);
+  }
+  w0            = hi - lo;
+  r.s->nhandles = 2;
+  for (int h = 0; h < 2; h++) {
+    VKHandle *H = &r.s->handle[h];
+    PetscReal box[6] = {h ? hi - 0.05 * w0 : lo - w0, -1, -1, h ? hi + w0 : lo + 0.05 * w0, 1, 1};
+    PetscCall(PetscArraycpy(H->box, box, 6));
+    H->velocity[0] = (h ? 1 : -1) * 0.25 * w0 / T;
+    H->axis[2]     = 1;
+    H->window[1]   = 2 * T;
+  }
+  r.s->duration = T;
+  PetscCall(VKYLSSetUp(y));
+  PetscCall(VKYLSRelax(y));
+  rad = y->par.radius;
+  PetscCall(VKRodModelFindPairs(&y->model, y->yarn->curves.x, 0.05 * rad, 0, y->model.nseg, &np, &pairs));
+  PetscCall(PetscMalloc2(2 * np + 2, &cross, np + 1, &side));
+  for (PetscInt k = 0; k < np; k++) {
+    int s = CrossingSide(&y->model, y->yarn->curves.x, pairs[2 * k], pairs[2 * k + 1]);
+    if (!s) continue;
+    cross[2 * n]     = pairs[2 * k];
+    cross[2 * n + 1] = pairs[2 * k + 1];
+    side[n++]        = s;
+  }
+  nsteps = (PetscInt)PetscFloorReal(T / y->dt + 0.5);
+  for (PetscInt k = 0; k < nsteps; k++) {
+    PetscCall(VKYLSStep(y));
+    for (PetscInt c = 0; c < n; c++) {
+      PetscReal d = FollowCrossing(&y->model, y->xall, &cross[2 * c], &cross[2 * c + 1]);
+      int       s = CrossingSide(&y->model, y->xall, cross[2 * c], cross[2 * c + 1]);
+      if (s && s != side[c]) {
+        flips++;
+        side[c] = s; /* counted once */
+      }
+      if (k == nsteps - 1) {
+        dmax = PetscMax(dmax, d);
+        if (d > 3 * rad) apart++;
+      }
+    }
+  }
+  lo = PETSC_MAX_REAL;
+  hi = -PETSC_MAX_REAL;
+  for (PetscInt i = 0; i < y->model.nv; i++) {
+    lo = PetscMin(lo, y->xall[3 * i]);
+    hi = PetscMax(hi, y->xall[3 * i]);
+  }
+  w1 = hi - lo;
+  PetscCall(VKTestCheck((PetscBool)(w1 >= 1.45 * w0 && n >= 20 && flips == 0 && apart == 0), NULL, "3x3 rib stretched to %.2f x its width along the courses in %d steps: %d crossings followed, %d changed sides, %d came apart (largest axis distance %.2f r)", (double)(w1 / w0), (int)nsteps, (int)n, (int)flips, (int)apart, (double)(dmax / rad)));
+  PetscCall(PetscFree2(cross, side));
+  PetscCall(PetscFree(pairs));
+  PetscCall(RunDestroy(&r));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscMPIInt size;
@@ -282,6 +405,7 @@ int main(int argc, char **argv)
   PetscCall(TestConservation(PETSC_COMM_WORLD));
   PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
   PetscCall(TestRelaxedStill(PETSC_COMM_WORLD, dir));
+  PetscCall(TestStretchCrossings(PETSC_COMM_WORLD));
   if (size > 1) { /* the same crossing on one rank (every rank runs its own copy) */
     PetscCall(TestCrossing(PETSC_COMM_SELF, &xself));
     for (PetscInt i = 0; i < 2 * 21 * 3; i++) d = PetscMax(d, PetscAbsReal(xworld[i] - xself[i]));

@@ -39,6 +39,7 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->dt           = 0; /* from the scene unless given */
   y->hessian      = VK_YLS_HESSIAN_AUTO;
   y->relax        = PETSC_TRUE;
+  y->predict      = PETSC_FALSE;
   y->relax_tau    = 0.01;
   y->relax_stages = 4;
   y->relax_radius_start = 0.8;
@@ -63,6 +64,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsInt("-yls_line_search_max_it", "Halvings of a Newton step before the line search gives up", "VKYLSSetFromOptions", y->ls_max_it, &y->ls_max_it, NULL));
   PetscCall(PetscOptionsReal("-yls_dt", "Time step, s (default: 1 ms, less if a handle would move more than the cap per step)", "VKYLSSetFromOptions", y->dt, &y->dt, NULL));
   PetscCall(PetscOptionsEnum("-yls_hessian", "Newton Hessian: element-wise PSD projection, exact, or exact with a projected fallback when it is not a descent direction", "VKYLSSetFromOptions", VKYLSHessianTypes, (PetscEnum)y->hessian, (PetscEnum *)&y->hessian, NULL));
+  PetscCall(PetscOptionsBool("-yls_predict", "Start Newton from x_n + dt v_n (capped) instead of x_n: about 3x fewer iterations when handles pull (stretch), but more, up to failure, on a hanging patch full of contacts", "VKYLSStep", y->predict, &y->predict, NULL));
   PetscCall(PetscOptionsBool("-yls_relax", "Relax the yarns and reset their rest state before the run (unless the yarn model is relaxed already)", "VKYLSRelax", y->relax, &y->relax, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_tau", "Pseudo time step of the relaxation, s", "VKYLSRelax", y->relax_tau, &y->relax_tau, NULL));
   PetscCall(PetscOptionsInt("-yls_relax_stages", "Stages of contact-radius growth in the relaxation", "VKYLSRelax", y->relax_stages, &y->relax_stages, NULL));
@@ -232,10 +234,25 @@ static PetscErrorCode BeginStep(VKYLS y)
     y->friction[i]  = depth > 0 && which >= 0 ? y->scene->collider[which].friction * y->kw * depth : 0;
     y->contact_collider[i] = PetscMax(which, 0);
   }
-  PetscCall(VecGetArray(y->x, &xa));
-  for (PetscInt i = y->vbeg; i < y->vend; i++)
-    if (y->handle[i] >= 0) VKSceneHandlePosition(y->scene, y->handle[i], y->yarn->curves.x + 3 * i, t1, xa + 3 * (i - y->vbeg));
-  PetscCall(VecRestoreArray(y->x, &xa));
+  /* Newton's first guess: handles where the scene puts them, free vertices
+   * at x_n or (-yls_predict) moved on by dt v_n, scaled so none moves more
+   * than the cap: no yarn can pass through another between x_n and it */
+  {
+    PetscReal vmax = 0, all, s;
+    for (PetscInt i = y->vbeg; i < y->vend; i++)
+      if (y->handle[i] < 0) vmax = PetscMax(vmax, PetscSqr(y->vn[3 * i]) + PetscSqr(y->vn[3 * i + 1]) + PetscSqr(y->vn[3 * i + 2]));
+    PetscCall(MPIU_Allreduce(&vmax, &all, 1, MPIU_REAL, MPIU_MAX, y->comm));
+    all = y->dt * PetscSqrtReal(all);
+    s   = y->predict ? (all > y->cap * y->par.radius ? y->cap * y->par.radius / all : 1) : 0;
+    PetscCall(VecGetArray(y->x, &xa));
+    for (PetscInt i = y->vbeg; i < y->vend; i++) {
+      PetscScalar *xi = xa + 3 * (i - y->vbeg);
+      if (y->handle[i] >= 0) VKSceneHandlePosition(y->scene, y->handle[i], y->yarn->curves.x + 3 * i, t1, xi);
+      else
+        for (int k = 0; k < 3; k++) xi[k] = y->xn[3 * i + k] + s * y->dt * y->vn[3 * i + k];
+    }
+    PetscCall(VecRestoreArray(y->x, &xa));
+  }
   PetscFunctionReturn(0);
 }
 
