@@ -220,8 +220,9 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "contact_pairs_max", y->stats.pairs_max));
   PetscCall(VKJSONReal(&j, "min_distance_over_2r", y->stats.dmin_over_2r));
   PetscCall(VKJSONReal(&j, "wall_time", y->time_run));
-  PetscCall(VKJSONReal(&j, "wall_time_per_step", y->time_run / steps));
-  PetscCall(VKJSONReal(&j, "wall_time_per_simulated_second", y->t > 0 ? y->time_run / y->t : 0));
+  PetscCall(VKJSONReal(&j, "wall_time_stepping", y->time_run - y->relax_time)); /* time steps and frames, no relaxation */
+  PetscCall(VKJSONReal(&j, "wall_time_per_step", (y->time_run - y->relax_time) / steps));
+  PetscCall(VKJSONReal(&j, "wall_time_per_simulated_second", y->t > 0 ? (y->time_run - y->relax_time) / y->t : 0));
   PetscCall(VKJSONReal(&j, "time_finding_pairs", y->stats.time_pairs));
   PetscCall(VKJSONObjectBegin(&j, "energy_last_frame"));
   PetscCall(VKJSONReal(&j, "stretch", y->energy[0]));

@@ -389,8 +389,8 @@ PetscErrorCode VKYLSRun(VKYLS y)
   PetscCall(VKYLSOutputClose(y, failure[0] ? failure : NULL));
   PetscCheck(!failure[0], y->comm, PETSC_ERR_NOT_CONVERGED, "%s (the frames up to t = %g s are written)", failure, (double)y->t);
   if (!y->quiet)
-    PetscCall(PetscPrintf(y->comm, "volknit yls: %d vertices, %d steps of %g s to t = %g s, Newton its %.2f/step (max %d), contact pairs max %d, min distance %.3f x 2r, %d frames (%.2f s, %.3g s per simulated second)\n", (int)y->model.nv, (int)y->stats.steps, (double)y->dt, (double)y->t, (double)y->stats.newton_its / PetscMax(1, y->stats.steps), (int)y->stats.newton_its_max, (int)y->stats.pairs_max,
-                          (double)y->stats.dmin_over_2r, (int)y->frames, y->time_run, y->time_run / PetscMax(y->t, PETSC_SMALL)));
+    PetscCall(PetscPrintf(y->comm, "volknit yls: %d vertices, %d steps of %g s to t = %g s, Newton its %.2f/step (max %d), contact pairs max %d, min distance %.3f x 2r, %d frames (%.2f s, %.3g s per simulated second without the relaxation)\n", (int)y->model.nv, (int)y->stats.steps, (double)y->dt, (double)y->t, (double)y->stats.newton_its / PetscMax(1, y->stats.steps), (int)y->stats.newton_its_max, (int)y->stats.pairs_max,
+                          (double)y->stats.dmin_over_2r, (int)y->frames, y->time_run, (y->time_run - y->relax_time) / PetscMax(y->t, PETSC_SMALL)));
   PetscFunctionReturn(0);
 }
 

@@ -53,3 +53,54 @@ echo "A hanging patch (gravity, top edge held), 1 kPa, from rest.  'PD its/step'
 echo "|grad Phi| relative to its value at the inertial guess, the largest over the steps.  'ns/tet/local step' is"
 echo "core time per tet per local step (wall time x ranks).  Reference: paper Table 1, 1x1 rib, 85 ms per step on"
 echo "an RTX 3090 (38K mesh DOFs)."
+
+echo
+echo "## Yarn-level simulator (issue 4 target: the 1x1 rib of about 22K yarn vertices / 66K DOFs at no more than"
+echo "## 600 s of wall time per simulated second on our 2 cores)"
+echo
+: > "$out/commands"
+# One relaxation per patch (volknit yarn -yarn_relax), timed apart; then short runs of two scenes from it.
+yls_relaxed() { # wales courses -> directory with the relaxed yarn.h5
+  d="$out/yls_rib$1x$2"
+  mkdir -p "$d"
+  run $MPIEXEC -n 2 bin/volknit yarn -o "$d" -yarn_pattern rib1x1 -yarn_wales "$1" -yarn_courses "$2" -yarn_relax > "$d/yarn.log" 2>&1
+  relax_s=$(sed -n 's/.*relaxed the yarns in .* (\([0-9.]*\) s)$/\1/p' "$d/yarn.log")
+}
+yls_row() { # ranks scene duration [options]: one table row from the summary line and yls.csv
+  n=$1; scene=$2; T=$3; shift 3
+  log="$d/yls.$scene.n$n.log"
+  run $MPIEXEC -n "$n" bin/volknit yls -o "$d" -options_file "options/$scene.opts" -scene_duration "$T" -scene_output_interval 0.001 "$@" > "$log" 2>&1
+  line=$(grep 'volknit yls: .* vertices, ' "$log")
+  if [ -z "$line" ]; then echo "| $d | failed: see $log |"; return; fi
+  nv=$(echo "$line" | sed -n 's/.*yls: \([0-9]*\) vertices.*/\1/p')
+  steps=$(echo "$line" | sed -n 's/.* \([0-9]*\) steps of \([^ ]*\) s.*/\1/p')
+  dt=$(echo "$line" | sed -n 's/.* steps of \([^ ]*\) s.*/\1/p')
+  its=$(echo "$line" | sed -n 's/.*Newton its \([0-9.]*\)\/step (max \([0-9]*\)).*/\1 (max \2)/p')
+  dmin=$(echo "$line" | sed -n 's/.*min distance \([0-9.]*\) x 2r.*/\1/p')
+  wall=$(echo "$line" | sed -n 's/.*frames (\([0-9.]*\) s, .*/\1/p')
+  persec=$(echo "$line" | sed -n 's/.*s, \([0-9.e+]*\) s per simulated second.*/\1/p')
+  pairs=$(awk -F, 'NR > 2 { s += $9; if ($9 > m) m = $9; k++ } END { if (k) printf "%.0f (max %d)", s / k, m }' "$d/yls.csv")
+  printf '| rib1x1 %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.2f | %s | %s |\n' "$dims" "$nv" "$((3 * nv))" "$scene${*:+ $*}" "$n" "$dt" "$steps" "$its" "$pairs" "$dmin" \
+    "$(awk -v w="$wall" -v s="$steps" 'BEGIN { print w / s }')" "$persec" "$relax_s"
+}
+echo "| patch | vertices | DOFs | scene | ranks | dt s | steps | Newton its/step | contact pairs/step | min dist / 2r | s/step | s per simulated s | relaxation s (2 ranks) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+dims="8x7";   yls_relaxed 8 7
+yls_row 1 stretch 0.05
+yls_row 2 stretch 0.05
+yls_row 2 stretch 0.05 -yls_predict
+yls_row 2 hang 0.05
+dims="24x25"; yls_relaxed 24 25
+yls_row 2 stretch 0.005
+yls_row 2 stretch 0.005 -yls_predict
+yls_row 2 hang 0.005
+echo
+echo "Rows produced by:"
+cat "$out/commands"
+echo
+echo "Each run starts from the relaxed rest state (relaxation timed separately, last column) at rest; dt is the"
+echo "simulator's default for the scene (1 ms, less only if a handle would move more than half the contact cap per"
+echo "step).  Contact pairs: segment pairs closer than 2r, mean and max over the frames (one per step here).  The 22K"
+echo "rows cover only the first 5 steps.  Published yarn-level figures for comparison: HYLC's yarn-level reference,"
+echo "0.13-0.56 s per step at dt 5e-6 to 2e-5 s for 65K-158K vertices (Sperl's thesis, Table 4.2; 0.13 s per step at"
+echo "dt 2e-5 s is 6,500 s per simulated second); Leaf et al. 2018, 0.07 us per control point per explicit GPU step."
