@@ -26,8 +26,11 @@ not_ok() { failed=$((failed + 1)); echo "not ok - $*"; }
 # 1. test programs
 for src in tests/test_*.c; do
   name=$(basename "$src" .c)
-  ranks=$(sed -n 's/^ \* ranks: *\([0-9 ]*\)$/\1/p' "$src" | head -n 1)
-  [ -n "$ranks" ] || ranks=1
+  ranks=$(sed -n 's/^ \* ranks: *\([0-9][0-9 ]*[0-9]\|[0-9]\) *\(\*\/\)\{0,1\}$/\1/p' "$src" | head -n 1)
+  if [ -z "$ranks" ]; then
+    if grep -q 'ranks:' "$src"; then not_ok "$name: unreadable ' * ranks:' line"; fi
+    ranks=1
+  fi
   for n in $ranks; do
     log="$out/$name.n$n.log"
     timeout "$TIMEOUT" $MPIEXEC -n "$n" "bin/tests/$name" -o "$out/$name.n$n" > "$log" 2>&1

@@ -18,7 +18,8 @@
  *    unravelling); with the contact energy switched off 20 of its 21
  *    crossings change sides, so the check can fail;
  *  - 1 and 2 ranks give the same trajectory (the test runs on both).
- * ranks: 1 2 */
+ * ranks: 1 2
+ */
 #include <vkyls.h>
 #include <vkio.h>
 #include <vkutil.h>
