@@ -40,7 +40,20 @@ static PetscErrorCode RunDestroy(Run *r)
   PetscFunctionReturn(0);
 }
 
-/* A yarn model of given polylines, a scene in metres, the simulator. */
+/* An empty scene in metres and the simulator of the set-up yarn r->y. */
+static PetscErrorCode RunAttach(MPI_Comm comm, Run *r)
+{
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(comm, &r->s));
+  r->s->relative = PETSC_FALSE;
+  for (int k = 0; k < 3; k++) r->s->gravity[k] = 0;
+  PetscCall(VKYLSCreate(r->y, r->s, &r->yls));
+  r->yls->quiet = PETSC_TRUE;
+  r->yls->relax = PETSC_FALSE;
+  PetscFunctionReturn(0);
+}
+
+/* A yarn model of given polylines (or a 3x3 1x1 rib), a scene in metres, the simulator. */
 static PetscErrorCode RunCreate(MPI_Comm comm, const VKCurves *c, Run *r)
 {
   PetscFunctionBegin;
@@ -48,12 +61,7 @@ static PetscErrorCode RunCreate(MPI_Comm comm, const VKCurves *c, Run *r)
   if (c) PetscCall(VKYarnSetCurves(r->y, c));
   else PetscCall(VKYarnSetKnit(r->y, "rib1x1", 3, 3));
   PetscCall(VKYarnSetUp(r->y));
-  PetscCall(VKSceneCreate(comm, &r->s));
-  r->s->relative = PETSC_FALSE;
-  for (int k = 0; k < 3; k++) r->s->gravity[k] = 0;
-  PetscCall(VKYLSCreate(r->y, r->s, &r->yls));
-  r->yls->quiet = PETSC_TRUE;
-  r->yls->relax = PETSC_FALSE;
+  PetscCall(RunAttach(comm, r));
   PetscFunctionReturn(0);
 }
 
@@ -254,12 +262,8 @@ static PetscErrorCode TestRelaxedStill(MPI_Comm comm, const char dir[])
   PetscCall(VKYarnSetUp(r.y));
   for (PetscInt i = 0; i < 3 * relaxed->curves.nv; i++) dx = PetscMax(dx, PetscAbsReal(relaxed->curves.x[i] - r.y->curves.x[i]));
   PetscCall(VKTestCheck((PetscBool)(rc > 0.9 * relaxed->radius && rc <= relaxed->radius && r.y->contact_radius == rc && dx == 0), NULL, "relaxed rib through yarn.h5: contact radius %.4f r kept, rest positions identical (%.1e m)", (double)(rc / relaxed->radius), (double)dx));
-  PetscCall(VKSceneCreate(comm, &r.s));
-  r.s->relative = PETSC_FALSE;
-  for (int k = 0; k < 3; k++) r.s->gravity[k] = 0;
-  PetscCall(VKYLSCreate(r.y, r.s, &r.yls));
+  PetscCall(RunAttach(comm, &r));
   y        = r.yls;
-  y->quiet = PETSC_TRUE;
   y->relax = PETSC_TRUE; /* asked for, but the yarn is relaxed already */
   r.s->duration = r.s->output_interval = 0.02;
   PetscCall(VKYLSSetOutputDirectory(y, dir));

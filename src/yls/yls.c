@@ -238,12 +238,15 @@ static PetscErrorCode BeginStep(VKYLS y)
    * at x_n or (-yls_predict) moved on by dt v_n, scaled so none moves more
    * than the cap: no yarn can pass through another between x_n and it */
   {
-    PetscReal vmax = 0, all, s;
-    for (PetscInt i = y->vbeg; i < y->vend; i++)
-      if (y->handle[i] < 0) vmax = PetscMax(vmax, PetscSqr(y->vn[3 * i]) + PetscSqr(y->vn[3 * i + 1]) + PetscSqr(y->vn[3 * i + 2]));
-    PetscCall(MPIU_Allreduce(&vmax, &all, 1, MPIU_REAL, MPIU_MAX, y->comm));
-    all = y->dt * PetscSqrtReal(all);
-    s   = y->predict ? (all > y->cap * y->par.radius ? y->cap * y->par.radius / all : 1) : 0;
+    PetscReal s = 0; /* the fraction of dt v_n taken */
+    if (y->predict) {
+      PetscReal vmax = 0, all;
+      for (PetscInt i = y->vbeg; i < y->vend; i++)
+        if (y->handle[i] < 0) vmax = PetscMax(vmax, PetscSqr(y->vn[3 * i]) + PetscSqr(y->vn[3 * i + 1]) + PetscSqr(y->vn[3 * i + 2]));
+      PetscCall(MPIU_Allreduce(&vmax, &all, 1, MPIU_REAL, MPIU_MAX, y->comm));
+      all = y->dt * PetscSqrtReal(all);
+      s   = all > y->cap * y->par.radius ? y->cap * y->par.radius / all : 1;
+    }
     PetscCall(VecGetArray(y->x, &xa));
     for (PetscInt i = y->vbeg; i < y->vend; i++) {
       PetscScalar *xi = xa + 3 * (i - y->vbeg);
