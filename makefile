@@ -13,7 +13,7 @@
 PKGS      := petsc slepc hdf5-openmpi
 CC        := mpicc
 CSTD      := -std=c99 -D_POSIX_C_SOURCE=200809L
-OPT       ?= -O2 -g
+OPT       ?= -O3 -g
 WARN      := -Wall -Wextra
 # Evaluated lazily so that `make run` can install the packages first.
 PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS))

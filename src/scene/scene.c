@@ -58,7 +58,7 @@ static PetscErrorCode HandleOptions(PetscOptionItems *PetscOptionsObject, VKScen
   VKHandle *h = &s->handle[i];
   char      opt[64];
   PetscReal deg = 0;
-  PetscBool set;
+  PetscBool set = PETSC_FALSE;
 
   PetscFunctionBegin;
   h->box[0] = h->box[1] = h->box[2] = -1;
@@ -99,7 +99,7 @@ static PetscErrorCode ColliderOptions(PetscOptionItems *PetscOptionsObject, VKSc
 {
   VKCollider *c = &s->collider[i];
   char        opt[64];
-  PetscBool   set;
+  PetscBool   set = PETSC_FALSE;
 
   PetscFunctionBegin;
   c->friction  = 0.3;

@@ -116,7 +116,7 @@ static PetscErrorCode TSView_PD(TS ts, PetscViewer viewer)
 
 static PetscErrorCode TSCreate_PD(TS ts)
 {
-  TS_PD *p;
+  TS_PD *p = NULL;
 
   PetscFunctionBegin;
   PetscCall(PetscNew(&p));
@@ -155,7 +155,7 @@ static PetscErrorCode GetData(TS ts, TS_PD **p)
 
 PetscErrorCode VKTSPDSetSolver(TS ts, VKPD pd)
 {
-  TS_PD *p;
+  TS_PD *p = NULL;
 
   PetscFunctionBegin;
   PetscCall(GetData(ts, &p));
@@ -165,7 +165,7 @@ PetscErrorCode VKTSPDSetSolver(TS ts, VKPD pd)
 
 PetscErrorCode VKTSPDGetVelocity(TS ts, Vec *v)
 {
-  TS_PD *p;
+  TS_PD *p = NULL;
 
   PetscFunctionBegin;
   PetscCall(GetData(ts, &p));
@@ -175,7 +175,7 @@ PetscErrorCode VKTSPDGetVelocity(TS ts, Vec *v)
 
 PetscErrorCode VKTSPDGetStats(TS ts, VKTSPDStats *s)
 {
-  TS_PD *p;
+  TS_PD *p = NULL;
 
   PetscFunctionBegin;
   PetscCall(GetData(ts, &p));

@@ -445,7 +445,7 @@ PetscErrorCode VKYarnGetMass(VKYarn y, PetscReal *mass, PetscReal *length)
 PetscErrorCode VKYarnView(VKYarn y, PetscViewer viewer)
 {
   PetscBool iascii;
-  PetscReal lo[3], hi[3], mass, length;
+  PetscReal lo[3], hi[3], mass = 0, length = 0;
   PetscInt  nclosed = 0;
 
   PetscFunctionBegin;
