@@ -18,6 +18,10 @@ typedef struct {
 PETSC_EXTERN void VKSVD3Compute(const PetscReal F[], VKSVD3 *);
 /* The same, Jacobi started from the rotation W0 (a warm start). */
 PETSC_EXTERN void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *);
+/* n <= VK_SVD3_BATCH matrices at once (F and W0: 9 n entries, W0 may be
+ * NULL), faster per matrix than one at a time. */
+#define VK_SVD3_BATCH 4
+PETSC_EXTERN void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKSVD3 svd[]);
 /* Eigen-decomposition of a symmetric 3x3 matrix: A = Q diag(l) Q^T. */
 PETSC_EXTERN void VKSymEig3(const PetscReal A[], PetscReal l[], PetscReal Q[]);
 
@@ -43,6 +47,8 @@ PETSC_EXTERN PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *);
 /* The same without d shat/ds (enough for psi, R, V and the gradient), the
  * SVD warm-started from W0 (NULL: cold). */
 PETSC_EXTERN PetscErrorCode VKPsiProject(const PetscReal F[], const PetscReal W0[], VKPsiState *);
+/* n <= VK_SVD3_BATCH of them at once (F, W0: 9 n entries; W0 may be NULL). */
+PETSC_EXTERN PetscErrorCode VKPsiProjectBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKPsiState st[]);
 /* dpsi/dF = 2 g_s (F - R) + 2 g_v (F - V) */
 PETSC_EXTERN void VKPsiGradient(const VKPsiState *, const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[]);
 /* d2psi/dF2 (81 entries) from the analytic eigensystem of isotropic
@@ -57,12 +63,13 @@ PETSC_EXTERN void VKTetDeformation(const PetscReal G[], const PetscReal X[], Pet
  * (12 x 2, column-major: dgdg[0..11] for g_s, [12..23] for g_v; optional). */
 PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[]);
 
-/* The local step of projective dynamics (DESIGN §7) for one tet: the
- * energy V psi and the tet's share of the global right-hand side,
- * rhs[3a + r] = 2 V sum_c (g_s R + g_v V)_rc G_ca, and det F.  W (optional,
- * in and out) is the tet's right singular rotation from the last call, the
- * warm start of the SVD. */
-PETSC_EXTERN PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal W[], PetscReal *E, PetscReal rhs[], PetscReal *det);
+/* The local step of projective dynamics (DESIGN §7) for n <= VK_SVD3_BATCH
+ * consecutive tets (their G, vol, gamma and W as stored per tet, X and rhs
+ * 12 per tet): each tet's energy V psi, its share of the global right-hand
+ * side, rhs[3a + r] = 2 V sum_c (g_s R + g_v V)_rc G_ca, and det F.
+ * gamma holds g_s, g_v per tet.  W (optional, in and out) is each tet's
+ * right singular rotation from the last call, the warm start of the SVD. */
+PETSC_EXTERN PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal gamma[], PetscReal W[], PetscReal E[], PetscReal rhs[], PetscReal det[]);
 
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;

@@ -235,10 +235,13 @@ static PetscBool FastPath(const PetscReal s[], VKVolumeProjection *proj)
       q[i] = PetscSqrtReal(s[i] * s[i] - 4 * lambda);
       x[i] = 0.5 * (s[i] + q[i]);
     }
-    g  = x[0] * x[1] * x[2] - 1;
-    dg = -(x[1] * x[2] / q[0] + x[0] * x[2] / q[1] + x[0] * x[1] / q[2]);
+    g = x[0] * x[1] * x[2] - 1;
     if (PetscAbsReal(g) <= 1e-15) break;
     if (it == 20) return PETSC_FALSE;
+    { /* -dg = sum_i x_j x_k / q_i, over one common denominator */
+      PetscReal a = x[0] * q[0], b = x[1] * q[1], c = x[2] * q[2];
+      dg = -(g + 1) * (b * c + a * c + a * b) / (a * b * c);
+    }
     lambda -= g / dg;
   }
   for (int i = 0; i < 3; i++) {

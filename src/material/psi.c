@@ -18,13 +18,21 @@
  * denominator is kept away from zero.  The PSD projection clamps the
  * eigenvalues of Hs and of the flip/twist modes at zero. */
 #include <vkmaterial.h>
+#include <math.h>
 
-static PetscErrorCode Evaluate(const PetscReal F[], const PetscReal W0[], PetscBool jacobian, VKPsiState *st)
+/* Everything after the SVD: shat (and J with jacobian), R, V, psi. */
+static PetscErrorCode FromSVD(PetscBool jacobian, VKPsiState *st)
 {
   const PetscReal *U = st->svd.U, *W = st->svd.W;
 
   PetscFunctionBegin;
-  VKSVD3ComputeFrom(F, W0, &st->svd);
+  if (PetscIsInfOrNanReal(st->svd.s[0] + st->svd.s[1] + st->svd.s[2])) { /* a non-finite F: NaN for everything */
+    PetscReal nan = (PetscReal)NAN;
+    for (int i = 0; i < 9; i++) st->R[i] = st->V[i] = st->proj.J[i] = nan;
+    for (int i = 0; i < 3; i++) st->proj.shat[i] = nan;
+    st->proj.lambda = st->psi_s = st->psi_v = nan;
+    PetscFunctionReturn(0);
+  }
   if (jacobian) PetscCall(VKProjectVolume(st->svd.s, &st->proj));
   else PetscCall(VKProjectVolumeValue(st->svd.s, &st->proj));
   for (int r = 0; r < 3; r++)
@@ -43,14 +51,28 @@ static PetscErrorCode Evaluate(const PetscReal F[], const PetscReal W0[], PetscB
 PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *st)
 {
   PetscFunctionBegin;
-  PetscCall(Evaluate(F, NULL, PETSC_TRUE, st));
+  VKSVD3Compute(F, &st->svd);
+  PetscCall(FromSVD(PETSC_TRUE, st));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKPsiProject(const PetscReal F[], const PetscReal W0[], VKPsiState *st)
 {
   PetscFunctionBegin;
-  PetscCall(Evaluate(F, W0, PETSC_FALSE, st));
+  PetscCall(VKPsiProjectBatch(1, F, W0, st));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPsiProjectBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKPsiState st[])
+{
+  VKSVD3 svd[VK_SVD3_BATCH];
+
+  PetscFunctionBegin;
+  VKSVD3ComputeBatch(n, F, W0, svd);
+  for (PetscInt l = 0; l < n; l++) {
+    st[l].svd = svd[l];
+    PetscCall(FromSVD(PETSC_FALSE, st + l));
+  }
   PetscFunctionReturn(0);
 }
 

@@ -5,62 +5,74 @@
  * one-sided on F (rotations on the right until the columns of F W are
  * orthogonal, which keeps high relative accuracy for small singular
  * values), two-sided on symmetric matrices.  The one-sided method may
- * start from any rotation W0 (F W0 instead of F): from the previous time
- * step's W the columns are nearly orthogonal already and one or two sweeps
- * finish, which is what makes the PD local step cheap. */
+ * start from any rotation W0 (F W0 instead of F): from the previous PD
+ * iteration's W the columns are nearly orthogonal already.  Near the rest
+ * state the singular values nearly coincide, so rotations stay large and
+ * two or three sweeps (then a cheap confirming one) are typical; the PD
+ * local step therefore runs VK_SVD3_BATCH tets' sweeps interleaved
+ * (VKSVD3ComputeBatch), which is what makes it cheap. */
 #include <vkmaterial.h>
 #include <vkutil.h>
 
-void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
-{
-  VKSVD3ComputeFrom(F, NULL, svd);
-}
+/* Relative orthogonality |a_p . a_q| <= ORTHO_TOL |a_p| |a_q| of the
+ * columns of F W at which Jacobi stops: U diag(s) W^T then reproduces F to
+ * about that relative accuracy, and R = U W^T is as accurate (the polar
+ * factor is well conditioned).  Deciding it costs no square root, so the
+ * confirming sweep is cheap. */
+#define ORTHO_TOL 1e-15
 
-void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *svd)
+/* Cyclic one-sided Jacobi on n independent matrices at once: A[l] <- A[l] J,
+ * W[l] <- W[l] J until the columns of every A[l] are orthogonal.  Each
+ * rotation is a chain of two square roots and a division; interleaving
+ * the matrices lets those chains overlap instead of waiting on each other.
+ * A matrix that has converged gets identity rotations until the others do.
+ * The rotation zeroing a_p . a_q (alpha = |a_p|^2, beta = |a_q|^2, gamma =
+ * a_p . a_q, d = beta - alpha, h = sqrt(d^2 + 4 gamma^2), m = |d| + h) is
+ *   c = m / sqrt(2 h m),   s = sign(d) 2 gamma / sqrt(2 h m),
+ * the usual t = sign(zeta) / (|zeta| + sqrt(1 + zeta^2)), c = 1/sqrt(1 + t^2)
+ * with zeta = d / (2 gamma) multiplied out. */
+static void OrthogonalizeColumns(PetscInt n, PetscReal A[][9], PetscReal W[][9])
 {
-  PetscReal A[9], W[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, norm[3], u[3][3], w[3][3];
-  int       order[3] = {0, 1, 2};
-
-  if (W0) { /* A = F W0: nearly orthogonal columns when W0 is last step's W */
-    for (int i = 0; i < 9; i++) W[i] = W0[i];
-    for (int i = 0; i < 3; i++)
-      for (int j = 0; j < 3; j++) A[3 * i + j] = F[3 * i] * W0[j] + F[3 * i + 1] * W0[3 + j] + F[3 * i + 2] * W0[6 + j];
-  } else
-    for (int i = 0; i < 9; i++) A[i] = F[i];
   for (int sweep = 0; sweep < 30; sweep++) {
-    PetscReal tmax    = 0; /* largest rotation of the sweep, tan */
     PetscBool rotated = PETSC_FALSE;
     for (int p = 0; p < 2; p++)
       for (int q = p + 1; q < 3; q++) {
-        PetscReal alpha = 0, beta = 0, gamma = 0, zeta, t, c, s;
-        for (int i = 0; i < 3; i++) {
-          alpha += A[3 * i + p] * A[3 * i + p];
-          beta += A[3 * i + q] * A[3 * i + q];
-          gamma += A[3 * i + p] * A[3 * i + q];
+        PetscReal c[VK_SVD3_BATCH], s[VK_SVD3_BATCH];
+        for (PetscInt l = 0; l < n; l++) {
+          const PetscReal *a     = A[l];
+          PetscReal        alpha = a[p] * a[p] + a[3 + p] * a[3 + p] + a[6 + p] * a[6 + p];
+          PetscReal        beta  = a[q] * a[q] + a[3 + q] * a[3 + q] + a[6 + q] * a[6 + q];
+          PetscReal        gamma = a[p] * a[q] + a[3 + p] * a[3 + q] + a[6 + p] * a[6 + q];
+          PetscBool        skip  = (PetscBool)(gamma * gamma <= ORTHO_TOL * ORTHO_TOL * alpha * beta);
+          PetscReal        d = beta - alpha, h = PetscSqrtReal(d * d + 4 * gamma * gamma), m = PetscAbsReal(d) + h;
+          PetscReal        r = skip ? 0 : 1 / PetscSqrtReal(skip ? 1 : 2 * h * m);
+          c[l] = skip ? 1 : m * r;
+          s[l] = (d >= 0 ? 2 * gamma : -2 * gamma) * r;
+          rotated |= !skip;
         }
-        if (gamma == 0 || PetscAbsReal(gamma) <= 1e-15 * PetscSqrtReal(alpha * beta)) continue;
-        rotated = PETSC_TRUE;
-        zeta    = (beta - alpha) / (2 * gamma);
-        t       = (zeta >= 0 ? 1.0 : -1.0) / (PetscAbsReal(zeta) + PetscSqrtReal(1 + zeta * zeta));
-        c       = 1 / PetscSqrtReal(1 + t * t);
-        s       = c * t;
-        tmax    = PetscMax(tmax, PetscAbsReal(t));
-        for (int i = 0; i < 3; i++) {
-          PetscReal ap = A[3 * i + p], aq = A[3 * i + q], wp = W[3 * i + p], wq = W[3 * i + q];
-          A[3 * i + p] = c * ap - s * aq;
-          A[3 * i + q] = s * ap + c * aq;
-          W[3 * i + p] = c * wp - s * wq;
-          W[3 * i + q] = s * wp + c * wq;
-        }
+        for (PetscInt l = 0; l < n; l++)
+          for (int i = 0; i < 3; i++) {
+            PetscReal ap = A[l][3 * i + p], aq = A[l][3 * i + q], wp = W[l][3 * i + p], wq = W[l][3 * i + q];
+            A[l][3 * i + p] = c[l] * ap - s[l] * aq;
+            A[l][3 * i + q] = s[l] * ap + c[l] * aq;
+            W[l][3 * i + p] = c[l] * wp - s[l] * wq;
+            W[l][3 * i + q] = s[l] * wp + c[l] * wq;
+          }
       }
-    /* rotations by angles t <= 1e-8 put back off-diagonal terms of order
-     * t times the (already small) others: round-off, no confirming sweep */
-    if (!rotated || tmax <= 1e-8) break;
+    if (!rotated) break;
   }
-  for (int j = 0; j < 3; j++) norm[j] = PetscSqrtReal(A[j] * A[j] + A[3 + j] * A[3 + j] + A[6 + j] * A[6 + j]);
+}
+
+/* The signed SVD from F, the orthogonalized A = F W and W. */
+static void FinishSVD(const PetscReal F[], const PetscReal A[], const PetscReal W[], VKSVD3 *svd)
+{
+  PetscReal norm2[3], u[3][3], w[3][3];
+  int       order[3] = {0, 1, 2};
+
+  for (int j = 0; j < 3; j++) norm2[j] = A[j] * A[j] + A[3 + j] * A[3 + j] + A[6 + j] * A[6 + j];
   for (int i = 0; i < 2; i++) /* sort columns by norm, descending */
     for (int j = 0; j < 2 - i; j++)
-      if (norm[order[j]] < norm[order[j + 1]]) {
+      if (norm2[order[j]] < norm2[order[j + 1]]) {
         int t        = order[j];
         order[j]     = order[j + 1];
         order[j + 1] = t;
@@ -70,17 +82,31 @@ void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *svd)
       u[k][i] = A[3 * i + order[k]];
       w[k][i] = W[3 * i + order[k]];
     }
-  /* U: first two columns from F W, the third their cross product */
-  if (norm[order[0]] > 0) VKNormalize3(u[0]);
-  else {
-    u[0][0] = 1;
-    u[0][1] = u[0][2] = 0;
-  }
-  {
-    PetscReal d = u[1][0] * u[0][0] + u[1][1] * u[0][1] + u[1][2] * u[0][2];
+  /* U: first two columns from F W, the third their cross product.  The
+   * columns are orthogonal to ORTHO_TOL already; u1 is re-orthogonalized
+   * only when s2 is tiny against s1, where its direction is round-off. */
+  if (norm2[order[1]] > 1e-16 * norm2[order[0]]) {
+    PetscReal inv0 = 1 / PetscSqrtReal(norm2[order[0]]), inv1 = 1 / PetscSqrtReal(norm2[order[1]]);
+    for (int i = 0; i < 3; i++) {
+      u[0][i] *= inv0;
+      u[1][i] *= inv1;
+    }
+  } else {
+    PetscReal d, n2;
+    if (norm2[order[0]] > 0) {
+      PetscReal inv = 1 / PetscSqrtReal(norm2[order[0]]);
+      for (int i = 0; i < 3; i++) u[0][i] *= inv;
+    } else {
+      u[0][0] = 1;
+      u[0][1] = u[0][2] = 0;
+    }
+    d = u[1][0] * u[0][0] + u[1][1] * u[0][1] + u[1][2] * u[0][2];
     for (int i = 0; i < 3; i++) u[1][i] -= d * u[0][i];
-    if (norm[order[1]] > 1e-15 * norm[order[0]] && (u[1][0] * u[1][0] + u[1][1] * u[1][1] + u[1][2] * u[1][2]) > 0) VKNormalize3(u[1]);
-    else VKOrthogonal3(u[0], u[1]);
+    n2 = u[1][0] * u[1][0] + u[1][1] * u[1][1] + u[1][2] * u[1][2];
+    if (norm2[order[1]] > 1e-30 * norm2[order[0]] && n2 > 0) {
+      PetscReal inv = 1 / PetscSqrtReal(n2);
+      for (int i = 0; i < 3; i++) u[1][i] *= inv;
+    } else VKOrthogonal3(u[0], u[1]);
   }
   u[2][0] = u[0][1] * u[1][2] - u[0][2] * u[1][1];
   u[2][1] = u[0][2] * u[1][0] - u[0][0] * u[1][2];
@@ -100,6 +126,42 @@ void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *svd)
       svd->U[3 * i + k] = u[k][i];
       svd->W[3 * i + k] = w[k][i];
     }
+}
+
+void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKSVD3 svd[])
+{
+  PetscReal A[VK_SVD3_BATCH][9], W[VK_SVD3_BATCH][9];
+
+  for (PetscInt l = 0; l < n; l++) {
+    const PetscReal *f = F + 9 * l, *w0 = W0 ? W0 + 9 * l : NULL;
+    if (w0) { /* A = F W0: nearly orthogonal columns when W0 is last step's W */
+      for (int i = 0; i < 9; i++) W[l][i] = w0[i];
+      for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) A[l][3 * i + j] = f[3 * i] * w0[j] + f[3 * i + 1] * w0[3 + j] + f[3 * i + 2] * w0[6 + j];
+    } else
+      for (int i = 0; i < 9; i++) {
+        A[l][i] = f[i];
+        W[l][i] = (i % 4 == 0) ? 1 : 0;
+      }
+  }
+  OrthogonalizeColumns(n, A, W);
+  for (PetscInt l = 0; l < n; l++) {
+    PetscReal z = 0;
+    for (int i = 0; i < 9; i++) z += 0 * F[9 * l + i]; /* NaN exactly when an entry is Inf or NaN */
+    if (PetscIsNanReal(z)) /* F not finite: NaN out, for the callers' checks */
+      for (int i = 0; i < 9; i++) svd[l].U[i] = svd[l].W[i] = svd[l].s[i % 3] = z;
+    else FinishSVD(F + 9 * l, A[l], W[l], svd + l);
+  }
+}
+
+void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *svd)
+{
+  VKSVD3ComputeBatch(1, F, W0, svd);
+}
+
+void VKSVD3Compute(const PetscReal F[], VKSVD3 *svd)
+{
+  VKSVD3ComputeBatch(1, F, NULL, svd);
 }
 
 void VKSymEig3(const PetscReal S[], PetscReal l[], PetscReal Q[])

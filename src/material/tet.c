@@ -57,19 +57,23 @@ PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKTetProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscReal W[], PetscReal *E, PetscReal rhs[], PetscReal *det)
+PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal gamma[], PetscReal W[], PetscReal E[], PetscReal rhs[], PetscReal det[])
 {
-  PetscReal  F[9], P[9];
-  VKPsiState st;
+  PetscReal  F[9 * VK_SVD3_BATCH] = {0}, P[9];
+  VKPsiState st[VK_SVD3_BATCH];
 
   PetscFunctionBegin;
-  VKTetDeformation(G, X, F);
-  PetscCall(VKPsiProject(F, W, &st));
-  if (W)
-    for (int i = 0; i < 9; i++) W[i] = st.svd.W[i];
-  *E = vol * (gs * st.psi_s + gv * st.psi_v);
-  for (int i = 0; i < 9; i++) P[i] = 2 * (gs * st.R[i] + gv * st.V[i]);
-  NodalForce(G, vol, P, rhs);
-  *det = st.svd.s[0] * st.svd.s[1] * st.svd.s[2];
+  PetscCheck(n >= 0 && n <= VK_SVD3_BATCH, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "At most %d tets at once, got %d", VK_SVD3_BATCH, (int)n);
+  for (PetscInt l = 0; l < n; l++) VKTetDeformation(G + 12 * l, X + 12 * l, F + 9 * l);
+  PetscCall(VKPsiProjectBatch(n, F, W, st));
+  for (PetscInt l = 0; l < n; l++) {
+    PetscReal gs = gamma[2 * l], gv = gamma[2 * l + 1];
+    if (W)
+      for (int i = 0; i < 9; i++) W[9 * l + i] = st[l].svd.W[i];
+    E[l] = vol[l] * (gs * st[l].psi_s + gv * st[l].psi_v);
+    for (int i = 0; i < 9; i++) P[i] = 2 * (gs * st[l].R[i] + gv * st[l].V[i]);
+    NodalForce(G + 12 * l, vol[l], P, rhs + 12 * l);
+    det[l] = st[l].svd.s[0] * st[l].svd.s[1] * st[l].svd.s[2];
+  }
   PetscFunctionReturn(0);
 }

@@ -32,13 +32,16 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
   PetscCall(VecGhostGetLocalForm(b, &bl));
   PetscCall(VecSet(bl, 0));
   PetscCall(VecGetArray(bl, &ba));
-  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    PetscReal X[12], rhs[12], Ee, det;
-    VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetProject(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, pd->mat->gamma[2 * e], pd->mat->gamma[2 * e + 1], pd->tetW + 9 * e, &Ee, rhs, &det));
-    VKSumAdd(&sum, Ee);
-    if (!(det > 0)) ninv++;
-    VKLayoutAddTet(L, e, rhs, ba);
+  for (PetscInt e0 = 0; e0 < L->eEnd - L->eStart; e0 += VK_SVD3_BATCH) {
+    PetscInt  n = PetscMin(VK_SVD3_BATCH, L->eEnd - L->eStart - e0);
+    PetscReal X[12 * VK_SVD3_BATCH], rhs[12 * VK_SVD3_BATCH], Ee[VK_SVD3_BATCH], det[VK_SVD3_BATCH];
+    for (PetscInt l = 0; l < n; l++) VKLayoutGatherTet(L, e0 + l, a, X + 12 * l);
+    PetscCall(VKTetProject(n, mesh->G + 12 * (L->eStart + e0), mesh->vol + L->eStart + e0, X, pd->mat->gamma + 2 * e0, pd->tetW + 9 * e0, Ee, rhs, det));
+    for (PetscInt l = 0; l < n; l++) {
+      VKSumAdd(&sum, Ee[l]);
+      if (!(det[l] > 0)) ninv++;
+      VKLayoutAddTet(L, e0 + l, rhs + 12 * l, ba);
+    }
   }
   PetscCall(VecRestoreArray(bl, &ba));
   PetscCall(VecGhostRestoreLocalForm(b, &bl));
