@@ -23,6 +23,14 @@
 #include <petscksp.h>
 #include <petscsnes.h>
 
+/* PC type "columns" (pc_columns.c): the columns of a multi-column
+ * right-hand side solved on different ranks, each rank with a sequential
+ * factorization of the whole operator (registered by VKPDCreate). */
+#define PCCOLUMNS "columns"
+PETSC_EXTERN PetscErrorCode VKPCColumnsRegister(void);
+/* The sequential solver of this rank (after set-up). */
+PETSC_EXTERN PetscErrorCode VKPCColumnsGetKSP(PC, KSP *);
+
 typedef enum {
   VK_PD_DIVERGED_GLOBAL = -2, /* the global-step KSP failed */
   VK_PD_DIVERGED_NAN   = -1, /* Phi or the residual is not finite */

@@ -254,7 +254,9 @@ static PetscErrorCode TestTSMomentum(VKMaterial mat)
   PetscCall(TSGetStepNumber(ts, &steps));
   PetscCall(TSGetTime(ts, &t));
   PetscCall(VKTestCheck((PetscBool)(steps == 12 && PetscAbsReal(t - 12 * dt) < 1e-12 && mc.calls == 13), NULL, "TS type pd: -ts_max_steps 12 gives 12 steps to t = %g (12 dt = %g), 13 monitor calls (%d)", (double)t, (double)(12 * dt), (int)mc.calls));
-  PetscCall(VKTestCheck((PetscBool)(mc.worst <= 1e-12), NULL, "linear momentum conserved without handles, colliders, gravity: max |p_n - p_0| = %.2e of sum m|v|", (double)mc.worst));
+  /* 84 direct solves, each conserving sum M x to its own round-off (about
+   * kappa(K) eps relative: 3e-14 per solve with CHOLMOD, 1e-14 with MUMPS) */
+  PetscCall(VKTestCheck((PetscBool)(mc.worst <= 1e-11), NULL, "linear momentum conserved without handles, colliders, gravity: max |p_n - p_0| = %.2e of sum m|v|", (double)mc.worst));
   PetscCall(PetscRandomDestroy(&rnd));
   PetscCall(VecDestroy(&v));
   PetscCall(VecDestroy(&x));

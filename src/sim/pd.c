@@ -24,6 +24,7 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
 
   PetscFunctionBegin;
   PetscCall(VKInitializePackage());
+  PetscCall(VKPCColumnsRegister());
   PetscCall(PetscNew(&pd));
   pd->comm        = mat->comm;
   pd->mesh        = mat->mesh;
@@ -42,11 +43,18 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   PetscCall(KSPCreate(pd->comm, &pd->ksp));
   PetscCall(KSPSetOptionsPrefix(pd->ksp, "pd_global_"));
   PetscCall(KSPSetType(pd->ksp, KSPPREONLY));
-  {
-    PC pc;
+  { /* on up to 3 ranks the three coordinates are solved concurrently, each
+     * rank with a sequential factor (PC columns); beyond, one distributed
+     * MUMPS factor */
+    PC          pc;
+    PetscMPIInt size;
+    PetscCallMPI(MPI_Comm_size(pd->comm, &size));
     PetscCall(KSPGetPC(pd->ksp, &pc));
-    PetscCall(PCSetType(pc, PCCHOLESKY));
-    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    if (size <= 3) PetscCall(PCSetType(pc, PCCOLUMNS));
+    else {
+      PetscCall(PCSetType(pc, PCCHOLESKY));
+      PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    }
   }
   PetscCall(KSPSetTolerances(pd->ksp, 1e-10, 1e-50, PETSC_DEFAULT, 1000));
   *pdout = pd;
@@ -137,7 +145,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
       if (st) PetscCall(PetscStrcmp(st, MATSOLVERCHOLMOD, &ischolmod));
     }
     PetscCallMPI(MPI_Comm_size(pd->comm, &size));
-    PetscCheck(!ischolmod || size == 1, pd->comm, PETSC_ERR_SUP, "-pd_global_pc_factor_mat_solver_type cholmod is sequential; with %d ranks use mumps (the default)", (int)size);
+    PetscCheck(!ischolmod || size == 1, pd->comm, PETSC_ERR_SUP, "-pd_global_pc_factor_mat_solver_type cholmod is sequential; with %d ranks use mumps or -pd_global_pc_type columns", (int)size);
   }
   PetscFunctionReturn(0);
 }

@@ -68,9 +68,17 @@ int main(int argc, char **argv)
   PetscCall(KSPGetPC(sim->pd->ksp, &pc));
   PetscCall(PCGetType(pc, &pctype));
   {
-    PetscBool factor;
+    PetscBool factor, columns;
     PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCCHOLESKY, PCLU, ""));
+    PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCOLUMNS, &columns));
     if (factor) PetscCall(PCFactorGetMatSolverType(pc, &solver));
+    else if (columns) { /* the sequential factor each rank holds */
+      KSP sub;
+      PC  subpc;
+      PetscCall(VKPCColumnsGetKSP(pc, &sub));
+      PetscCall(KSPGetPC(sub, &subpc));
+      PetscCall(PCFactorGetMatSolverType(subpc, &solver));
+    }
     else {
       KSPType kt;
       PetscCall(KSPGetType(sim->pd->ksp, &kt));
