@@ -97,6 +97,20 @@ static PetscErrorCode GetScatter(PC_Columns *c, PetscMPIInt r, VecScatter *sc)
   PetscFunctionReturn(0);
 }
 
+/* Parallel vector -> rank's sequential one (forward) or back (reverse). */
+static PetscErrorCode Move(VecScatter sc, Vec par, Vec seq, ScatterMode mode)
+{
+  PetscFunctionBegin;
+  if (mode == SCATTER_FORWARD) {
+    PetscCall(VecScatterBegin(sc, par, seq, INSERT_VALUES, SCATTER_FORWARD));
+    PetscCall(VecScatterEnd(sc, par, seq, INSERT_VALUES, SCATTER_FORWARD));
+  } else {
+    PetscCall(VecScatterBegin(sc, seq, par, INSERT_VALUES, SCATTER_REVERSE));
+    PetscCall(VecScatterEnd(sc, seq, par, INSERT_VALUES, SCATTER_REVERSE));
+  }
+  PetscFunctionReturn(0);
+}
+
 /* Moves column j of the parallel dense P to or from column k of the
  * sequential dense S on rank j mod size (S NULL elsewhere). */
 static PetscErrorCode MoveColumn(PC_Columns *c, Mat P, PetscInt j, Mat S, PetscInt k, ScatterMode mode)
@@ -105,7 +119,7 @@ static PetscErrorCode MoveColumn(PC_Columns *c, Mat P, PetscInt j, Mat S, PetscI
   PetscScalar *pa, *sa = NULL;
   PetscInt     lda, slda = 0;
   Vec          target = c->empty;
-  VecScatter   sc;
+  VecScatter   sc = NULL;
 
   PetscFunctionBegin;
   PetscCall(GetScatter(c, owner, &sc));
@@ -118,13 +132,7 @@ static PetscErrorCode MoveColumn(PC_Columns *c, Mat P, PetscInt j, Mat S, PetscI
     PetscCall(VecPlaceArray(c->full, sa + k * slda));
     target = c->full;
   }
-  if (mode == SCATTER_FORWARD) {
-    PetscCall(VecScatterBegin(sc, c->col, target, INSERT_VALUES, SCATTER_FORWARD));
-    PetscCall(VecScatterEnd(sc, c->col, target, INSERT_VALUES, SCATTER_FORWARD));
-  } else {
-    PetscCall(VecScatterBegin(sc, target, c->col, INSERT_VALUES, SCATTER_REVERSE));
-    PetscCall(VecScatterEnd(sc, target, c->col, INSERT_VALUES, SCATTER_REVERSE));
-  }
+  PetscCall(Move(sc, c->col, target, mode));
   if (owner == c->rank) {
     PetscCall(VecResetArray(c->full));
     PetscCall(MatDenseRestoreArray(S, &sa));
@@ -178,19 +186,17 @@ static PetscErrorCode PCMatApply_Columns(PC pc, Mat B, Mat X)
 static PetscErrorCode PCApply_Columns(PC pc, Vec b, Vec x)
 {
   PC_Columns *c = (PC_Columns *)pc->data;
-  VecScatter  sc;
+  VecScatter  sc = NULL;
   Vec         target = c->rank == 0 ? c->full : c->empty;
 
   PetscFunctionBegin;
   PetscCall(GetScatter(c, 0, &sc));
-  PetscCall(VecScatterBegin(sc, b, target, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sc, b, target, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(Move(sc, b, target, SCATTER_FORWARD));
   if (c->rank == 0) {
     PetscCall(KSPSolve(c->ksp, c->full, c->full));
     PetscCall(CheckSolve(pc));
   }
-  PetscCall(VecScatterBegin(sc, target, x, INSERT_VALUES, SCATTER_REVERSE));
-  PetscCall(VecScatterEnd(sc, target, x, INSERT_VALUES, SCATTER_REVERSE));
+  PetscCall(Move(sc, x, target, SCATTER_REVERSE));
   PetscFunctionReturn(0);
 }
 
