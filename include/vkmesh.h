@@ -92,6 +92,19 @@ PETSC_EXTERN PetscErrorCode VKMeshApplyEmbedding(VKMesh, const PetscReal xv[], P
  * voxelizer walks along curve c of a yarn model. */
 PETSC_EXTERN PetscErrorCode VKMeshYarnVoxelChain(const VKGrid *, const VKCurves *, PetscInt c, PetscInt *n, PetscInt **ijk);
 PETSC_EXTERN PetscInt       VKMeshFindVoxel(VKMesh, const PetscInt ijk[]);
+/* The pieces of segment a -> b (rest coordinates, inside the mesh) cut at
+ * the voxel faces by the voxelizer's walk: piece p lies in mesh voxel
+ * voxel[p] over the segment parameters [t[p], t[p+1]] (t[0] = 0, t[n] = 1;
+ * a zero-length piece is a voxel the walk adds for face adjacency).  The
+ * arrays grow as needed (*cap entries, PetscFree them). */
+typedef struct {
+  PetscInt   n, cap;
+  PetscInt  *voxel;
+  PetscReal *t;
+  void      *walk; /* the walk's own work space */
+} VKSegmentPieces;
+PETSC_EXTERN PetscErrorCode VKMeshSegmentPieces(VKMesh, const PetscReal a[], const PetscReal b[], VKSegmentPieces *);
+PETSC_EXTERN PetscErrorCode VKSegmentPiecesFree(VKSegmentPieces *);
 
 /* Distributed objects over the layout: a ghosted node vector with block
  * size bs, and an AIJ (bs 1) or BAIJ (bs 3) matrix preallocated for the

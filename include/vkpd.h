@@ -30,6 +30,11 @@
 PETSC_EXTERN PetscErrorCode VKPCColumnsRegister(void);
 /* The sequential solver of this rank (after set-up). */
 PETSC_EXTERN PetscErrorCode VKPCColumnsGetKSP(PC, KSP *);
+/* The default solver of a scalar SPD matrix with three right-hand sides
+ * (PD's K, the shape fit's A): preonly with PC columns on up to 3 ranks
+ * (the coordinates solved concurrently), one distributed MUMPS Cholesky
+ * factor beyond. */
+PETSC_EXTERN PetscErrorCode VKKSPSetDirectSolver(KSP);
 
 typedef enum {
   VK_PD_DIVERGED_GLOBAL = -2, /* the global-step KSP failed */

@@ -9,18 +9,18 @@
  * zero mass: nothing may divide by a nodal mass without a guard. */
 #include "meshimpl.h"
 
-static PetscErrorCode LumpPiece(VKMesh m, const PetscInt V[], const PetscReal A[], const PetscReal D[], PetscReal t0, PetscReal t1, PetscReal seglen, PetscReal rho)
+static PetscErrorCode LumpPiece(VKMesh m, PetscInt vi, const PetscReal A[], const PetscReal D[], PetscReal t0, PetscReal t1, PetscReal seglen, PetscReal rho)
 {
   static const int pairs[3][2] = {
     {0, 1},
     {1, 2},
     {0, 2}
   };
-  PetscInt  vi = VKMeshFindVoxel(m, V), ncut = 2;
-  PetscReal cut[5];
+  const PetscInt *V    = m->vox + 3 * vi;
+  PetscInt        ncut = 2;
+  PetscReal       cut[5];
 
   PetscFunctionBegin;
-  PetscCheck(vi >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Segment piece in voxel (%d,%d,%d) that is not in the mesh", (int)V[0], (int)V[1], (int)V[2]);
   cut[0] = t0;
   cut[1] = t1;
   for (int q = 0; q < 3; q++) {
@@ -58,11 +58,50 @@ static PetscErrorCode LumpPiece(VKMesh m, const PetscInt V[], const PetscReal A[
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKMeshSegmentPieces(VKMesh m, const PetscReal a[], const PetscReal b[], VKSegmentPieces *p)
+{
+  VKGridWalk *walk;
+  PetscReal   A[3], B[3];
+  PetscInt    V[3];
+
+  PetscFunctionBegin;
+  if (!p->walk) PetscCall(PetscNew((VKGridWalk **)&p->walk));
+  walk = (VKGridWalk *)p->walk;
+  VKGridCoords(&m->grid, a, A);
+  VKGridCoords(&m->grid, b, B);
+  PetscCall(VKGridWalkSegment(walk, A, B));
+  if (walk->n + 1 > p->cap) {
+    PetscCall(PetscFree2(p->voxel, p->t));
+    p->cap = PetscMax(2 * p->cap, walk->n + 1);
+    PetscCall(PetscMalloc2(p->cap, &p->voxel, p->cap + 1, &p->t));
+  }
+  for (int q = 0; q < 3; q++) V[q] = (PetscInt)PetscFloorReal(A[q]);
+  p->n    = walk->n + 1;
+  p->t[0] = 0;
+  for (PetscInt e = 0; e <= walk->n; e++) {
+    p->voxel[e] = VKMeshFindVoxel(m, V);
+    PetscCheck(p->voxel[e] >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment (%g,%g,%g)-(%g,%g,%g) leaves the mesh at voxel (%d,%d,%d)", (double)a[0], (double)a[1], (double)a[2], (double)b[0], (double)b[1], (double)b[2], (int)V[0], (int)V[1], (int)V[2]);
+    p->t[e + 1] = e < walk->n ? PetscMax(p->t[e], walk->ev[e].t) : 1;
+    if (e < walk->n) V[walk->ev[e].axis] += walk->ev[e].dir;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSegmentPiecesFree(VKSegmentPieces *p)
+{
+  PetscFunctionBegin;
+  if (p->walk) PetscCall(VKGridWalkFree((VKGridWalk *)p->walk));
+  PetscCall(PetscFree(p->walk));
+  PetscCall(PetscFree2(p->voxel, p->t));
+  p->n = p->cap = 0;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKMeshLump(VKMesh m)
 {
   const VKCurves *c   = &m->yarn->curves;
   PetscReal       rho = m->yarn->density;
-  VKGridWalk      walk = {NULL, 0, 0};
+  VKSegmentPieces pieces = {0};
 
   PetscFunctionBegin;
   PetscCall(PetscFree(m->mass));
@@ -72,26 +111,16 @@ PetscErrorCode VKMeshLump(VKMesh m)
     PetscInt         nv = VKCurveSize(c, i), ns = VKCurveNumSegments(c, i);
     for (PetscInt k = 0; k < ns; k++) {
       const PetscReal *a = x + 3 * k, *b = x + 3 * ((k + 1) % nv);
-      PetscReal        A[3], B[3], D[3], len = PetscSqrtReal(PetscSqr(b[0] - a[0]) + PetscSqr(b[1] - a[1]) + PetscSqr(b[2] - a[2])), t = 0;
-      PetscInt         V[3];
+      PetscReal        A[3], B[3], D[3], len = PetscSqrtReal(PetscSqr(b[0] - a[0]) + PetscSqr(b[1] - a[1]) + PetscSqr(b[2] - a[2]));
       VKGridCoords(&m->grid, a, A);
       VKGridCoords(&m->grid, b, B);
-      for (int q = 0; q < 3; q++) {
-        D[q] = B[q] - A[q];
-        V[q] = (PetscInt)PetscFloorReal(A[q]);
-      }
-      PetscCall(VKGridWalkSegment(&walk, A, B));
-      for (PetscInt e = 0; e <= walk.n; e++) {
-        PetscReal tn = e < walk.n ? walk.ev[e].t : 1;
-        if (tn > t) PetscCall(LumpPiece(m, V, A, D, t, tn, len, rho));
-        if (e < walk.n) {
-          V[walk.ev[e].axis] += walk.ev[e].dir;
-          t = PetscMax(t, tn);
-        }
-      }
+      for (int q = 0; q < 3; q++) D[q] = B[q] - A[q];
+      PetscCall(VKMeshSegmentPieces(m, a, b, &pieces));
+      for (PetscInt p = 0; p < pieces.n; p++)
+        if (pieces.t[p + 1] > pieces.t[p]) PetscCall(LumpPiece(m, pieces.voxel[p], A, D, pieces.t[p], pieces.t[p + 1], len, rho));
     }
   }
-  PetscCall(VKGridWalkFree(&walk));
+  PetscCall(VKSegmentPiecesFree(&pieces));
   PetscFunctionReturn(0);
 }
 

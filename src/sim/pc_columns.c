@@ -290,3 +290,21 @@ PetscErrorCode VKPCColumnsRegister(void)
   done = PETSC_TRUE;
   PetscFunctionReturn(0);
 }
+
+PetscErrorCode VKKSPSetDirectSolver(KSP ksp)
+{
+  PC          pc;
+  PetscMPIInt size;
+
+  PetscFunctionBegin;
+  PetscCall(VKPCColumnsRegister());
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)ksp), &size));
+  PetscCall(KSPGetPC(ksp, &pc));
+  if (size <= 3) PetscCall(PCSetType(pc, PCCOLUMNS));
+  else {
+    PetscCall(PCSetType(pc, PCCHOLESKY));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  }
+  PetscFunctionReturn(0);
+}

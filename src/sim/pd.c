@@ -42,20 +42,7 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   pd->contact_weight = 1;
   PetscCall(KSPCreate(pd->comm, &pd->ksp));
   PetscCall(KSPSetOptionsPrefix(pd->ksp, "pd_global_"));
-  PetscCall(KSPSetType(pd->ksp, KSPPREONLY));
-  { /* on up to 3 ranks the three coordinates are solved concurrently, each
-     * rank with a sequential factor (PC columns); beyond, one distributed
-     * MUMPS factor */
-    PC          pc;
-    PetscMPIInt size;
-    PetscCallMPI(MPI_Comm_size(pd->comm, &size));
-    PetscCall(KSPGetPC(pd->ksp, &pc));
-    if (size <= 3) PetscCall(PCSetType(pc, PCCOLUMNS));
-    else {
-      PetscCall(PCSetType(pc, PCCHOLESKY));
-      PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-    }
-  }
+  PetscCall(VKKSPSetDirectSolver(pd->ksp));
   PetscCall(KSPSetTolerances(pd->ksp, 1e-10, 1e-50, PETSC_DEFAULT, 1000));
   *pdout = pd;
   PetscFunctionReturn(0);
