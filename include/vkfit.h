@@ -66,3 +66,68 @@ PETSC_EXTERN PetscErrorCode VKShapeFitLoss(VKShapeFit, const PetscReal Fhat[], c
 /* eps(x) = eps_hat + (x - xhat)^T (A x I3) (x - xhat) and, optionally, its
  * gradient 2 (A x I3)(x - xhat). */
 PETSC_EXTERN PetscErrorCode VKShapeFitQuadraticLoss(VKShapeFit, Vec xhat, PetscReal eps_hat, Vec x, PetscReal *eps, Vec grad);
+
+/* ---- the fitting problem (fit.c, equilibrium.c, adjoint.c) -------------- */
+typedef enum { VK_FIT_INERTIA_IMPLICIT } VKFitInertia;
+PETSC_EXTERN const char *const VKFitInertias[];
+
+/* One sample frame i: its shape-fit target xhat_i with eps(xhat_i), the
+ * inertial target y = 2 xhat_{i-1} - xhat_{i-2} + dt^2 g, and the
+ * equilibrium x of the homogenized model there (also the warm start of the
+ * next solve). */
+typedef struct {
+  PetscInt  index;  /* frame number in the yarn-level run */
+  PetscReal t;      /* its time (handles) */
+  PetscReal weight; /* yarn elastic energy (sample averaging, Eq. 22) */
+  PetscReal eps_hat, scale; /* eps(xhat); force scale of the equilibrium tolerance */
+  Vec       xhat, xprev, y, x; /* xprev = xhat_{i-1}: start of the step (friction) */
+} VKFitFrame;
+
+typedef struct {
+  PetscInt  pd_its, newton_its;
+  PetscReal residual, tolerance;
+} VKFitEqStats;
+
+typedef struct _n_VKFit *VKFit;
+struct _n_VKFit {
+  MPI_Comm     comm;
+  VKMesh       mesh;
+  VKMaterial   mat;
+  VKScene      scene;
+  VKShapeFit   sf;
+  VKPD         pd;
+  PetscReal    dt;      /* time between yarn frames */
+  PetscReal    eq_rtol; /* |g| <= eq_rtol x force scale */
+  PetscInt     eq_newton_its;
+  VKFitInertia inertia;
+  /* adjoint */
+  Mat       H, J;
+  KSP       kadj; /* prefix -fit_adjoint_ */
+  Vec       rhs, lambda, work;
+  PetscLogDouble time_eq, time_adjoint;
+  PetscBool setup;
+};
+PETSC_EXTERN PetscErrorCode VKFitCreate(VKMaterial, VKScene, VKFit *);
+PETSC_EXTERN PetscErrorCode VKFitSetTimeStep(VKFit, PetscReal dt);
+PETSC_EXTERN PetscErrorCode VKFitSetFromOptions(VKFit);
+PETSC_EXTERN PetscErrorCode VKFitSetUp(VKFit);
+PETSC_EXTERN PetscErrorCode VKFitView(VKFit, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKFitDestroy(VKFit *);
+/* Material parameters as a Vec (2 per owned tet: g_s, g_v), and back into
+ * the material (which invalidates PD's factorization). */
+PETSC_EXTERN PetscErrorCode VKFitCreateGammaVec(VKFit, Vec *);
+PETSC_EXTERN PetscErrorCode VKFitGetGamma(VKFit, Vec);
+PETSC_EXTERN PetscErrorCode VKFitSetGamma(VKFit, Vec);
+
+/* A frame from its target and the two before it (NULL: the frame itself,
+ * i.e. at rest before the data starts); the equilibrium starts at xhat. */
+PETSC_EXTERN PetscErrorCode VKFitFrameCreate(VKFit, PetscInt index, PetscReal t, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *);
+PETSC_EXTERN PetscErrorCode VKFitFrameDestroy(VKFitFrame *);
+/* Equilibrium g(x; gamma) = 0 at the frame by PD then Newton (exact
+ * Hessian) to |g| <= eq_rtol x scale, scale = |grad E(xhat)| + |M (xhat - y)|/dt^2
+ * (the forces that balance at the data); an error if it is not reached. */
+PETSC_EXTERN PetscErrorCode VKFitEquilibrium(VKFit, VKFitFrame *, VKFitEqStats *);
+/* Loss eps(x) of the frame at its current equilibrium, and (optionally)
+ * the adjoint gradient d eps/d gamma = -J^T lambda, H lambda = d eps/dx
+ * (paper Eq. 16-17), H the exact Hessian of Phi, J = dg/dgamma. */
+PETSC_EXTERN PetscErrorCode VKFitFrameLoss(VKFit, VKFitFrame *, PetscReal *eps, Vec grad);

@@ -131,6 +131,11 @@ PETSC_EXTERN PetscErrorCode VKPDApplyHandles(VKPD, PetscReal t, Vec x);
  * relative to its start position. */
 PETSC_EXTERN PetscErrorCode VKPDObjective(VKPD, Vec y, Vec x, PetscReal *phi);
 PETSC_EXTERN PetscErrorCode VKPDGradient(VKPD, Vec y, Vec x, Vec g);
+/* The exact Hessian of Phi, M/dt^2 + d2E/dx2 (+ the weights of active
+ * collider constraints), with the rows and columns of the eliminated nodes
+ * replaced by kdiag I, into a matrix from VKMeshCreateNodeMat(mesh, 3): the
+ * Jacobian of Newton's steps and the operator of the fitting's adjoint. */
+PETSC_EXTERN PetscErrorCode VKPDHessian(VKPD, Vec x, Mat H);
 /* All of them from one local step: Phi, grad Phi (handle rows zeroed), the
  * elastic energy and the inverted-tet count; any output may be NULL. */
 PETSC_EXTERN PetscErrorCode VKPDEvaluate(VKPD, Vec y, Vec x, PetscReal *phi, Vec g, PetscReal *E, PetscInt *inverted);

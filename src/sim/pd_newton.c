@@ -24,27 +24,35 @@ static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode NewtonJacobian(SNES snes, Vec x, Mat J, Mat P, void *ctx)
+PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
 {
-  VKPD            pd = (VKPD)ctx;
-  const VKLayout *L  = &pd->mesh->layout;
+  const VKLayout *L    = &pd->mesh->layout;
   PetscInt        nown = L->nEnd - L->nStart, *rows;
   PetscScalar    *ma;
 
   PetscFunctionBegin;
-  (void)snes;
-  (void)J;
-  PetscCall(VKMaterialHessian(pd->mat, x, PETSC_FALSE, P));
+  PetscCall(VKPDSetUp(pd));
+  if (!pd->hdiag) PetscCall(VecDuplicate(pd->b, &pd->hdiag));
+  PetscCall(VKMaterialHessian(pd->mat, x, PETSC_FALSE, H));
   PetscCall(VecGetArray(pd->hdiag, &ma));
   for (PetscInt i = 0; i < nown; i++)
     for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
   PetscCall(VecRestoreArray(pd->hdiag, &ma));
-  PetscCall(MatDiagonalSet(P, pd->hdiag, ADD_VALUES));
+  PetscCall(MatDiagonalSet(H, pd->hdiag, ADD_VALUES));
   PetscCall(PetscMalloc1(3 * pd->nhandle + 1, &rows));
   for (PetscInt i = 0; i < pd->nhandle; i++)
     for (int c = 0; c < 3; c++) rows[3 * i + c] = 3 * pd->handle_row[i] + c;
-  PetscCall(MatZeroRowsColumns(P, 3 * pd->nhandle, rows, pd->kdiag, NULL, NULL));
+  PetscCall(MatZeroRowsColumns(H, 3 * pd->nhandle, rows, pd->kdiag, NULL, NULL));
   PetscCall(PetscFree(rows));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode NewtonJacobian(SNES snes, Vec x, Mat J, Mat P, void *ctx)
+{
+  PetscFunctionBegin;
+  (void)snes;
+  (void)J;
+  PetscCall(VKPDHessian((VKPD)ctx, x, P));
   PetscFunctionReturn(0);
 }
 
@@ -66,7 +74,6 @@ static PetscErrorCode NewtonCreate(VKPD pd)
   PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
-  PetscCall(VecDuplicate(pd->b, &pd->hdiag));
   PetscCall(SNESSetFunction(pd->snes, NULL, NewtonFunction, pd));
   PetscCall(SNESSetJacobian(pd->snes, pd->H, pd->H, NewtonJacobian, pd));
   PetscCall(SNESSetFromOptions(pd->snes));

@@ -1,0 +1,51 @@
+/* adjoint.c: the loss of a sample frame at its equilibrium and its
+ * gradient by the material parameters (DESIGN §8, paper Eq. 16-17):
+ *   eps(x) = eps(xhat) + (x - xhat)^T (A x I3) (x - xhat),
+ *   H lambda = d eps/dx = 2 (A x I3)(x - xhat)   (free rows; 0 on handles),
+ *   d eps/d gamma = -J^T lambda,
+ * H = dg/dx = M/dt^2 + d2E/dx2 the exact Hessian of Phi at the equilibrium
+ * (VKPDHessian: handle rows and columns eliminated, so lambda vanishes
+ * there) and J = dg/dgamma (VKMaterialGammaJacobian).  H is symmetric but
+ * not necessarily definite; the solver (prefix -fit_adjoint_) is MUMPS LU
+ * by default. */
+#include <vkfit.h>
+#include <vkutil.h>
+#include <vklog.h>
+
+/* Zero the rows of the eliminated (handle and frozen) nodes of a node vector. */
+PETSC_INTERN PetscErrorCode VKFitZeroHandleRows(VKFit, Vec);
+
+PetscErrorCode VKFitZeroHandleRows(VKFit fit, Vec v)
+{
+  PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(v, &a));
+  for (PetscInt i = 0; i < fit->pd->nhandle; i++)
+    for (int c = 0; c < 3; c++) a[3 * fit->pd->handle_node[i] + c] = 0;
+  PetscCall(VecRestoreArray(v, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitFrameLoss(VKFit fit, VKFitFrame *f, PetscReal *eps, Vec grad)
+{
+  KSPConvergedReason reason;
+  PetscLogDouble     t0;
+
+  PetscFunctionBegin;
+  PetscCall(VKFitSetUp(fit));
+  PetscCall(VKShapeFitQuadraticLoss(fit->sf, f->xhat, f->eps_hat, f->x, eps, grad ? fit->rhs : NULL));
+  if (!grad) PetscFunctionReturn(0);
+  t0 = VKWallTime();
+  PetscCall(VKFitZeroHandleRows(fit, fit->rhs));
+  PetscCall(VKPDHessian(fit->pd, f->x, fit->H));
+  PetscCall(KSPSetOperators(fit->kadj, fit->H, fit->H));
+  PetscCall(KSPSolve(fit->kadj, fit->rhs, fit->lambda));
+  PetscCall(KSPGetConvergedReason(fit->kadj, &reason));
+  PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Adjoint solve of sample frame %d failed (KSP reason %s): the Hessian at the equilibrium may be singular; see -fit_adjoint_ksp_view", (int)f->index, KSPConvergedReasons[reason]);
+  PetscCall(VKMaterialGammaJacobian(fit->mat, f->x, fit->J));
+  PetscCall(MatMultTranspose(fit->J, fit->lambda, grad));
+  PetscCall(VecScale(grad, -1));
+  fit->time_adjoint += VKWallTime() - t0;
+  PetscFunctionReturn(0);
+}

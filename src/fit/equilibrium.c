@@ -1,0 +1,102 @@
+/* equilibrium.c: the sample frames of the fitting and the equilibrium of
+ * the homogenized model at each (DESIGN §8, our form of paper Eq. 14):
+ *   g_i(x; gamma) = M (x - 2 xhat_{i-1} + xhat_{i-2}) / dt^2 - f_ext + grad E(x; gamma) = 0
+ * on the free nodes, handle nodes placed by the scene at t_i.  This is
+ * grad Phi of one implicit Euler step with the inertial target
+ * y = 2 xhat_{i-1} - xhat_{i-2} + dt^2 g, so VKPDSolve minimizes it: PD
+ * iterations, then Newton with the exact Hessian until
+ *   |g| <= eq_rtol (|grad E(xhat_i)| + |M (xhat_i - y)|/dt^2),
+ * a scale made of the forces that balance at the data, so the tolerance
+ * does not shrink as the fit approaches the data.  The adjoint and
+ * Gauss-Newton are only valid at equilibrium, so a solve that does not get
+ * there is an error, not a warning. */
+#include <vkfit.h>
+#include <vkutil.h>
+
+PetscErrorCode VKFitFrameCreate(VKFit fit, PetscInt index, PetscReal t, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *f)
+{
+  const VKLayout *L = &fit->mesh->layout;
+  PetscScalar    *ya;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(f, sizeof(*f)));
+  f->index   = index;
+  f->t       = t;
+  f->eps_hat = eps_hat;
+  if (!xhat1) xhat1 = xhat;
+  if (!xhat2) xhat2 = xhat1;
+  PetscCall(VecDuplicate(xhat, &f->xhat));
+  PetscCall(VecCopy(xhat, f->xhat));
+  PetscCall(VecDuplicate(xhat, &f->xprev));
+  PetscCall(VecCopy(xhat1, f->xprev));
+  PetscCall(VecDuplicate(xhat, &f->x));
+  PetscCall(VecCopy(xhat, f->x));
+  PetscCall(VecDuplicate(xhat, &f->y));
+  PetscCall(VecAXPBYPCZ(f->y, 2, -1, 0, xhat1, xhat2));
+  PetscCall(VecGetArray(f->y, &ya));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
+    for (int r = 0; r < 3; r++) ya[3 * i + r] += fit->dt * fit->dt * fit->scene->gravity[r];
+  PetscCall(VecRestoreArray(f->y, &ya));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitFrameDestroy(VKFitFrame *f)
+{
+  PetscFunctionBegin;
+  PetscCall(VecDestroy(&f->xhat));
+  PetscCall(VecDestroy(&f->xprev));
+  PetscCall(VecDestroy(&f->x));
+  PetscCall(VecDestroy(&f->y));
+  PetscFunctionReturn(0);
+}
+
+/* |grad E(xhat)| + |M (xhat - y)|/dt^2 */
+static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
+{
+  const VKLayout    *L = &fit->mesh->layout;
+  const PetscScalar *xa, *ya;
+  PetscReal          gE, in = 0, all;
+
+  PetscFunctionBegin;
+  PetscCall(VKMaterialGradient(fit->mat, f->xhat, fit->work));
+  PetscCall(VecNorm(fit->work, NORM_2, &gE));
+  PetscCall(VecGetArrayRead(f->xhat, &xa));
+  PetscCall(VecGetArrayRead(f->y, &ya));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
+    for (int r = 0; r < 3; r++) in += PetscSqr(fit->mesh->mass[L->nStart + i] * (xa[3 * i + r] - ya[3 * i + r]));
+  PetscCall(VecRestoreArrayRead(f->y, &ya));
+  PetscCall(VecRestoreArrayRead(f->xhat, &xa));
+  PetscCallMPI(MPI_Allreduce(&in, &all, 1, MPIU_REAL, MPIU_SUM, fit->comm));
+  *scale = gE + PetscSqrtReal(all) / (fit->dt * fit->dt);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitEquilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats)
+{
+  VKPD           pd = fit->pd;
+  VKPDStats      st;
+  PetscReal      tol;
+  PetscLogDouble t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCall(VKFitSetUp(fit));
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(ForceScale(fit, f, &f->scale));
+  tol             = fit->eq_rtol * f->scale;
+  pd->atol        = tol;
+  pd->newton_its  = fit->eq_newton_its;
+  pd->newton_rtol = 0;
+  pd->step        = f->index;
+  PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
+  PetscCheck(st.reason != VK_PD_DIVERGED_NAN, fit->comm, PETSC_ERR_FP, "Equilibrium of sample frame %d (t = %g s): Phi or its gradient became NaN/Inf at iteration %d; the material parameters or the data are not usable", (int)f->index, (double)f->t, (int)st.fail_iteration);
+  PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the PD global solve failed (see -pd_global_ksp_converged_reason)", (int)f->index, (double)f->t);
+  PetscCheck(st.residual <= PetscMax(tol, pd->res_floor), fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s) not reached: |g| = %.3e > %.3e (-fit_eq_rtol %g of the force scale %.3e) after %d PD and %d Newton iterations; raise -fit_eq_newton_its or -pd_max_it", (int)f->index, (double)f->t, (double)st.residual, (double)tol, (double)fit->eq_rtol, (double)f->scale, (int)st.iterations, (int)st.newton_its);
+  if (stats) {
+    stats->pd_its     = st.iterations;
+    stats->newton_its = st.newton_its;
+    stats->residual   = st.residual;
+    stats->tolerance  = tol;
+  }
+  fit->time_eq += VKWallTime() - t0;
+  PetscFunctionReturn(0);
+}
