@@ -104,7 +104,9 @@ struct _n_VKFit {
   Mat       H, J;
   KSP       kadj; /* prefix -fit_adjoint_ */
   Vec       rhs, lambda, work;
-  PetscLogDouble time_eq, time_adjoint;
+  /* Gauss-Newton */
+  KSP       kkkt; /* prefix -fit_kkt_ */
+  PetscLogDouble time_eq, time_adjoint, time_kkt;
   PetscBool setup;
 };
 PETSC_EXTERN PetscErrorCode VKFitCreate(VKMaterial, VKScene, VKFit *);
@@ -131,3 +133,8 @@ PETSC_EXTERN PetscErrorCode VKFitEquilibrium(VKFit, VKFitFrame *, VKFitEqStats *
  * the adjoint gradient d eps/d gamma = -J^T lambda, H lambda = d eps/dx
  * (paper Eq. 16-17), H the exact Hessian of Phi, J = dg/dgamma. */
 PETSC_EXTERN PetscErrorCode VKFitFrameLoss(VKFit, VKFitFrame *, PetscReal *eps, Vec grad);
+/* The Gauss-Newton direction d of one frame at its equilibrium from the
+ * sparse KKT system (paper Eq. 21) with damping kappa; grad is the frame's
+ * adjoint gradient; frozen (optional, per local parameter) holds
+ * parameters at d = 0. */
+PETSC_EXTERN PetscErrorCode VKFitGaussNewtonDirection(VKFit, VKFitFrame *, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d);

@@ -5,7 +5,10 @@
  *  - the adjoint gradient d eps/d gamma matches central finite differences
  *    of the loss through the equilibrium solve (relative error <= 1e-5)
  *    along random directions in g_s alone, in g_v alone and in both, and
- *    for the single parameter with the largest gradient.
+ *    for the single parameter with the largest gradient;
+ *  - the Gauss-Newton direction of the sparse KKT system (MUMPS LDL^T)
+ *    equals the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad solve, it
+ *    descends, and frozen parameters stay at 0.
  * The target positions are manufactured (a smooth deformation of the rest
  * mesh), so the test needs no yarn-level run.
  * ranks: 1 2
@@ -131,6 +134,84 @@ static PetscErrorCode LossAt(Setup *s, Vec gamma0, Vec d, PetscReal h, Vec start
   PetscFunctionReturn(0);
 }
 
+/* The KKT direction against the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad
+ * solve: X = H^-1 J by a multi-column solve, P = X^T G X + kappa I gathered on
+ * every rank and factored by dense LU. */
+static PetscErrorCode TestGaussNewton(Setup *s, Vec grad)
+{
+  VKFit       fit = s->fit;
+  Mat         Jd, X, G, GX, P, *Pseq;
+  IS          all;
+  Vec         d, dall, gall, ddense;
+  VecScatter  sc;
+  PetscInt    N;
+  PetscReal   kappa, trace, err, nd, descent;
+
+  PetscFunctionBegin;
+  PetscCall(VecDuplicate(grad, &d));
+  /* a first KKT solve sets up fit->J with the handle rows zeroed */
+  PetscCall(VKFitGaussNewtonDirection(fit, &s->frame, 1, NULL, grad, d));
+  PetscCall(MatConvert(fit->J, MATDENSE, MAT_INITIAL_MATRIX, &Jd));
+  PetscCall(MatDuplicate(Jd, MAT_DO_NOT_COPY_VALUES, &X));
+  PetscCall(KSPSetOperators(fit->kadj, fit->H, fit->H));
+  PetscCall(KSPMatSolve(fit->kadj, Jd, X));
+  PetscCall(MatConvert(fit->sf->A3, MATAIJ, MAT_INITIAL_MATRIX, &G));
+  PetscCall(MatScale(G, 2));
+  PetscCall(MatMatMult(G, X, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &GX));
+  PetscCall(MatTransposeMatMult(X, GX, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &P));
+  PetscCall(MatGetSize(P, &N, NULL));
+  PetscCall(MatGetTrace(P, &trace));
+  kappa = 1e-3 * trace / N;
+  PetscCall(MatShift(P, kappa));
+  PetscCall(ISCreateStride(PETSC_COMM_SELF, N, 0, 1, &all));
+  PetscCall(MatCreateSubMatrices(P, 1, &all, &all, MAT_INITIAL_MATRIX, &Pseq));
+  PetscCall(MatLUFactor(Pseq[0], NULL, NULL, NULL));
+  PetscCall(VecScatterCreateToAll(grad, &sc, &gall));
+  PetscCall(VecDuplicate(gall, &ddense));
+  PetscCall(VecDuplicate(gall, &dall));
+  PetscCall(VecScatterBegin(sc, grad, gall, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, grad, gall, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScale(gall, -1));
+  PetscCall(MatSolve(Pseq[0], gall, ddense));
+  PetscCall(VKFitGaussNewtonDirection(fit, &s->frame, kappa, NULL, grad, d));
+  PetscCall(VecScatterBegin(sc, d, dall, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, d, dall, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecNorm(ddense, NORM_2, &nd));
+  PetscCall(VecAXPY(dall, -1, ddense));
+  PetscCall(VecNorm(dall, NORM_2, &err));
+  PetscCall(VKTestCheck((PetscBool)(err <= 1e-8 * nd && nd > 0), NULL, "Gauss-Newton: the sparse KKT direction equals the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad solve (%d parameters, relative difference %.1e)", (int)N, (double)(err / nd)));
+  PetscCall(VecDot(d, grad, &descent));
+  PetscCall(VKTestCheck((PetscBool)(descent < 0), NULL, "Gauss-Newton: the direction descends (d . grad = %.3e)", (double)descent));
+  { /* frozen parameters stay put, the direction still descends */
+    const VKLayout *L = &s->m->layout;
+    PetscInt        n = 2 * (L->eEnd - L->eStart), bad = 0;
+    PetscBool      *frozen;
+    const PetscScalar *da;
+    PetscCall(PetscMalloc1(n + 1, &frozen));
+    for (PetscInt i = 0; i < n; i++) frozen[i] = (PetscBool)(i % 3 == 0);
+    PetscCall(VKFitGaussNewtonDirection(fit, &s->frame, kappa, frozen, grad, d));
+    PetscCall(VecGetArrayRead(d, &da));
+    for (PetscInt i = 0; i < n; i++) if (frozen[i] && da[i] != 0) bad++;
+    PetscCall(VecRestoreArrayRead(d, &da));
+    PetscCall(VecDot(d, grad, &descent));
+    PetscCall(VKTestCheck((PetscBool)(!bad && descent < 0), NULL, "Gauss-Newton with a third of the parameters frozen: those stay at 0 (%d moved), d . grad = %.3e < 0", (int)bad, (double)descent));
+    PetscCall(PetscFree(frozen));
+  }
+  PetscCall(VecScatterDestroy(&sc));
+  PetscCall(VecDestroy(&gall));
+  PetscCall(VecDestroy(&dall));
+  PetscCall(VecDestroy(&ddense));
+  PetscCall(VecDestroy(&d));
+  PetscCall(ISDestroy(&all));
+  PetscCall(MatDestroySubMatrices(1, &Pseq));
+  PetscCall(MatDestroy(&P));
+  PetscCall(MatDestroy(&GX));
+  PetscCall(MatDestroy(&G));
+  PetscCall(MatDestroy(&X));
+  PetscCall(MatDestroy(&Jd));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   Setup        s;
@@ -190,6 +271,11 @@ int main(int argc, char **argv)
     PetscCall(VKTestCheck((PetscBool)(rel <= 1e-5 && fd != 0), NULL, "adjoint gradient vs central differences through the equilibrium, %s: %.10e vs %.10e (relative error %.1e)", name[kind], (double)dd, (double)fd, (double)rel));
   }
   PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(VKFitSetGamma(s.fit, gamma0));
+  PetscCall(VecCopy(start, s.frame.x));
+  PetscCall(VKFitEquilibrium(s.fit, &s.frame, NULL));
+  PetscCall(VKFitFrameLoss(s.fit, &s.frame, &eps, grad));
+  PetscCall(TestGaussNewton(&s, grad));
   PetscCall(VecDestroy(&start));
   PetscCall(VecDestroy(&gamma0));
   PetscCall(VecDestroy(&grad));

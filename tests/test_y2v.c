@@ -9,6 +9,7 @@
  *    rotation about it, gives the affine map as target and as xhat;
  *  - a strip of straight yarns twisted by 900 degrees about its axis: every
  *    interior voxel's rotation is the analytic twist at its centre (1e-5 rad);
+ *  - a NaN in a yarn frame is an error (PETSC_ERR_FP) on every rank;
  *  - the loss is the quadratic eps(xhat) + (x - xhat)^T A (x - xhat) at a
  *    random x (1e-10 relative), and its gradient passes a Taylor test.
  * ranks: 1 2
@@ -169,6 +170,16 @@ static PetscErrorCode TestRigidAndLoss(void)
   RotationMatrix(axis, 2.9, Q);
   PetscCall(ApplyAffine(&p, Q, c));
   PetscCall(CheckAffine(&p, Q, "rigid motion of a rib patch", 1e-12, 1e-10));
+  { /* a NaN in a frame is an error on every rank, not a NaN target */
+    PetscErrorCode ierr;
+    PetscReal      keep = p.xy[3 * 7 + 1];
+    p.xy[3 * 7 + 1] = NAN;
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = VKShapeFitTargets(p.sf, p.xy, p.n1, p.Fhat);
+    PetscCall(PetscPopErrorHandler());
+    p.xy[3 * 7 + 1] = keep;
+    PetscCall(VKTestCheck((PetscBool)(ierr == PETSC_ERR_FP), NULL, "a yarn frame with a NaN position is refused (error %d)", (int)ierr));
+  }
   { /* the loss is quadratic about xhat, and its gradient is its derivative */
     PetscRandom rnd;
     Vec         x, dx, g;

@@ -37,6 +37,7 @@ PetscErrorCode VKFitFrameLoss(VKFit fit, VKFitFrame *f, PetscReal *eps, Vec grad
   PetscCall(VKShapeFitQuadraticLoss(fit->sf, f->xhat, f->eps_hat, f->x, eps, grad ? fit->rhs : NULL));
   if (!grad) PetscFunctionReturn(0);
   t0 = VKWallTime();
+  PetscCall(PetscLogEventBegin(VK_EVENT_FitAdjoint, 0, 0, 0, 0));
   PetscCall(VKFitZeroHandleRows(fit, fit->rhs));
   PetscCall(VKPDHessian(fit->pd, f->x, fit->H));
   PetscCall(KSPSetOperators(fit->kadj, fit->H, fit->H));
@@ -47,5 +48,6 @@ PetscErrorCode VKFitFrameLoss(VKFit fit, VKFitFrame *f, PetscReal *eps, Vec grad
   PetscCall(MatMultTranspose(fit->J, fit->lambda, grad));
   PetscCall(VecScale(grad, -1));
   fit->time_adjoint += VKWallTime() - t0;
+  PetscCall(PetscLogEventEnd(VK_EVENT_FitAdjoint, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }

@@ -12,6 +12,7 @@
  * there is an error, not a warning. */
 #include <vkfit.h>
 #include <vkutil.h>
+#include <vklog.h>
 
 PetscErrorCode VKFitFrameCreate(VKFit fit, PetscInt index, PetscReal t, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *f)
 {
@@ -80,6 +81,7 @@ PetscErrorCode VKFitEquilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats)
 
   PetscFunctionBegin;
   PetscCall(VKFitSetUp(fit));
+  PetscCall(PetscLogEventBegin(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));
   PetscCall(VKPDSetUp(pd));
   PetscCall(ForceScale(fit, f, &f->scale));
   tol             = fit->eq_rtol * f->scale;
@@ -98,5 +100,6 @@ PetscErrorCode VKFitEquilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats)
     stats->tolerance  = tol;
   }
   fit->time_eq += VKWallTime() - t0;
+  PetscCall(PetscLogEventEnd(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }

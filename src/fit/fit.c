@@ -3,7 +3,8 @@
  * the yarn frames, the options of the equilibrium solves (-fit_eq_rtol,
  * -fit_eq_newton_its, -fit_inertia) and the adjoint solver (KSP prefix
  * -fit_adjoint_, MUMPS LU of the exact, symmetric, possibly indefinite
- * Hessian by default), and the material parameters as a PETSc Vec with
+ * Hessian by default), the Gauss-Newton KKT solver (prefix -fit_kkt_,
+ * MUMPS LDL^T by default), and the material parameters as a PETSc Vec with
  * two entries per owned tet (g_s, g_v). */
 #include <vkfit.h>
 
@@ -32,6 +33,27 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   PetscCall(KSPGetPC(fit->kadj, &pc));
   PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(KSPCreate(fit->comm, &fit->kkkt));
+  PetscCall(KSPSetOptionsPrefix(fit->kkkt, "fit_kkt_"));
+  PetscCall(KSPSetType(fit->kkkt, KSPPREONLY));
+  PetscCall(KSPGetPC(fit->kkkt, &pc));
+  {
+    PetscMPIInt size;
+    PetscCallMPI(MPI_Comm_size(fit->comm, &size));
+    if (size == 1) {
+      PetscCall(PCSetType(pc, PCCHOLESKY));
+      PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    } else { /* see kkt.c: distributed MUMPS LDL^T fails on the KKT matrix */
+      KSP inner;
+      PC  ipc;
+      PetscCall(PCSetType(pc, PCREDUNDANT));
+      PetscCall(PCRedundantGetKSP(pc, &inner));
+      PetscCall(KSPSetType(inner, KSPPREONLY));
+      PetscCall(KSPGetPC(inner, &ipc));
+      PetscCall(PCSetType(ipc, PCCHOLESKY));
+      PetscCall(PCFactorSetMatSolverType(ipc, MATSOLVERMUMPS));
+    }
+  }
   *out = fit;
   PetscFunctionReturn(0);
 }
@@ -45,6 +67,7 @@ PetscErrorCode VKFitDestroy(VKFit *p)
   PetscCall(VKShapeFitDestroy(&fit->sf));
   PetscCall(VKPDDestroy(&fit->pd));
   PetscCall(KSPDestroy(&fit->kadj));
+  PetscCall(KSPDestroy(&fit->kkkt));
   PetscCall(MatDestroy(&fit->H));
   PetscCall(MatDestroy(&fit->J));
   PetscCall(VecDestroy(&fit->rhs));
@@ -76,6 +99,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->eq_rtol > 0 && fit->eq_rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_rtol must be in (0, 1), got %g", (double)fit->eq_rtol);
   PetscCheck(fit->eq_newton_its >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_newton_its must be >= 1, got %d", (int)fit->eq_newton_its);
   PetscCall(KSPSetFromOptions(fit->kadj));
+  PetscCall(KSPSetFromOptions(fit->kkkt));
   PetscFunctionReturn(0);
 }
 
@@ -87,6 +111,7 @@ PetscErrorCode VKFitSetUp(VKFit fit)
   PetscCall(VKPDSetUp(fit->pd));
   PetscCall(VKMeshCreateNodeMat(fit->mesh, 3, &fit->H));
   PetscCall(VKMaterialCreateGammaJacobian(fit->mat, &fit->J));
+  PetscCall(MatSetOption(fit->J, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE)); /* handle rows are zeroed, then refilled */
   PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &fit->rhs));
   PetscCall(VecDuplicate(fit->rhs, &fit->lambda));
   PetscCall(VecDuplicate(fit->rhs, &fit->work));
@@ -103,6 +128,8 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
   PetscCall(VKPDView(fit->pd, viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "adjoint solver (prefix -fit_adjoint_):\n"));
   PetscCall(KSPView(fit->kadj, viewer));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Gauss-Newton KKT solver (prefix -fit_kkt_):\n"));
+  PetscCall(KSPView(fit->kkkt, viewer));
   PetscCall(PetscViewerASCIIPopTab(viewer));
   PetscFunctionReturn(0);
 }

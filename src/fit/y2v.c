@@ -15,6 +15,7 @@
  * three-column solve. */
 #include <vkfit.h>
 #include <vkutil.h>
+#include <vklog.h>
 
 PetscErrorCode VKShapeFitCreate(VKMesh mesh, VKShapeFit *out)
 {
@@ -255,9 +256,11 @@ PetscErrorCode VKShapeFitTargets(VKShapeFit sf, const PetscReal xy[], const Pets
 {
   VKLayout *L = &sf->mesh->layout;
   PetscReal *Rbar, *Sbar;
+  PetscInt   bad = -1;
 
   PetscFunctionBegin;
   PetscCheck(sf->setup, sf->comm, PETSC_ERR_ORDER, "VKShapeFitSetUp() first");
+  PetscCall(PetscLogEventBegin(VK_EVENT_FitY2V, 0, 0, 0, 0));
   for (PetscInt s = 0; s < sf->nseg; s++) {
     const PetscReal *a = xy + 3 * sf->seg[2 * s], *b = xy + 3 * sf->seg[2 * s + 1], *n = n1 + 3 * s, *Di = sf->Dinv + 9 * s;
     PetscReal        d[3], t[3], n2[3], D[9], F[9];
@@ -274,9 +277,12 @@ PetscErrorCode VKShapeFitTargets(VKShapeFit sf, const PetscReal xy[], const Pets
     }
     for (int r = 0; r < 3; r++)
       for (int c = 0; c < 3; c++) F[3 * r + c] = D[3 * r] * Di[c] + D[3 * r + 1] * Di[3 + c] + D[3 * r + 2] * Di[6 + c];
-    for (int k = 0; k < 9; k++) PetscCheck(PetscIsNormalReal(F[k]) || F[k] == 0, PETSC_COMM_SELF, PETSC_ERR_FP, "Yarn frame: segment %d has a non-finite deformation gradient (positions or normals NaN/Inf)", (int)s);
+    for (int k = 0; k < 9; k++)
+      if (PetscIsInfOrNanReal(F[k]) && bad < 0) bad = s;
     VKPolar3(F, sf->RS + 18 * s, sf->RS + 18 * s + 9);
   }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPIU_INT, MPI_MAX, sf->comm));
+  PetscCheck(bad < 0, sf->comm, PETSC_ERR_FP, "Yarn frame: segment %d has a non-finite deformation gradient (positions or normals NaN/Inf)", (int)bad);
   PetscCall(PetscMalloc2(9 * sf->nvox + 1, &Rbar, 9 * sf->nvox + 1, &Sbar));
   {
     PetscInt   cap = 0;
@@ -311,6 +317,7 @@ PetscErrorCode VKShapeFitTargets(VKShapeFit sf, const PetscReal xy[], const Pets
       for (int j = 0; j < 3; j++) Fhat[9 * e + 3 * i + j] = R[3 * i] * S[j] + R[3 * i + 1] * S[3 + j] + R[3 * i + 2] * S[6 + j];
   }
   PetscCall(PetscFree2(Rbar, Sbar));
+  PetscCall(PetscLogEventEnd(VK_EVENT_FitY2V, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
 

@@ -2,11 +2,12 @@
 #include <vklog.h>
 
 PetscClassId  VK_CLASSID;
-PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH, VK_STAGE_SIM, VK_STAGE_YLS;
+PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH, VK_STAGE_SIM, VK_STAGE_YLS, VK_STAGE_FIT;
 PetscLogEvent VK_EVENT_YarnBuild, VK_EVENT_YarnRead, VK_EVENT_YarnResample, VK_EVENT_YarnFrames, VK_EVENT_YarnBind, VK_EVENT_YarnRadius;
 PetscLogEvent VK_EVENT_Voxelize, VK_EVENT_Tets, VK_EVENT_Lump, VK_EVENT_Embed, VK_EVENT_DualGraph, VK_EVENT_Partition, VK_EVENT_Layout, VK_EVENT_Write;
 PetscLogEvent VK_EVENT_PDSetUp, VK_EVENT_PDLocal, VK_EVENT_PDGlobal, VK_EVENT_PDNewton, VK_EVENT_PDCollide;
 PetscLogEvent VK_EVENT_YLSAssemble, VK_EVENT_YLSPairs, VK_EVENT_YLSSolve;
+PetscLogEvent VK_EVENT_FitY2V, VK_EVENT_FitEquilibrium, VK_EVENT_FitAdjoint, VK_EVENT_FitKKT, VK_EVENT_FitEigen;
 
 static PetscBool registered = PETSC_FALSE;
 
@@ -27,6 +28,7 @@ PetscErrorCode VKInitializePackage(void)
   PetscCall(PetscLogStageRegister("volknit mesh", &VK_STAGE_MESH));
   PetscCall(PetscLogStageRegister("volknit sim", &VK_STAGE_SIM));
   PetscCall(PetscLogStageRegister("volknit yls", &VK_STAGE_YLS));
+  PetscCall(PetscLogStageRegister("volknit fit", &VK_STAGE_FIT));
   PetscCall(PetscLogEventRegister("YarnBuild", VK_CLASSID, &VK_EVENT_YarnBuild));
   PetscCall(PetscLogEventRegister("YarnRead", VK_CLASSID, &VK_EVENT_YarnRead));
   PetscCall(PetscLogEventRegister("YarnResample", VK_CLASSID, &VK_EVENT_YarnResample));
@@ -49,6 +51,11 @@ PetscErrorCode VKInitializePackage(void)
   PetscCall(PetscLogEventRegister("YLSAssemble", VK_CLASSID, &VK_EVENT_YLSAssemble));
   PetscCall(PetscLogEventRegister("YLSPairs", VK_CLASSID, &VK_EVENT_YLSPairs));
   PetscCall(PetscLogEventRegister("YLSSolve", VK_CLASSID, &VK_EVENT_YLSSolve));
+  PetscCall(PetscLogEventRegister("FitY2V", VK_CLASSID, &VK_EVENT_FitY2V));
+  PetscCall(PetscLogEventRegister("FitEquilibrium", VK_CLASSID, &VK_EVENT_FitEquilibrium));
+  PetscCall(PetscLogEventRegister("FitAdjoint", VK_CLASSID, &VK_EVENT_FitAdjoint));
+  PetscCall(PetscLogEventRegister("FitKKT", VK_CLASSID, &VK_EVENT_FitKKT));
+  PetscCall(PetscLogEventRegister("FitEigen", VK_CLASSID, &VK_EVENT_FitEigen));
   PetscCall(PetscRegisterFinalize(VKFinalizePackage));
   PetscFunctionReturn(0);
 }

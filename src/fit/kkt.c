@@ -1,0 +1,262 @@
+/* kkt.c: the Gauss-Newton direction of the fitting in the sparse KKT form
+ * (DESIGN §8, paper Eq. 21, Zehnder et al. 2021):
+ *   [ G   -H   0  ] [mu]   [ 0        ]
+ *   [ -H   0   J  ] [nu] = [ 0        ]     =>  (J^T H^-1 G H^-1 J + kappa I) d = -grad eps,
+ *   [ 0   J^T kI  ] [d ]   [ -grad eps ]
+ * G = 2 A x I3 (the loss Hessian, constant), H the exact Hessian of Phi at
+ * the frame's equilibrium with handle rows and columns eliminated, J =
+ * dg/dgamma with handle rows zeroed (so the handle parts of mu vanish),
+ * kappa the Levenberg-Marquardt damping.  A frozen parameter's column of
+ * J is dropped and its row becomes d_c = 0.  The three blocks are assembled into one symmetric indefinite
+ * AIJ matrix whose rows on each rank are [mu_own, nu_own, d_own], so the
+ * matrix is distributed like the mesh, and solved by MUMPS LDL^T through
+ * a KSP with prefix -fit_kkt_, after a symmetric equilibration.  On
+ * several ranks the default is PC redundant, each rank factoring the whole
+ * matrix with sequential MUMPS LDL^T: MUMPS 5.5.1's distributed
+ * factorization fails on this matrix (INFOG(1) = -9 even at ICNTL(14) =
+ * 1000, or a wrong solution with ICNTL(13) = 1), although the same matrix
+ * factors correctly on one rank (tests/test_fit_gradient.c);
+ * -fit_kkt_pc_type cholesky selects the distributed factorization. */
+#include <vkfit.h>
+#include <vkutil.h>
+#include <vklog.h>
+
+PETSC_INTERN PetscErrorCode VKFitZeroHandleRows(VKFit, Vec);
+
+/* Where block b's column c lands in the KKT numbering. */
+typedef struct {
+  PetscMPIInt size;
+  PetscInt   *start;    /* size + 1: first KKT row of each rank */
+  PetscInt   *bstart[3]; /* size + 1: each block's own ownership ranges */
+} KKTLayout;
+
+static PetscInt KKTColumn(const KKTLayout *K, int b, PetscInt c)
+{
+  PetscInt lo = 0, hi = K->size - 1, p, off;
+  while (lo < hi) { /* the rank p with bstart[b][p] <= c < bstart[b][p+1] */
+    PetscInt mid = (lo + hi + 1) / 2;
+    if (K->bstart[b][mid] <= c) lo = mid;
+    else hi = mid - 1;
+  }
+  p   = lo;
+  off = 0;
+  for (int a = 0; a < b; a++) off += K->bstart[a][p + 1] - K->bstart[a][p];
+  return K->start[p] + off + (c - K->bstart[b][p]);
+}
+
+static PetscErrorCode KKTLayoutCreate(VKFit fit, KKTLayout *K)
+{
+  const VKLayout *L = &fit->mesh->layout;
+  PetscInt        mine[3] = {3 * (L->nEnd - L->nStart), 3 * (L->nEnd - L->nStart), 2 * (L->eEnd - L->eStart)}, *all;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(fit->comm, &K->size));
+  PetscCall(PetscMalloc1(K->size + 1, &K->start));
+  for (int b = 0; b < 3; b++) PetscCall(PetscMalloc1(K->size + 1, &K->bstart[b]));
+  PetscCall(PetscMalloc1(3 * K->size, &all));
+  PetscCallMPI(MPI_Allgather(mine, 3, MPIU_INT, all, 3, MPIU_INT, fit->comm));
+  K->start[0] = 0;
+  for (int b = 0; b < 3; b++) K->bstart[b][0] = 0;
+  for (PetscMPIInt p = 0; p < K->size; p++) {
+    K->start[p + 1] = K->start[p] + all[3 * p] + all[3 * p + 1] + all[3 * p + 2];
+    for (int b = 0; b < 3; b++) K->bstart[b][p + 1] = K->bstart[b][p] + all[3 * p + b];
+  }
+  PetscCall(PetscFree(all));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode KKTLayoutDestroy(KKTLayout *K)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscFree(K->start));
+  for (int b = 0; b < 3; b++) PetscCall(PetscFree(K->bstart[b]));
+  PetscFunctionReturn(0);
+}
+
+/* One block row of the KKT matrix: up to two source matrices (with their
+ * column blocks and scales), plus an optional diagonal value. */
+typedef struct {
+  Mat       M[2];
+  int       cb[2];
+  PetscReal s[2];
+} KKTRow;
+
+/* Count (pass 0) or insert (pass 1) the entries of the local rows of
+ * block row `br`. */
+static PetscErrorCode KKTBlockRow(const KKTLayout *K, Mat kkt, PetscMPIInt rank, int br, const KKTRow *R, PetscInt nrows, const PetscReal *diag, const PetscBool *zero, int pass, PetscInt *d_nnz, PetscInt *o_nnz)
+{
+  PetscInt   rstart, off = 0, cap = 0, *cols = NULL;
+  PetscReal *vals = NULL;
+
+  PetscFunctionBegin;
+  for (int a = 0; a < br; a++) off += K->bstart[a][rank + 1] - K->bstart[a][rank];
+  for (PetscInt i = 0; i < nrows; i++) {
+    PetscInt row = K->start[rank] + off + i, n = 0;
+    if (zero && zero[i]) { /* the row d_i = 0 of a frozen parameter */
+      if (pass == 0) d_nnz[off + i]++;
+      else PetscCall(MatSetValue(kkt, row, row, 1, ADD_VALUES));
+      continue;
+    }
+    for (int m = 0; m < 2; m++) {
+      const PetscInt    *c;
+      const PetscScalar *v;
+      PetscInt           nc;
+      if (!R->M[m]) continue;
+      PetscCall(MatGetOwnershipRange(R->M[m], &rstart, NULL));
+      PetscCall(MatGetRow(R->M[m], rstart + i, &nc, &c, &v));
+      if (n + nc + 1 > cap) {
+        cap = 2 * (n + nc + 1);
+        PetscCall(PetscRealloc(sizeof(PetscInt) * cap, &cols));
+        PetscCall(PetscRealloc(sizeof(PetscReal) * cap, &vals));
+      }
+      for (PetscInt j = 0; j < nc; j++) {
+        cols[n]   = KKTColumn(K, R->cb[m], c[j]);
+        vals[n++] = R->s[m] * v[j];
+      }
+      PetscCall(MatRestoreRow(R->M[m], rstart + i, &nc, &c, &v));
+    }
+    if (diag) {
+      if (n + 1 > cap) {
+        cap = 2 * (n + 1);
+        PetscCall(PetscRealloc(sizeof(PetscInt) * cap, &cols));
+        PetscCall(PetscRealloc(sizeof(PetscReal) * cap, &vals));
+      }
+      cols[n]   = row;
+      vals[n++] = diag[i];
+    }
+    if (pass == 0) {
+      for (PetscInt j = 0; j < n; j++) {
+        if (cols[j] >= K->start[rank] && cols[j] < K->start[rank + 1]) d_nnz[off + i]++;
+        else o_nnz[off + i]++;
+      }
+    } else PetscCall(MatSetValues(kkt, 1, &row, n, cols, vals, ADD_VALUES));
+  }
+  PetscCall(PetscFree(cols));
+  PetscCall(PetscFree(vals));
+  PetscFunctionReturn(0);
+}
+
+/* The blocks differ by many orders of magnitude (G ~ h, H ~ 1, J ~ V/h,
+ * kappa tiny in SI units), which spoils the pivoting of a distributed
+ * LDL^T.  Symmetric Ruiz equilibration, K <- D K D with D = 1/sqrt(row
+ * max) three times, brings every row's largest entry near 1; the system
+ * solved is (D K D) y = D b, x = D y.  On return rhs holds D b and scale D. */
+static PetscErrorCode Equilibrate(Mat K, Vec rhs, Vec *scale)
+{
+  Vec          r;
+  PetscScalar *ra;
+  PetscInt     n;
+
+  PetscFunctionBegin;
+  PetscCall(VecDuplicate(rhs, scale));
+  PetscCall(VecDuplicate(rhs, &r));
+  PetscCall(VecSet(*scale, 1));
+  PetscCall(VecGetLocalSize(r, &n));
+  for (int it = 0; it < 3; it++) {
+    PetscCall(MatGetRowMaxAbs(K, r, NULL));
+    PetscCall(VecGetArray(r, &ra));
+    for (PetscInt i = 0; i < n; i++) ra[i] = ra[i] > 0 ? 1 / PetscSqrtReal(PetscRealPart(ra[i])) : 1;
+    PetscCall(VecRestoreArray(r, &ra));
+    PetscCall(MatDiagonalScale(K, r, r));
+    PetscCall(VecPointwiseMult(*scale, *scale, r));
+  }
+  PetscCall(VecPointwiseMult(rhs, rhs, *scale));
+  PetscCall(VecDestroy(&r));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
+{
+  const VKLayout    *L  = &fit->mesh->layout;
+  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart), nloc, *d_nnz, *o_nnz;
+  KKTLayout          K;
+  Mat                G, JT, kkt;
+  Vec                rhs, sol, scale;
+  PetscReal         *kdiag;
+  PetscScalar       *ra;
+  const PetscScalar *ga, *sa;
+  PetscMPIInt        rank;
+  KSPConvergedReason reason;
+  PetscLogDouble     t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCheck(kappa >= 0 && kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The Levenberg-Marquardt damping -fit_kappa must be >= 0, got %g", (double)kappa);
+  PetscCall(VKFitSetUp(fit));
+  PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
+  PetscCall(PetscLogEventBegin(VK_EVENT_FitKKT, 0, 0, 0, 0));
+  /* the blocks at the frame's equilibrium */
+  PetscCall(VKPDHessian(fit->pd, f->x, fit->H));
+  PetscCall(VKMaterialGammaJacobian(fit->mat, f->x, fit->J));
+  {
+    PetscInt *rows;
+    PetscCall(PetscMalloc1(3 * fit->pd->nhandle + 1, &rows));
+    for (PetscInt i = 0; i < fit->pd->nhandle; i++)
+      for (int c = 0; c < 3; c++) rows[3 * i + c] = 3 * fit->pd->handle_row[i] + c;
+    PetscCall(MatZeroRows(fit->J, 3 * fit->pd->nhandle, rows, 0, NULL, NULL));
+    PetscCall(PetscFree(rows));
+  }
+  if (frozen) { /* J's frozen columns vanish, so the row d_c = 0 keeps the matrix symmetric */
+    Vec          mask;
+    PetscScalar *m;
+    PetscCall(MatCreateVecs(fit->J, &mask, NULL));
+    PetscCall(VecGetArray(mask, &m));
+    for (PetscInt i = 0; i < ng; i++) m[i] = frozen[i] ? 0 : 1;
+    PetscCall(VecRestoreArray(mask, &m));
+    PetscCall(MatDiagonalScale(fit->J, NULL, mask));
+    PetscCall(VecDestroy(&mask));
+  }
+  PetscCall(MatConvert(fit->sf->A3, MATAIJ, MAT_INITIAL_MATRIX, &G));
+  PetscCall(MatTranspose(fit->J, MAT_INITIAL_MATRIX, &JT));
+  PetscCall(KKTLayoutCreate(fit, &K));
+  nloc = 2 * nn + ng;
+  PetscCall(PetscCalloc2(nloc + 1, &d_nnz, nloc + 1, &o_nnz));
+  PetscCall(PetscMalloc1(ng + 1, &kdiag));
+  for (PetscInt i = 0; i < ng; i++) kdiag[i] = kappa;
+  PetscCall(MatCreate(fit->comm, &kkt));
+  PetscCall(MatSetSizes(kkt, nloc, nloc, PETSC_DETERMINE, PETSC_DETERMINE));
+  PetscCall(MatSetType(kkt, MATAIJ));
+  for (int pass = 0; pass < 2; pass++) {
+    KKTRow r0 = {{G, fit->H}, {0, 1}, {2, -1}}, r1 = {{fit->H, fit->J}, {0, 2}, {-1, 1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
+    PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
+    PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
+    PetscCall(KKTBlockRow(&K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
+    if (pass == 0) {
+      PetscCall(MatSeqAIJSetPreallocation(kkt, 0, d_nnz));
+      PetscCall(MatMPIAIJSetPreallocation(kkt, 0, d_nnz, 0, o_nnz));
+    }
+  }
+  PetscCall(MatAssemblyBegin(kkt, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(kkt, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatSetOption(kkt, MAT_SYMMETRIC, PETSC_TRUE));
+  /* right-hand side [0; 0; -grad] (0 for frozen parameters) and the solve */
+  PetscCall(MatCreateVecs(kkt, &sol, &rhs));
+  PetscCall(VecSet(rhs, 0));
+  PetscCall(VecGetArray(rhs, &ra));
+  PetscCall(VecGetArrayRead(grad, &ga));
+  for (PetscInt i = 0; i < ng; i++) ra[2 * nn + i] = frozen && frozen[i] ? 0 : -ga[i];
+  PetscCall(VecRestoreArrayRead(grad, &ga));
+  PetscCall(VecRestoreArray(rhs, &ra));
+  PetscCall(Equilibrate(kkt, rhs, &scale));
+  PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
+  PetscCall(KSPSolve(fit->kkkt, rhs, sol));
+  PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
+  PetscCall(VecPointwiseMult(sol, sol, scale));
+  PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Gauss-Newton KKT solve of sample frame %d failed (KSP reason %s); raise -fit_kappa or see -fit_kkt_ksp_view", (int)f->index, KSPConvergedReasons[reason]);
+  PetscCall(VecGetArrayRead(sol, &sa));
+  PetscCall(VecGetArray(d, &ra));
+  for (PetscInt i = 0; i < ng; i++) ra[i] = sa[2 * nn + i];
+  PetscCall(VecRestoreArray(d, &ra));
+  PetscCall(VecRestoreArrayRead(sol, &sa));
+  PetscCall(VecDestroy(&rhs));
+  PetscCall(VecDestroy(&sol));
+  PetscCall(VecDestroy(&scale));
+  PetscCall(MatDestroy(&kkt));
+  PetscCall(MatDestroy(&G));
+  PetscCall(MatDestroy(&JT));
+  PetscCall(PetscFree(kdiag));
+  PetscCall(PetscFree2(d_nnz, o_nnz));
+  PetscCall(KKTLayoutDestroy(&K));
+  PetscCall(PetscLogEventEnd(VK_EVENT_FitKKT, 0, 0, 0, 0));
+  fit->time_kkt += VKWallTime() - t0;
+  PetscFunctionReturn(0);
+}
