@@ -21,8 +21,6 @@
 #include <vkutil.h>
 #include <vklog.h>
 
-PETSC_INTERN PetscErrorCode VKFitZeroHandleRows(VKFit, Vec);
-
 /* Where block b's column c lands in the KKT numbering. */
 typedef struct {
   PetscMPIInt size;
