@@ -105,6 +105,7 @@ struct _n_VKFit {
   KSP       kadj; /* prefix -fit_adjoint_ */
   Vec       rhs, lambda, work;
   /* Gauss-Newton */
+  Mat       G;    /* 2 A x I3 as AIJ, made at the first KKT solve */
   KSP       kkkt; /* prefix -fit_kkt_ */
   PetscLogDouble time_eq, time_adjoint, time_kkt;
   PetscBool setup;

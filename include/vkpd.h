@@ -136,6 +136,11 @@ PETSC_EXTERN PetscErrorCode VKPDGradient(VKPD, Vec y, Vec x, Vec g);
  * replaced by kdiag I, into a matrix from VKMeshCreateNodeMat(mesh, 3): the
  * Jacobian of Newton's steps and the operator of the fitting's adjoint. */
 PETSC_EXTERN PetscErrorCode VKPDHessian(VKPD, Vec x, Mat H);
+/* Rows of the eliminated (handle and frozen) owned nodes of a node vector
+ * of block size 3: zeroed in v, or listed as global row numbers (3 per
+ * node, PetscMalloc'ed, *n entries). */
+PETSC_EXTERN PetscErrorCode VKPDZeroEliminatedRows(VKPD, Vec v);
+PETSC_EXTERN PetscErrorCode VKPDGetEliminatedRows(VKPD, PetscInt *n, PetscInt **rows);
 /* All of them from one local step: Phi, grad Phi (handle rows zeroed), the
  * elastic energy and the inverted-tet count; any output may be NULL. */
 PETSC_EXTERN PetscErrorCode VKPDEvaluate(VKPD, Vec y, Vec x, PetscReal *phi, Vec g, PetscReal *E, PetscInt *inverted);

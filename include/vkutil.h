@@ -96,6 +96,24 @@ static inline void VKOrthogonal3(const PetscReal u[], PetscReal v[])
   VKNormalize3(v);
 }
 
+/* Inverse of a row-major 3x3 matrix by cofactors; returns det A (Ainv is
+ * not written when it is 0). */
+static inline PetscReal VKInverse3(const PetscReal A[], PetscReal Ainv[])
+{
+  PetscReal det = A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) + A[2] * (A[3] * A[7] - A[4] * A[6]);
+  if (det == 0) return 0;
+  Ainv[0] = (A[4] * A[8] - A[5] * A[7]) / det;
+  Ainv[1] = (A[2] * A[7] - A[1] * A[8]) / det;
+  Ainv[2] = (A[1] * A[5] - A[2] * A[4]) / det;
+  Ainv[3] = (A[5] * A[6] - A[3] * A[8]) / det;
+  Ainv[4] = (A[0] * A[8] - A[2] * A[6]) / det;
+  Ainv[5] = (A[2] * A[3] - A[0] * A[5]) / det;
+  Ainv[6] = (A[3] * A[7] - A[4] * A[6]) / det;
+  Ainv[7] = (A[1] * A[6] - A[0] * A[7]) / det;
+  Ainv[8] = (A[0] * A[4] - A[1] * A[3]) / det;
+  return det;
+}
+
 /* Compensated (Kahan-Babuska) summation, for totals over millions of terms
  * that are compared to 1e-12 (mesh mass against yarn mass). */
 typedef struct {

@@ -12,21 +12,6 @@
 #include <vkutil.h>
 #include <vklog.h>
 
-/* Zero the rows of the eliminated (handle and frozen) nodes of a node vector. */
-PETSC_INTERN PetscErrorCode VKFitZeroHandleRows(VKFit, Vec);
-
-PetscErrorCode VKFitZeroHandleRows(VKFit fit, Vec v)
-{
-  PetscScalar *a;
-
-  PetscFunctionBegin;
-  PetscCall(VecGetArray(v, &a));
-  for (PetscInt i = 0; i < fit->pd->nhandle; i++)
-    for (int c = 0; c < 3; c++) a[3 * fit->pd->handle_node[i] + c] = 0;
-  PetscCall(VecRestoreArray(v, &a));
-  PetscFunctionReturn(0);
-}
-
 PetscErrorCode VKFitFrameLoss(VKFit fit, VKFitFrame *f, PetscReal *eps, Vec grad)
 {
   KSPConvergedReason reason;
@@ -38,8 +23,8 @@ PetscErrorCode VKFitFrameLoss(VKFit fit, VKFitFrame *f, PetscReal *eps, Vec grad
   if (!grad) PetscFunctionReturn(0);
   t0 = VKWallTime();
   PetscCall(PetscLogEventBegin(VK_EVENT_FitAdjoint, 0, 0, 0, 0));
-  PetscCall(VKFitZeroHandleRows(fit, fit->rhs));
-  PetscCall(VKPDHessian(fit->pd, f->x, fit->H));
+  PetscCall(VKPDHessian(fit->pd, f->x, fit->H)); /* sets up PD, so the eliminated rows are current */
+  PetscCall(VKPDZeroEliminatedRows(fit->pd, fit->rhs));
   PetscCall(KSPSetOperators(fit->kadj, fit->H, fit->H));
   PetscCall(KSPSolve(fit->kadj, fit->rhs, fit->lambda));
   PetscCall(KSPGetConvergedReason(fit->kadj, &reason));

@@ -82,7 +82,6 @@ PetscErrorCode VKFitEquilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats)
   PetscFunctionBegin;
   PetscCall(VKFitSetUp(fit));
   PetscCall(PetscLogEventBegin(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));
-  PetscCall(VKPDSetUp(pd));
   PetscCall(ForceScale(fit, f, &f->scale));
   tol             = fit->eq_rtol * f->scale;
   pd->atol        = tol;

@@ -70,6 +70,7 @@ PetscErrorCode VKFitDestroy(VKFit *p)
   PetscCall(KSPDestroy(&fit->kkkt));
   PetscCall(MatDestroy(&fit->H));
   PetscCall(MatDestroy(&fit->J));
+  PetscCall(MatDestroy(&fit->G));
   PetscCall(VecDestroy(&fit->rhs));
   PetscCall(VecDestroy(&fit->lambda));
   PetscCall(VecDestroy(&fit->work));

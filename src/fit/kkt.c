@@ -168,7 +168,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   const VKLayout    *L  = &fit->mesh->layout;
   PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart), nloc, *d_nnz, *o_nnz;
   KKTLayout          K;
-  Mat                G, JT, kkt;
+  Mat                JT, kkt;
   Vec                rhs, sol, scale;
   PetscReal         *kdiag;
   PetscScalar       *ra;
@@ -186,11 +186,9 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(VKPDHessian(fit->pd, f->x, fit->H));
   PetscCall(VKMaterialGammaJacobian(fit->mat, f->x, fit->J));
   {
-    PetscInt *rows;
-    PetscCall(PetscMalloc1(3 * fit->pd->nhandle + 1, &rows));
-    for (PetscInt i = 0; i < fit->pd->nhandle; i++)
-      for (int c = 0; c < 3; c++) rows[3 * i + c] = 3 * fit->pd->handle_row[i] + c;
-    PetscCall(MatZeroRows(fit->J, 3 * fit->pd->nhandle, rows, 0, NULL, NULL));
+    PetscInt n, *rows;
+    PetscCall(VKPDGetEliminatedRows(fit->pd, &n, &rows));
+    PetscCall(MatZeroRows(fit->J, n, rows, 0, NULL, NULL));
     PetscCall(PetscFree(rows));
   }
   if (frozen) { /* J's frozen columns vanish, so the row d_c = 0 keeps the matrix symmetric */
@@ -203,7 +201,10 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(MatDiagonalScale(fit->J, NULL, mask));
     PetscCall(VecDestroy(&mask));
   }
-  PetscCall(MatConvert(fit->sf->A3, MATAIJ, MAT_INITIAL_MATRIX, &G));
+  if (!fit->G) { /* G = 2 A x I3 is the same for every frame and iteration */
+    PetscCall(MatConvert(fit->sf->A3, MATAIJ, MAT_INITIAL_MATRIX, &fit->G));
+    PetscCall(MatScale(fit->G, 2));
+  }
   PetscCall(MatTranspose(fit->J, MAT_INITIAL_MATRIX, &JT));
   PetscCall(KKTLayoutCreate(fit, &K));
   nloc = 2 * nn + ng;
@@ -214,7 +215,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(MatSetSizes(kkt, nloc, nloc, PETSC_DETERMINE, PETSC_DETERMINE));
   PetscCall(MatSetType(kkt, MATAIJ));
   for (int pass = 0; pass < 2; pass++) {
-    KKTRow r0 = {{G, fit->H}, {0, 1}, {2, -1}}, r1 = {{fit->H, fit->J}, {0, 2}, {-1, 1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
+    KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}}, r1 = {{fit->H, fit->J}, {0, 2}, {-1, 1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
     PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
     PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
     PetscCall(KKTBlockRow(&K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
@@ -249,7 +250,6 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(VecDestroy(&sol));
   PetscCall(VecDestroy(&scale));
   PetscCall(MatDestroy(&kkt));
-  PetscCall(MatDestroy(&G));
   PetscCall(MatDestroy(&JT));
   PetscCall(PetscFree(kdiag));
   PetscCall(PetscFree2(d_nnz, o_nnz));

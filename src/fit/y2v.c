@@ -66,6 +66,24 @@ PetscErrorCode VKShapeFitSetFromOptions(VKShapeFit sf)
   PetscFunctionReturn(0);
 }
 
+/* D = [b - a, n1, t x n1] (columns), t the unit tangent: a segment's frame
+ * scaled by its length along the tangent; its length is returned. */
+static PetscReal SegmentFrame(const PetscReal a[], const PetscReal b[], const PetscReal n1[], PetscReal D[])
+{
+  PetscReal d[3], t[3], n2[3];
+  for (int k = 0; k < 3; k++) d[k] = t[k] = b[k] - a[k];
+  VKNormalize3(t);
+  n2[0] = t[1] * n1[2] - t[2] * n1[1];
+  n2[1] = t[2] * n1[0] - t[0] * n1[2];
+  n2[2] = t[0] * n1[1] - t[1] * n1[0];
+  for (int r = 0; r < 3; r++) {
+    D[3 * r]     = d[r];
+    D[3 * r + 1] = n1[r];
+    D[3 * r + 2] = n2[r];
+  }
+  return PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+}
+
 /* Dbar^{-1} per segment and lumped yarn masses, from the mesh's yarn model. */
 static PetscErrorCode SetUpSegments(VKShapeFit sf)
 {
@@ -77,33 +95,9 @@ static PetscErrorCode SetUpSegments(VKShapeFit sf)
   PetscCall(VKCurvesGetSegments(&y->curves, &sf->nseg, &sf->seg));
   PetscCall(PetscCalloc5(9 * sf->nseg + 1, &sf->Dinv, nv + 1, &sf->ymass, 18 * sf->nseg + 1, &sf->RS, sf->nseg + 1, &sf->needed, nv + 1, &sf->yv));
   for (PetscInt s = 0; s < sf->nseg; s++) {
-    const PetscReal *a = x + 3 * sf->seg[2 * s], *b = x + 3 * sf->seg[2 * s + 1], *n1 = y->normal + 3 * s;
-    PetscReal        d[3], t[3], n2[3], L, D[9], det;
-    for (int k = 0; k < 3; k++) d[k] = t[k] = b[k] - a[k];
-    L = PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    VKNormalize3(t);
-    n2[0] = t[1] * n1[2] - t[2] * n1[1];
-    n2[1] = t[2] * n1[0] - t[0] * n1[2];
-    n2[2] = t[0] * n1[1] - t[1] * n1[0];
-    for (int r = 0; r < 3; r++) {
-      D[3 * r]     = d[r];
-      D[3 * r + 1] = n1[r];
-      D[3 * r + 2] = n2[r];
-    }
-    det = D[0] * (D[4] * D[8] - D[5] * D[7]) - D[1] * (D[3] * D[8] - D[5] * D[6]) + D[2] * (D[3] * D[7] - D[4] * D[6]);
+    PetscReal D[9], L = SegmentFrame(x + 3 * sf->seg[2 * s], x + 3 * sf->seg[2 * s + 1], y->normal + 3 * s, D);
+    PetscReal det = VKInverse3(D, sf->Dinv + 9 * s);
     PetscCheck(PetscAbsReal(det) > 1e-6 * L && L > 0, sf->comm, PETSC_ERR_ARG_WRONG, "Yarn segment %d has a degenerate rest frame (length %g, det %g): the shape fit needs rest normals orthogonal to the segments", (int)s, (double)L, (double)det);
-    {
-      PetscReal *Di = sf->Dinv + 9 * s;
-      Di[0] = (D[4] * D[8] - D[5] * D[7]) / det;
-      Di[1] = (D[2] * D[7] - D[1] * D[8]) / det;
-      Di[2] = (D[1] * D[5] - D[2] * D[4]) / det;
-      Di[3] = (D[5] * D[6] - D[3] * D[8]) / det;
-      Di[4] = (D[0] * D[8] - D[2] * D[6]) / det;
-      Di[5] = (D[2] * D[3] - D[0] * D[5]) / det;
-      Di[6] = (D[3] * D[7] - D[4] * D[6]) / det;
-      Di[7] = (D[1] * D[6] - D[0] * D[7]) / det;
-      Di[8] = (D[0] * D[4] - D[1] * D[3]) / det;
-    }
     sf->ymass[sf->seg[2 * s]] += 0.5 * y->density * L;
     sf->ymass[sf->seg[2 * s + 1]] += 0.5 * y->density * L;
   }
@@ -262,19 +256,10 @@ PetscErrorCode VKShapeFitTargets(VKShapeFit sf, const PetscReal xy[], const Pets
   PetscCheck(sf->setup, sf->comm, PETSC_ERR_ORDER, "VKShapeFitSetUp() first");
   PetscCall(PetscLogEventBegin(VK_EVENT_FitY2V, 0, 0, 0, 0));
   for (PetscInt s = 0; s < sf->nseg; s++) {
-    const PetscReal *a = xy + 3 * sf->seg[2 * s], *b = xy + 3 * sf->seg[2 * s + 1], *n = n1 + 3 * s, *Di = sf->Dinv + 9 * s;
-    PetscReal        d[3], t[3], n2[3], D[9], F[9];
+    const PetscReal *Di = sf->Dinv + 9 * s;
+    PetscReal        D[9], F[9];
     if (!sf->needed[s]) continue;
-    for (int k = 0; k < 3; k++) d[k] = t[k] = b[k] - a[k];
-    VKNormalize3(t);
-    n2[0] = t[1] * n[2] - t[2] * n[1];
-    n2[1] = t[2] * n[0] - t[0] * n[2];
-    n2[2] = t[0] * n[1] - t[1] * n[0];
-    for (int r = 0; r < 3; r++) {
-      D[3 * r]     = d[r];
-      D[3 * r + 1] = n[r];
-      D[3 * r + 2] = n2[r];
-    }
+    (void)SegmentFrame(xy + 3 * sf->seg[2 * s], xy + 3 * sf->seg[2 * s + 1], n1 + 3 * s, D);
     for (int r = 0; r < 3; r++)
       for (int c = 0; c < 3; c++) F[3 * r + c] = D[3 * r] * Di[c] + D[3 * r + 1] * Di[3 + c] + D[3 * r + 2] * Di[6 + c];
     for (int k = 0; k < 9; k++)

@@ -61,25 +61,16 @@ PetscErrorCode VKMeshComputeGeometry(VKMesh m)
   PetscCall(PetscMalloc1(m->ne, &m->vol));
   for (PetscInt e = 0; e < m->ne; e++) {
     const PetscReal *x0 = m->x + 3 * m->tet[4 * e];
-    PetscReal        D[3][3], det, inv[3][3], *G = m->G + 12 * e;
+    PetscReal        D[9], det, inv[9], *G = m->G + 12 * e;
     for (int c = 0; c < 3; c++)
-      for (int r = 0; r < 3; r++) D[r][c] = m->x[3 * m->tet[4 * e + c + 1] + r] - x0[r];
-    det = D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) - D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) + D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0]);
+      for (int r = 0; r < 3; r++) D[3 * r + c] = m->x[3 * m->tet[4 * e + c + 1] + r] - x0[r];
+    det = VKInverse3(D, inv);
     PetscCheck(det > 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Tetrahedron %d has non-positive volume %g", (int)e, (double)(det / 6));
     m->vol[e] = det / 6;
-    inv[0][0] = (D[1][1] * D[2][2] - D[1][2] * D[2][1]) / det;
-    inv[0][1] = (D[0][2] * D[2][1] - D[0][1] * D[2][2]) / det;
-    inv[0][2] = (D[0][1] * D[1][2] - D[0][2] * D[1][1]) / det;
-    inv[1][0] = (D[1][2] * D[2][0] - D[1][0] * D[2][2]) / det;
-    inv[1][1] = (D[0][0] * D[2][2] - D[0][2] * D[2][0]) / det;
-    inv[1][2] = (D[0][2] * D[1][0] - D[0][0] * D[1][2]) / det;
-    inv[2][0] = (D[1][0] * D[2][1] - D[1][1] * D[2][0]) / det;
-    inv[2][1] = (D[0][1] * D[2][0] - D[0][0] * D[2][1]) / det;
-    inv[2][2] = (D[0][0] * D[1][1] - D[0][1] * D[1][0]) / det;
     /* gradient of shape function a (a = 1..3) is row a-1 of D^{-1} */
     for (int r = 0; r < 3; r++) {
-      G[4 * r + 0] = -(inv[0][r] + inv[1][r] + inv[2][r]);
-      for (int a = 1; a < 4; a++) G[4 * r + a] = inv[a - 1][r];
+      G[4 * r + 0] = -(inv[r] + inv[3 + r] + inv[6 + r]);
+      for (int a = 1; a < 4; a++) G[4 * r + a] = inv[3 * (a - 1) + r];
     }
   }
   PetscFunctionReturn(0);

@@ -27,7 +27,7 @@ static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
 PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
 {
   const VKLayout *L    = &pd->mesh->layout;
-  PetscInt        nown = L->nEnd - L->nStart, *rows;
+  PetscInt        nown = L->nEnd - L->nStart, n, *rows;
   PetscScalar    *ma;
 
   PetscFunctionBegin;
@@ -39,10 +39,8 @@ PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
     for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
   PetscCall(VecRestoreArray(pd->hdiag, &ma));
   PetscCall(MatDiagonalSet(H, pd->hdiag, ADD_VALUES));
-  PetscCall(PetscMalloc1(3 * pd->nhandle + 1, &rows));
-  for (PetscInt i = 0; i < pd->nhandle; i++)
-    for (int c = 0; c < 3; c++) rows[3 * i + c] = 3 * pd->handle_row[i] + c;
-  PetscCall(MatZeroRowsColumns(H, 3 * pd->nhandle, rows, pd->kdiag, NULL, NULL));
+  PetscCall(VKPDGetEliminatedRows(pd, &n, &rows));
+  PetscCall(MatZeroRowsColumns(H, n, rows, pd->kdiag, NULL, NULL));
   PetscCall(PetscFree(rows));
   PetscFunctionReturn(0);
 }

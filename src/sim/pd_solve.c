@@ -97,10 +97,30 @@ static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
 }
 
 /* r = K x - b with handle rows zeroed; returns |r|. */
+PetscErrorCode VKPDZeroEliminatedRows(VKPD pd, Vec v)
+{
+  PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(v, &a));
+  for (PetscInt i = 0; i < pd->nhandle; i++)
+    for (int c = 0; c < 3; c++) a[3 * pd->handle_node[i] + c] = 0;
+  PetscCall(VecRestoreArray(v, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGetEliminatedRows(VKPD pd, PetscInt *n, PetscInt **rows)
+{
+  PetscFunctionBegin;
+  *n = 3 * pd->nhandle;
+  PetscCall(PetscMalloc1(*n + 1, rows));
+  for (PetscInt i = 0; i < pd->nhandle; i++)
+    for (int c = 0; c < 3; c++) (*rows)[3 * i + c] = 3 * pd->handle_row[i] + c;
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscReal *norm)
 {
-  PetscScalar *ra;
-
   PetscFunctionBegin;
   for (PetscInt c = 0; c < 3; c++) {
     PetscCall(VecStrideGather(x, c, pd->xc, INSERT_VALUES));
@@ -109,10 +129,7 @@ static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscReal *norm)
     PetscCall(VecAXPY(pd->rc, -1, pd->bc));
     PetscCall(VecStrideScatter(pd->rc, c, r, INSERT_VALUES));
   }
-  PetscCall(VecGetArray(r, &ra));
-  for (PetscInt i = 0; i < pd->nhandle; i++)
-    for (int c = 0; c < 3; c++) ra[3 * pd->handle_node[i] + c] = 0;
-  PetscCall(VecRestoreArray(r, &ra));
+  PetscCall(VKPDZeroEliminatedRows(pd, r));
   PetscCall(VecNorm(r, NORM_2, norm));
   PetscFunctionReturn(0);
 }
