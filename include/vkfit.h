@@ -84,9 +84,19 @@ typedef struct {
 } VKFitFrame;
 
 typedef struct {
-  PetscInt  pd_its, newton_its;
-  PetscReal residual, tolerance;
+  PetscInt  pd_its, newton_its, fail_iteration;
+  PetscReal residual, tolerance; /* residual = +inf when Phi became NaN/Inf */
 } VKFitEqStats;
+
+/* One iteration of the schedule, as fit.csv records it.  stage is the
+ * harmonic basis size r, 0 for the full gamma. */
+typedef enum { VK_FIT_GD, VK_FIT_GN } VKFitMethod;
+PETSC_EXTERN const char *const VKFitMethods[];
+typedef struct {
+  PetscInt    sample, stage, iteration;
+  VKFitMethod method;
+  PetscReal   loss, gnorm, step, eq_residual, wall;
+} VKFitIterate;
 
 typedef struct _n_VKFit *VKFit;
 struct _n_VKFit {
@@ -107,7 +117,20 @@ struct _n_VKFit {
   /* Gauss-Newton */
   Mat       G;    /* 2 A x I3 as AIJ, made at the first KKT solve */
   KSP       kkkt; /* prefix -fit_kkt_ */
-  PetscLogDouble time_eq, time_adjoint, time_kkt;
+  /* schedule (schedule.c) */
+  PetscInt  gd_its, gn_its, max_halvings, max_pivots;
+  PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2];
+  PetscBool monitor;
+  PetscInt      nhist, maxhist; /* every iteration so far (fit.csv) */
+  VKFitIterate *hist;
+  PetscInt      sample;   /* recorded with each iteration */
+  PetscLogDouble wall0;    /* start of the fit (the wall column) */
+  /* harmonic bases (harmonic.c): the r lowest eigenvectors of the tet
+   * dual-graph Laplacian, owned rows, column-major */
+  PetscInt   nharm, harm_r[8]; /* -fit_harmonic r1,r2,... */
+  PetscInt   rbasis;
+  PetscReal *basis, *basis_eig;
+  PetscLogDouble time_eq, time_adjoint, time_kkt, time_eigen;
   PetscBool setup;
 };
 PETSC_EXTERN PetscErrorCode VKFitCreate(VKMaterial, VKScene, VKFit *);
@@ -130,6 +153,9 @@ PETSC_EXTERN PetscErrorCode VKFitFrameDestroy(VKFitFrame *);
  * Hessian) to |g| <= eq_rtol x scale, scale = |grad E(xhat)| + |M (xhat - y)|/dt^2
  * (the forces that balance at the data); an error if it is not reached. */
 PETSC_EXTERN PetscErrorCode VKFitEquilibrium(VKFit, VKFitFrame *, VKFitEqStats *);
+/* The same without the error: *ok says whether it converged (a trial
+ * gamma of a line search may be rejected this way). */
+PETSC_EXTERN PetscErrorCode VKFitEquilibriumTry(VKFit, VKFitFrame *, VKFitEqStats *, PetscBool *ok);
 /* Loss eps(x) of the frame at its current equilibrium, and (optionally)
  * the adjoint gradient d eps/d gamma = -J^T lambda, H lambda = d eps/dx
  * (paper Eq. 16-17), H the exact Hessian of Phi, J = dg/dgamma. */
@@ -139,3 +165,29 @@ PETSC_EXTERN PetscErrorCode VKFitFrameLoss(VKFit, VKFitFrame *, PetscReal *eps, 
  * adjoint gradient; frozen (optional, per local parameter) holds
  * parameters at d = 0. */
 PETSC_EXTERN PetscErrorCode VKFitGaussNewtonDirection(VKFit, VKFitFrame *, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d);
+
+/* ---- harmonic bases (harmonic.c, paper Eq. 23-24) ------------------------ */
+/* The r lowest eigenvectors of the tet dual-graph Laplacian (SLEPc,
+ * shift-invert with MUMPS, options prefix -fit_harmonic_), orthonormal,
+ * the first constant; kept in fit->basis (owned tets x r, column-major). */
+PETSC_EXTERN PetscErrorCode VKFitHarmonicSetUp(VKFit, PetscInt r);
+/* gamma += B dq and dq = B^T v for B = diag(H_r, H_r) in the interleaved
+ * (g_s, g_v) per-tet layout; dq has 2r entries (r for g_s, then r for g_v),
+ * replicated on every rank. */
+PETSC_EXTERN PetscErrorCode VKFitHarmonicApply(VKFit, PetscInt r, const PetscReal dq[], Vec gamma);
+PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v, PetscReal dq[]);
+
+/* ---- the schedule (schedule.c, paper §6.3) ------------------------------ */
+/* Fit gamma (in and out) to one sample frame: -fit_gd_its gradient-descent
+ * iterations (step -fit_gd_step relative to |gamma|), then -fit_gn_its
+ * Gauss-Newton iterations (KKT, step 1), halving the step while the loss
+ * rises, each phase ending when the relative loss decrease falls below
+ * -fit_rtol.  r > 0 moves gamma in the span of the r lowest harmonics
+ * (gamma = gamma0 + B q), r = 0 moves every parameter.  gamma stays above
+ * the floor gamma_min (projection; frozen and pivoted parameters in the
+ * full space, step halving in a harmonic space).  Iterations are appended
+ * to fit->hist.  The frame is left at the equilibrium of the final gamma. */
+PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma);
+/* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
+ * g_v in gamma. */
+PETSC_EXTERN PetscErrorCode VKFitSetGammaFloor(VKFit, Vec gamma);

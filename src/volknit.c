@@ -3,6 +3,7 @@
  * ends the job with a non-zero status: with several ranks through
  * MPI_Abort, so that no rank is left waiting in a collective. */
 #include <vkapp.h>
+#include <slepcsys.h>
 
 static const char help[] = "volknit: volumetric homogenization of knitwear.\n"
                            "Usage: volknit <command> [options]   (volknit <command> -help lists its options)\n";
@@ -51,12 +52,12 @@ int main(int argc, char **argv)
     for (int i = 1; i < argc - 1; i++) argv[i] = argv[i + 1];
     argc--;
   }
-  PetscCall(PetscInitialize(&argc, &argv, NULL, help));
+  PetscCall(SlepcInitialize(&argc, &argv, NULL, help)); /* SLEPc: the harmonic bases of the fitting */
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   if (!cmd) {
     PetscCall(PetscOptionsHasHelp(NULL, &hashelp));
     PetscCall(Usage());
-    PetscCall(PetscFinalize());
+    PetscCall(SlepcFinalize());
     return hashelp ? 0 : 1;
   }
   ierr = Dispatch(cmd, &found);
@@ -67,8 +68,8 @@ int main(int argc, char **argv)
   }
   if (ierr) {
     if (size > 1) MPI_Abort(PETSC_COMM_WORLD, 1);
-    PetscFinalize();
+    SlepcFinalize();
     return 1;
   }
-  return PetscFinalize();
+  return SlepcFinalize();
 }

@@ -5,7 +5,8 @@
  *  - the adjoint gradient d eps/d gamma matches central finite differences
  *    of the loss through the equilibrium solve (relative error <= 1e-5)
  *    along random directions in g_s alone, in g_v alone and in both, and
- *    for the single parameter with the largest gradient;
+ *    for the single parameter with the largest gradient, and in the
+ *    harmonic subspace (grad_q = B^T grad against differences along B dq);
  *  - the Gauss-Newton direction of the sparse KKT system (MUMPS LDL^T)
  *    equals the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad solve, it
  *    descends, and frozen parameters stay at 0.
@@ -14,6 +15,7 @@
  * ranks: 1 2
  */
 #include <vkfit.h>
+#include <slepcsys.h>
 #include "vktest.h"
 
 typedef struct {
@@ -220,7 +222,7 @@ int main(int argc, char **argv)
   PetscReal    eps;
   PetscRandom  rnd;
 
-  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL));
   VKTestInit(PETSC_COMM_WORLD);
   PetscCall(SetUp(&s));
   PetscCall(VKFitCreateGammaVec(s.fit, &gamma0));
@@ -234,8 +236,9 @@ int main(int argc, char **argv)
   PetscCall(VKFitFrameLoss(s.fit, &s.frame, &eps, grad));
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1, 1));
-  for (int kind = 0; kind < 4; kind++) {
-    static const char *const name[] = {"random direction in g_s", "random direction in g_v", "random direction in both", "largest single component"};
+  PetscCall(VKFitHarmonicSetUp(s.fit, 10));
+  for (int kind = 0; kind < 5; kind++) {
+    static const char *const name[] = {"random direction in g_s", "random direction in g_v", "random direction in both", "largest single component", "harmonic subspace r = 10 (grad_q = B^T grad)"};
     PetscScalar *da;
     const PetscScalar *ga;
     PetscReal    dd, fd, ep, em, h = 1e-4, rel;
@@ -255,6 +258,15 @@ int main(int argc, char **argv)
       PetscCall(VecAssemblyBegin(d));
       PetscCall(VecAssemblyEnd(d));
     }
+    if (kind == 4) { /* d = B dq, dq random (the same on every rank), scaled to the material */
+      PetscReal dq[20], gq[20];
+      for (int j = 0; j < 20; j++) dq[j] = (j < 10 ? 1e3 : 2e3) * PetscSinReal(1.7 * j + 0.3);
+      PetscCall(VecSet(d, 0));
+      PetscCall(VKFitHarmonicApply(s.fit, 10, dq, d));
+      PetscCall(VKFitHarmonicApplyTranspose(s.fit, 10, grad, gq));
+      dd = 0;
+      for (int j = 0; j < 20; j++) dd += gq[j] * dq[j];
+    } else {
     PetscCall(VecGetArray(d, &da));
     PetscCall(VecGetArrayRead(gamma0, &ga));
     for (PetscInt i = 0; i < n; i++) { /* relative to the parameter, masked by kind */
@@ -264,6 +276,7 @@ int main(int argc, char **argv)
     PetscCall(VecRestoreArrayRead(gamma0, &ga));
     PetscCall(VecRestoreArray(d, &da));
     PetscCall(VecDot(grad, d, &dd));
+    }
     PetscCall(LossAt(&s, gamma0, d, h, start, &ep));
     PetscCall(LossAt(&s, gamma0, d, -h, start, &em));
     fd  = (ep - em) / (2 * h);
@@ -283,7 +296,7 @@ int main(int argc, char **argv)
   PetscCall(Destroy(&s));
   {
     int rc = VKTestFinish();
-    PetscCall(PetscFinalize());
+    PetscCall(SlepcFinalize());
     return rc;
   }
 }

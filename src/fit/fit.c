@@ -7,8 +7,10 @@
  * MUMPS LDL^T by default), and the material parameters as a PETSc Vec with
  * two entries per owned tet (g_s, g_v). */
 #include <vkfit.h>
+#include <vkutil.h>
 
 const char *const VKFitInertias[] = {"implicit", "VKFitInertia", "VK_FIT_INERTIA_", NULL};
+const char *const VKFitMethods[]  = {"GD", "GN", "VKFitMethod", "VK_FIT_", NULL};
 
 PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
 {
@@ -25,6 +27,19 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->eq_rtol       = 1e-5;
   fit->eq_newton_its = 50;
   fit->inertia       = VK_FIT_INERTIA_IMPLICIT;
+  fit->gd_its        = 15;
+  fit->gn_its        = 30;
+  fit->gd_step       = 0.01;
+  fit->kappa         = 1e-3;
+  fit->rtol          = 1e-6;
+  fit->max_halvings  = 12;
+  fit->max_pivots    = 8;
+  fit->gamma_min_rel = 1e-3;
+  fit->nharm         = 3;
+  fit->harm_r[0]     = 1;
+  fit->harm_r[1]     = 10;
+  fit->harm_r[2]     = 30;
+  fit->wall0         = VKWallTime();
   PetscCall(VKShapeFitCreate(fit->mesh, &fit->sf));
   PetscCall(VKPDCreate(mat, scene, &fit->pd));
   PetscCall(KSPCreate(fit->comm, &fit->kadj));
@@ -74,6 +89,8 @@ PetscErrorCode VKFitDestroy(VKFit *p)
   PetscCall(VecDestroy(&fit->rhs));
   PetscCall(VecDestroy(&fit->lambda));
   PetscCall(VecDestroy(&fit->work));
+  PetscCall(PetscFree(fit->hist));
+  PetscCall(PetscFree2(fit->basis, fit->basis_eig));
   PetscCall(PetscFree(*p));
   PetscFunctionReturn(0);
 }
@@ -89,16 +106,41 @@ PetscErrorCode VKFitSetTimeStep(VKFit fit, PetscReal dt)
 
 PetscErrorCode VKFitSetFromOptions(VKFit fit)
 {
+  PetscInt  nharm = (PetscInt)(sizeof(fit->harm_r) / sizeof(fit->harm_r[0]));
+  PetscBool set;
+
   PetscFunctionBegin;
   PetscCall(VKShapeFitSetFromOptions(fit->sf));
   PetscCall(VKPDSetFromOptions(fit->pd));
   PetscOptionsBegin(fit->comm, NULL, "Fitting: equilibrium and adjoint (DESIGN section 8)", "VKFit");
   PetscCall(PetscOptionsReal("-fit_eq_rtol", "Equilibrium per sample frame: |g| <= rtol (|grad E(xhat)| + |M (xhat - y)|/dt^2)", "VKFitEquilibrium", fit->eq_rtol, &fit->eq_rtol, NULL));
   PetscCall(PetscOptionsInt("-fit_eq_newton_its", "Newton iterations (exact Hessian) allowed after PD in an equilibrium solve", "VKFitEquilibrium", fit->eq_newton_its, &fit->eq_newton_its, NULL));
+  PetscCall(PetscOptionsInt("-fit_gd_its", "Gradient-descent iterations per stage (before Gauss-Newton)", "VKFitOptimize", fit->gd_its, &fit->gd_its, NULL));
+  PetscCall(PetscOptionsInt("-fit_gn_its", "Gauss-Newton iterations per stage", "VKFitOptimize", fit->gn_its, &fit->gn_its, NULL));
+  PetscCall(PetscOptionsReal("-fit_gd_step", "Gradient-descent step as a fraction of |gamma|", "VKFitOptimize", fit->gd_step, &fit->gd_step, NULL));
+  PetscCall(PetscOptionsReal("-fit_kappa", "Levenberg-Marquardt damping of Gauss-Newton, relative: kappa = fit_kappa |grad| / |gamma|", "VKFitOptimize", fit->kappa, &fit->kappa, NULL));
+  PetscCall(PetscOptionsReal("-fit_rtol", "A phase (GD or GN) stops when an iteration lowers the loss by less than this fraction", "VKFitOptimize", fit->rtol, &fit->rtol, NULL));
+  PetscCall(PetscOptionsInt("-fit_max_halvings", "Step halvings allowed while the loss rises", "VKFitOptimize", fit->max_halvings, &fit->max_halvings, NULL));
+  PetscCall(PetscOptionsInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL));
+  PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s or g_v of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
+  PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
+  PetscCall(PetscOptionsBool("-fit_monitor", "Print every iteration of the schedule", "VKFitOptimize", fit->monitor, &fit->monitor, NULL));
   PetscCall(PetscOptionsEnum("-fit_inertia", "Inertia in the equilibrium of a frame: implicit, M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2", "VKFitEquilibrium", VKFitInertias, (PetscEnum)fit->inertia, (PetscEnum *)&fit->inertia, NULL));
   PetscOptionsEnd();
   PetscCheck(fit->eq_rtol > 0 && fit->eq_rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_rtol must be in (0, 1), got %g", (double)fit->eq_rtol);
   PetscCheck(fit->eq_newton_its >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_newton_its must be >= 1, got %d", (int)fit->eq_newton_its);
+  PetscCheck(fit->gd_its >= 0 && fit->gn_its >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_its and -fit_gn_its must be >= 0, got %d and %d", (int)fit->gd_its, (int)fit->gn_its);
+  PetscCheck(fit->gd_step > 0 && fit->gd_step < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_step must be in (0, 1), got %g", (double)fit->gd_step);
+  PetscCheck(fit->kappa >= 0 && fit->kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_kappa must be >= 0, got %g", (double)fit->kappa);
+  PetscCheck(fit->rtol >= 0 && fit->rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_rtol must be in [0, 1), got %g", (double)fit->rtol);
+  PetscCheck(fit->max_halvings >= 0 && fit->max_pivots >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_max_halvings and -fit_max_pivots must be >= 0");
+  PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
+  if (set) {
+    PetscCheck(nharm >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_harmonic needs a list of basis sizes, e.g. 1,10,30 (or 0 for none)");
+    fit->nharm = nharm;
+    if (nharm == 1 && fit->harm_r[0] == 0) fit->nharm = 0;
+    for (PetscInt i = 0; i < fit->nharm; i++) PetscCheck(fit->harm_r[i] >= 1 && (i == 0 || fit->harm_r[i] > fit->harm_r[i - 1]), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_harmonic: the basis sizes must be positive and increasing, got %d after %d", (int)fit->harm_r[i], i ? (int)fit->harm_r[i - 1] : 0);
+  }
   PetscCall(KSPSetFromOptions(fit->kadj));
   PetscCall(KSPSetFromOptions(fit->kkkt));
   PetscFunctionReturn(0);
@@ -125,6 +167,11 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
   PetscFunctionBegin;
   PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting: frame interval %g s, inertia %s, equilibrium to %g relative (PD, then up to %d Newton iterations)\n", (double)fit->dt, VKFitInertias[fit->inertia], (double)fit->eq_rtol, (int)fit->eq_newton_its));
   PetscCall(PetscViewerASCIIPushTab(viewer));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), stop below %g relative decrease, up to %d halvings; floor %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, (double)fit->gamma_min_rel));
+  PetscCall(PetscViewerASCIIUseTabs(viewer, PETSC_FALSE));
+  for (PetscInt i = 0; i < fit->nharm; i++) PetscCall(PetscViewerASCIIPrintf(viewer, " %d,", (int)fit->harm_r[i]));
+  PetscCall(PetscViewerASCIIPrintf(viewer, " then full\n"));
+  PetscCall(PetscViewerASCIIUseTabs(viewer, PETSC_TRUE));
   PetscCall(VKShapeFitView(fit->sf, viewer));
   PetscCall(VKPDView(fit->pd, viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "adjoint solver (prefix -fit_adjoint_):\n"));

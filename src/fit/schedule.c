@@ -1,0 +1,335 @@
+/* schedule.c: the optimization schedule of the fitting on one sample frame
+ * (DESIGN §8, paper §6.3): adjoint gradient descent, then Gauss-Newton,
+ * either in the span of the r lowest harmonics (gamma = gamma0 + B q,
+ * paper Eq. 23-24, the chain rule grad_q = B^T grad_gamma and
+ * P_q = (H^-1 J B)^T G (H^-1 J B), a dense 2r x 2r system) or over every
+ * parameter (the sparse KKT system of kkt.c).
+ *
+ * Step: gradient descent moves gamma by gd_step |gamma| along -grad;
+ * Gauss-Newton takes the full step of (P + kappa I) d = -grad with
+ * kappa = fit_kappa |grad| / |gamma| (units of P, vanishing at a minimum).
+ * A trial is accepted when its equilibrium converges and the loss drops;
+ * otherwise the step is halved.  A phase ends after its iteration count,
+ * when an iteration lowers the loss by less than rtol of it, or when no
+ * halving helps.
+ *
+ * Non-negativity (DESIGN §8): every parameter stays above its floor
+ * gamma_min.  Over every parameter a trial is projected onto the floor;
+ * parameters at the floor whose gradient pushes down are frozen (d = 0);
+ * when the projected Gauss-Newton step no longer descends, the parameter
+ * that would go most negative is pivoted out (frozen) and the KKT system
+ * solved again.  In a harmonic space a trial below the floor is halved. */
+#include <vkfit.h>
+#include <vkutil.h>
+
+typedef struct {
+  VKFit       fit;
+  VKFitFrame *f;
+  PetscInt    r, nloc; /* basis size (0: full), local parameters */
+  Vec         gamma, grad, d, trial, x_acc;
+  PetscBool  *frozen;
+  PetscReal  *gq, *dq, *work; /* harmonic: 2r, 2r, dense scratch */
+  Vec        *Z, *AZ;         /* harmonic Gauss-Newton columns */
+  PetscReal   loss, gnorm, eq_residual;
+} Opt;
+
+PetscErrorCode VKFitSetGammaFloor(VKFit fit, Vec gamma)
+{
+  const PetscScalar *g;
+  PetscInt           n;
+  PetscReal          s[2] = {0, 0}, all[2];
+
+  PetscFunctionBegin;
+  PetscCall(VecGetLocalSize(gamma, &n));
+  PetscCall(VecGetArrayRead(gamma, &g));
+  for (PetscInt i = 0; i < n; i++) s[i % 2] += g[i];
+  PetscCall(VecRestoreArrayRead(gamma, &g));
+  PetscCallMPI(MPI_Allreduce(s, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
+  for (int k = 0; k < 2; k++) {
+    PetscCheck(all[k] > 0, fit->comm, PETSC_ERR_ARG_WRONG, "The starting material has no %s anywhere; give a positive uniform start (-mat_gamma_s, -mat_gamma_v)", k ? "g_v" : "g_s");
+    fit->gamma_min[k] = fit->gamma_min_rel * all[k] / fit->mesh->ne;
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal step)
+{
+  VKFit         fit = o->fit;
+  VKFitIterate *h;
+
+  PetscFunctionBegin;
+  if (fit->nhist == fit->maxhist) {
+    VKFitIterate *more;
+    fit->maxhist = PetscMax(64, 2 * fit->maxhist);
+    PetscCall(PetscMalloc1(fit->maxhist, &more));
+    if (fit->nhist) PetscCall(PetscArraycpy(more, fit->hist, fit->nhist));
+    PetscCall(PetscFree(fit->hist));
+    fit->hist = more;
+  }
+  h              = &fit->hist[fit->nhist++];
+  h->sample      = fit->sample;
+  h->stage       = o->r;
+  h->method      = method;
+  h->iteration   = it;
+  h->loss        = o->loss;
+  h->gnorm       = o->gnorm;
+  h->step        = step;
+  h->eq_residual = o->eq_residual;
+  h->wall        = VKWallTime() - fit->wall0;
+  if (fit->monitor) PetscCall(PetscPrintf(fit->comm, "  fit sample %d %s%-3d %s %3d loss %.6e |grad| %.3e step %.3e |g|/scale %.1e\n", (int)h->sample, o->r ? "r=" : "full", o->r ? (int)o->r : 0, VKFitMethods[method], (int)it, (double)h->loss, (double)h->gnorm, (double)step, (double)h->eq_residual));
+  PetscFunctionReturn(0);
+}
+
+static PetscReal Floor(VKFit fit, PetscInt i)
+{
+  return fit->gamma_min[i % 2];
+}
+
+/* Loss and gradient at the accepted gamma (the frame at its equilibrium);
+ * in the full space the parameters at the floor pushed down are frozen. */
+static PetscErrorCode Gradient(Opt *o)
+{
+  VKFit fit = o->fit;
+
+  PetscFunctionBegin;
+  PetscCall(VKFitFrameLoss(fit, o->f, &o->loss, o->grad));
+  if (o->r) {
+    PetscCall(VKFitHarmonicApplyTranspose(fit, o->r, o->grad, o->gq));
+    o->gnorm = 0;
+    for (PetscInt j = 0; j < 2 * o->r; j++) o->gnorm += PetscSqr(o->gq[j]);
+    o->gnorm = PetscSqrtReal(o->gnorm);
+  } else {
+    const PetscScalar *g, *gr;
+    PetscReal          s = 0;
+    PetscCall(VecGetArrayRead(o->gamma, &g));
+    PetscCall(VecGetArrayRead(o->grad, &gr));
+    for (PetscInt i = 0; i < o->nloc; i++) {
+      o->frozen[i] = (g[i] <= Floor(fit, i) * (1 + 1e-12) && gr[i] > 0) ? PETSC_TRUE : PETSC_FALSE;
+      if (!o->frozen[i]) s += PetscSqr(gr[i]);
+    }
+    PetscCall(VecRestoreArrayRead(o->grad, &gr));
+    PetscCall(VecRestoreArrayRead(o->gamma, &g));
+    PetscCallMPI(MPI_Allreduce(&s, &o->gnorm, 1, MPIU_REAL, MPIU_SUM, fit->comm));
+    o->gnorm = PetscSqrtReal(o->gnorm);
+  }
+  PetscFunctionReturn(0);
+}
+
+/* trial = gamma + s d (full: projected onto the floor; harmonic: d = B dq);
+ * *feasible is false when a harmonic trial goes below the floor. */
+static PetscErrorCode Trial(Opt *o, PetscReal s, PetscBool *feasible)
+{
+  VKFit        fit = o->fit;
+  PetscScalar *t;
+  PetscInt     bad = 0, any;
+
+  PetscFunctionBegin;
+  PetscCall(VecCopy(o->gamma, o->trial));
+  if (o->r) {
+    PetscReal *sdq;
+    PetscCall(PetscMalloc1(2 * o->r, &sdq));
+    for (PetscInt j = 0; j < 2 * o->r; j++) sdq[j] = s * o->dq[j];
+    PetscCall(VKFitHarmonicApply(fit, o->r, sdq, o->trial));
+    PetscCall(PetscFree(sdq));
+  } else PetscCall(VecAXPY(o->trial, s, o->d));
+  PetscCall(VecGetArray(o->trial, &t));
+  for (PetscInt i = 0; i < o->nloc; i++)
+    if (t[i] < Floor(fit, i)) {
+      if (o->r) bad = 1;
+      else t[i] = Floor(fit, i);
+    }
+  PetscCall(VecRestoreArray(o->trial, &t));
+  PetscCallMPI(MPI_Allreduce(&bad, &any, 1, MPIU_INT, MPIU_MAX, fit->comm));
+  *feasible = any ? PETSC_FALSE : PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+/* Harmonic Gauss-Newton: Z_j = H^-1 J B e_j (the adjoint factorization of
+ * the current equilibrium), P_q = Z^T G Z, (P_q + kappa I) dq = -gq by the
+ * eigen-decomposition of the small dense matrix. */
+static PetscErrorCode HarmonicGaussNewton(Opt *o, PetscReal kappa)
+{
+  VKFit      fit = o->fit;
+  PetscInt   n   = 2 * o->r;
+  PetscReal *P, *l, *Q, *e;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc4(n * n, &P, n, &l, n * n, &Q, n, &e));
+  for (PetscInt j = 0; j < n; j++) {
+    for (PetscInt i = 0; i < n; i++) e[i] = i == j;
+    PetscCall(VecSet(o->trial, 0));
+    PetscCall(VKFitHarmonicApply(fit, o->r, e, o->trial));
+    PetscCall(MatMult(fit->J, o->trial, fit->rhs));
+    PetscCall(VKPDZeroEliminatedRows(fit->pd, fit->rhs));
+    PetscCall(KSPSolve(fit->kadj, fit->rhs, o->Z[j]));
+    PetscCall(MatMult(fit->sf->A3, o->Z[j], o->AZ[j]));
+  }
+  for (PetscInt j = 0; j < n; j++) {
+    PetscCall(VecMDot(o->AZ[j], n, o->Z, P + j * n));
+    for (PetscInt i = 0; i < n; i++) P[j * n + i] *= 2;
+  }
+  VKSymEigN(n, P, l, Q, o->work);
+  for (PetscInt j = 0; j < n; j++) o->dq[j] = 0;
+  for (PetscInt k = 0; k < n; k++) {
+    PetscReal c = 0, lk = PetscMax(l[k], 0) + kappa;
+    for (PetscInt i = 0; i < n; i++) c += Q[n * i + k] * o->gq[i];
+    if (lk > 0)
+      for (PetscInt j = 0; j < n; j++) o->dq[j] -= Q[n * j + k] * c / lk;
+  }
+  PetscCall(PetscFree4(P, l, Q, e));
+  PetscFunctionReturn(0);
+}
+
+/* Full-space Gauss-Newton with the frozen set, pivoting out the parameter
+ * going most negative while the projected step does not descend. */
+static PetscErrorCode FullGaussNewton(Opt *o, PetscReal kappa)
+{
+  VKFit fit = o->fit;
+
+  PetscFunctionBegin;
+  for (PetscInt piv = 0;; piv++) {
+    const PetscScalar *g, *d, *gr;
+    PetscReal          slope = 0, all;
+    PetscReal worst = 0; /* the most negative (gamma + d - floor)/floor of the unfrozen */
+    PetscInt  iworst = -1;
+    PetscCall(VKFitGaussNewtonDirection(fit, o->f, kappa, o->frozen, o->grad, o->d));
+    PetscCall(VecGetArrayRead(o->gamma, &g));
+    PetscCall(VecGetArrayRead(o->d, &d));
+    PetscCall(VecGetArrayRead(o->grad, &gr));
+    for (PetscInt i = 0; i < o->nloc; i++) {
+      PetscReal to = g[i] + d[i], fl = Floor(fit, i);
+      slope += gr[i] * (PetscMax(to, fl) - g[i]);
+      if (!o->frozen[i] && (to - fl) / fl < worst) {
+        worst  = (to - fl) / fl;
+        iworst = i;
+      }
+    }
+    PetscCall(VecRestoreArrayRead(o->grad, &gr));
+    PetscCall(VecRestoreArrayRead(o->d, &d));
+    PetscCall(VecRestoreArrayRead(o->gamma, &g));
+    PetscCallMPI(MPI_Allreduce(&slope, &all, 1, MPIU_REAL, MPIU_SUM, fit->comm));
+    if (all < 0 || piv == fit->max_pivots) break;
+    { /* the most negative over all ranks; ties to the lowest rank */
+      PetscMPIInt rank;
+      struct {
+        double v;
+        int    rank;
+      } mine, best;
+      PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
+      mine.v    = (double)worst;
+      mine.rank = (int)rank;
+      PetscCallMPI(MPI_Allreduce(&mine, &best, 1, MPI_DOUBLE_INT, MPI_MINLOC, fit->comm));
+      if (best.v >= 0) break; /* nothing would go below the floor: nothing to pivot */
+      if (best.rank == rank) o->frozen[iworst] = PETSC_TRUE;
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
+/* One phase (GD or GN) of up to `its` iterations. */
+static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt its)
+{
+  VKFit fit = o->fit;
+
+  PetscFunctionBegin;
+  for (PetscInt it = 1; it <= its; it++) {
+    PetscReal    s, gnorm_gamma, dn = 0, loss_old = o->loss;
+    PetscBool    accepted = PETSC_FALSE;
+    VKFitEqStats st;
+
+    PetscCall(VecNorm(o->gamma, NORM_2, &gnorm_gamma));
+    if (o->gnorm == 0) break;
+    if (o->r) {
+      if (method == VK_FIT_GD)
+        for (PetscInt j = 0; j < 2 * o->r; j++) o->dq[j] = -o->gq[j];
+      else PetscCall(HarmonicGaussNewton(o, fit->kappa * o->gnorm / gnorm_gamma));
+      for (PetscInt j = 0; j < 2 * o->r; j++) dn += PetscSqr(o->dq[j]);
+      dn = PetscSqrtReal(dn);
+    } else {
+      if (method == VK_FIT_GD) {
+        PetscScalar *d;
+        PetscCall(VecCopy(o->grad, o->d));
+        PetscCall(VecScale(o->d, -1));
+        PetscCall(VecGetArray(o->d, &d));
+        for (PetscInt i = 0; i < o->nloc; i++)
+          if (o->frozen[i]) d[i] = 0;
+        PetscCall(VecRestoreArray(o->d, &d));
+      } else PetscCall(FullGaussNewton(o, fit->kappa * o->gnorm / gnorm_gamma));
+      PetscCall(VecNorm(o->d, NORM_2, &dn));
+    }
+    if (!(dn > 0)) break;
+    s = method == VK_FIT_GD ? fit->gd_step * gnorm_gamma / dn : 1;
+    PetscCall(VecCopy(o->f->x, o->x_acc));
+    for (PetscInt h = 0; h <= fit->max_halvings && !accepted; h++, s /= 2) {
+      PetscBool feasible = PETSC_FALSE, ok = PETSC_FALSE;
+      PetscReal loss = PETSC_INFINITY;
+      PetscCall(Trial(o, s, &feasible));
+      if (!feasible) continue;
+      PetscCall(VKFitSetGamma(fit, o->trial));
+      PetscCall(VKFitEquilibriumTry(fit, o->f, &st, &ok));
+      if (ok) PetscCall(VKFitFrameLoss(fit, o->f, &loss, NULL));
+      if (ok && loss < o->loss) {
+        accepted       = PETSC_TRUE;
+        o->eq_residual = st.residual / o->f->scale;
+        PetscCall(VecCopy(o->trial, o->gamma));
+        break;
+      }
+      PetscCall(VecCopy(o->x_acc, o->f->x)); /* the next trial starts from the accepted equilibrium */
+    }
+    if (!accepted) { /* back to the accepted gamma and its equilibrium */
+      PetscCall(VKFitSetGamma(fit, o->gamma));
+      PetscCall(VecCopy(o->x_acc, o->f->x));
+      break;
+    }
+    PetscCall(Gradient(o));
+    PetscCall(Record(o, method, it, s * dn));
+    if (loss_old - o->loss < fit->rtol * loss_old) break;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
+{
+  Opt          o = {0};
+  VKFitEqStats st;
+
+  PetscFunctionBegin;
+  PetscCall(VKFitSetUp(fit));
+  PetscCheck(fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0, fit->comm, PETSC_ERR_ORDER, "Call VKFitSetGammaFloor before VKFitOptimize");
+  o.fit   = fit;
+  o.f     = f;
+  o.r     = r;
+  o.gamma = gamma;
+  PetscCall(VecGetLocalSize(gamma, &o.nloc));
+  if (r) {
+    PetscCall(VKFitHarmonicSetUp(fit, r));
+    PetscCall(PetscMalloc3(2 * r, &o.gq, 2 * r, &o.dq, 4 * r * r, &o.work));
+    PetscCall(VecDuplicateVecs(fit->rhs, 2 * r, &o.Z));
+    PetscCall(VecDuplicateVecs(fit->rhs, 2 * r, &o.AZ));
+  } else {
+    PetscCall(PetscMalloc1(o.nloc + 1, &o.frozen));
+    PetscCall(VecDuplicate(gamma, &o.d));
+  }
+  PetscCall(VecDuplicate(gamma, &o.grad));
+  PetscCall(VecDuplicate(gamma, &o.trial));
+  PetscCall(VecDuplicate(f->x, &o.x_acc));
+  PetscCall(VKFitSetGamma(fit, gamma));
+  PetscCall(VKFitEquilibrium(fit, f, &st));
+  o.eq_residual = st.residual / f->scale;
+  PetscCall(Gradient(&o));
+  PetscCall(Record(&o, fit->gd_its ? VK_FIT_GD : VK_FIT_GN, 0, 0));
+  PetscCall(Phase(&o, VK_FIT_GD, fit->gd_its));
+  PetscCall(Phase(&o, VK_FIT_GN, fit->gn_its));
+  if (r) {
+    PetscCall(PetscFree3(o.gq, o.dq, o.work));
+    PetscCall(VecDestroyVecs(2 * r, &o.Z));
+    PetscCall(VecDestroyVecs(2 * r, &o.AZ));
+  } else {
+    PetscCall(PetscFree(o.frozen));
+    PetscCall(VecDestroy(&o.d));
+  }
+  PetscCall(VecDestroy(&o.grad));
+  PetscCall(VecDestroy(&o.trial));
+  PetscCall(VecDestroy(&o.x_acc));
+  PetscFunctionReturn(0);
+}
