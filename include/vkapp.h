@@ -17,4 +17,5 @@ PETSC_EXTERN PetscErrorCode  VKCommandYarn(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandMesh(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandSim(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandYLS(MPI_Comm);
+PETSC_EXTERN PetscErrorCode  VKCommandFit(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandRun(MPI_Comm);

@@ -191,3 +191,36 @@ PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec g
 /* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
  * g_v in gamma. */
 PETSC_EXTERN PetscErrorCode VKFitSetGammaFloor(VKFit, Vec gamma);
+
+/* ---- yarn-level data (data.c) ------------------------------------------- */
+typedef enum { VK_FIT_SAMPLE_BY_ENERGY, VK_FIT_SAMPLE_BY_EVEN } VKFitSampleBy;
+PETSC_EXTERN const char *const VKFitSampleBys[];
+typedef struct _n_VKFitData *VKFitData;
+struct _n_VKFitData {
+  MPI_Comm   comm;
+  char       path[PETSC_MAX_PATH_LEN];
+  char       status[256]; /* the yarn-level run's own status */
+  PetscInt   nframes;
+  PetscReal *time, *energy; /* per frame; 6 energies (stretch bending contact glue kinetic gravity) */
+};
+/* DIR/yls.h5 of volknit yls, checked (format, finite increasing times). */
+PETSC_EXTERN PetscErrorCode VKFitDataLoad(MPI_Comm, const char path[], VKFitData *);
+PETSC_EXTERN PetscErrorCode VKFitDataDestroy(VKFitData *);
+/* Positions (3 per yarn vertex) and normals (3 per segment) of frame k,
+ * on every rank; an error when the counts are not ny and nseg. */
+PETSC_EXTERN PetscErrorCode VKFitDataReadFrame(VKFitData, PetscInt k, PetscInt ny, PetscInt nseg, PetscReal xy[], PetscReal n1[]);
+/* The mean frame interval; an error when spacings differ from it by > 5%. */
+PETSC_EXTERN PetscErrorCode VKFitDataTimeStep(VKFitData, PetscReal *dt);
+/* Yarn elastic energy of frame k: stretch + bending + contact + glue. */
+PETSC_EXTERN PetscReal VKFitDataElasticEnergy(VKFitData, PetscInt k);
+/* The sample frames from -fit_frames, or -fit_nsamples by -fit_sample_by
+ * (energy: largest yarn elastic energy; even: evenly in time), in time
+ * order; samples has room for maxs. */
+PETSC_EXTERN PetscErrorCode VKFitDataSelect(VKFitData, PetscInt *nsamples, PetscInt samples[], PetscInt maxs);
+
+/* ---- the whole fitting (run.c) ------------------------------------------ */
+/* Sample by sample (Eq. 22) over the frames VKFitDataSelect picks, starting
+ * from the material's gamma; the averaged gamma is left in the material and
+ * written with the reports to dir: material.h5, material.xdmf, fit.csv,
+ * fit.json, fit.png. */
+PETSC_EXTERN PetscErrorCode VKFitRun(VKFit, VKFitData, const char dir[]);

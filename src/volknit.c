@@ -9,8 +9,6 @@ static const char help[] = "volknit: volumetric homogenization of knitwear.\n"
                            "Usage: volknit <command> [options]   (volknit <command> -help lists its options)\n";
 
 static const char *const planned[][2] = {
-  {"yls",    "the yarn-level reference simulator (DESIGN §4)"   },
-  {"fit",    "the material fitting (DESIGN §8)"                 },
   {"report", "error and run-time reports (DESIGN §11)"          }
 };
 

@@ -3,6 +3,7 @@
  *   mesh  enclose it in a voxel tet mesh      -> DIR/mesh.h5 .xdmf .json
  *   sim   simulate the homogenized model over a scene -> DIR/sim.h5 .xdmf .json
  *   yls   simulate the yarns themselves over a scene -> DIR/yls.h5 .xdmf .csv .json
+ *   fit   learn gamma per tet from DIR/yls.h5 on DIR/mesh.h5 -> DIR/material.h5 .xdmf, fit.csv .json .png
  *   run   the stages the scene needs, in order (today: yarn, mesh, sim)
  * Each runs in its own PetscLogStage, so -log_view splits the time by
  * stage.  With -help a command lists its options and stops. */
@@ -10,6 +11,7 @@
 #include <vkmesh.h>
 #include <vksim.h>
 #include <vkyls.h>
+#include <vkfit.h>
 #include <vkio.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -19,6 +21,7 @@ const VKCommand VKCommands[] = {
   {"mesh", "enclose the yarn model in a voxel tet mesh with masses, embedding, METIS domains: DIR/mesh.{h5,xdmf,json}", VKCommandMesh},
   {"sim",  "simulate the homogenized mesh over a scene by projective dynamics (reads DIR/mesh.h5): DIR/sim.{h5,xdmf,json}", VKCommandSim},
   {"yls",  "simulate the yarn-level model over a scene (reads DIR/yarn.h5 or the -yarn_ options): DIR/yls.{h5,xdmf,csv,json}", VKCommandYLS},
+  {"fit",  "learn two material parameters per tet from the yarn-level frames (reads DIR/yls.h5, DIR/mesh.h5): DIR/material.{h5,xdmf}, DIR/fit.{csv,json,png}", VKCommandFit},
   {"run",  "run the stages the scene needs (yarn, yls with -run_reference, mesh, sim)", VKCommandRun},
   {NULL,   NULL, NULL}
 };
@@ -371,6 +374,64 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
   }
   PetscCall(VKYLSDestroy(&yls));
   PetscCall(SimPartsDestroy(&p));
+  PetscCall(VKMeshDestroy(&m));
+  PetscCall(VKYarnDestroy(&y));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode FitView(void *f, PetscViewer v)
+{
+  return VKFitView((VKFit)f, v);
+}
+
+/* fit: the mesh (with the yarn model the reference run started from) from
+ * DIR/mesh.h5, the frames from DIR/yls.h5; the start material from the
+ * -mat_ options, the scene (handles) from the -scene_ options of the
+ * yarn-level run. */
+PetscErrorCode VKCommandFit(MPI_Comm comm)
+{
+  char      dir[PETSC_MAX_PATH_LEN], mpath[PETSC_MAX_PATH_LEN], ypath[PETSC_MAX_PATH_LEN];
+  VKYarn    y   = NULL;
+  VKMesh    m   = NULL;
+  VKMaterial mat = NULL;
+  VKScene   scene = NULL;
+  VKFit     fit = NULL;
+  VKFitData data = NULL;
+  PetscBool mexists, yexists, help;
+
+  PetscFunctionBegin;
+  PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
+  PetscCall(VKPathJoin(dir, "mesh.h5", mpath, sizeof(mpath)));
+  PetscCall(VKPathJoin(dir, "yls.h5", ypath, sizeof(ypath)));
+  PetscCall(VKFileExists(comm, mpath, &mexists));
+  PetscCall(VKFileExists(comm, ypath, &yexists));
+  PetscCall(PetscOptionsHasHelp(NULL, &help));
+  PetscCheck(mexists || help, comm, PETSC_ERR_FILE_OPEN, "volknit fit needs %s: run volknit mesh -o %s on the relaxed yarn first (or volknit run -run_fit)", mpath, dir);
+  PetscCheck(yexists || help, comm, PETSC_ERR_FILE_OPEN, "volknit fit needs %s: run volknit yls -o %s first (or volknit run -run_fit)", ypath, dir);
+  if (mexists) PetscCall(VKMeshLoadH5(comm, mpath, &m, &y));
+  else PetscCall(VKMeshCreate(comm, &m));
+  PetscCall(VKMaterialCreate(m, &mat));
+  PetscCall(VKMaterialSetFromOptions(mat));
+  PetscCall(VKSceneCreate(comm, &scene));
+  PetscCall(VKSceneSetFromOptions(scene));
+  PetscCall(VKFitCreate(mat, scene, &fit));
+  PetscCall(VKFitSetFromOptions(fit));
+  PetscOptionsBegin(comm, NULL, "Fitting outputs", "volknit fit");
+  PetscCall(PetscOptionsName("-fit_view", "Print the fitting's set-up (schedule, shape fit, solvers) before the run", "VKFitView", NULL));
+  PetscOptionsEnd();
+  if (!help) {
+    PetscCall(PetscLogStagePush(VK_STAGE_FIT));
+    PetscCall(VKFitDataLoad(comm, ypath, &data));
+    PetscCall(PetscPrintf(comm, "volknit fit: mesh %s (%d nodes, %d tets), yarn frames %s (%d frames, run %s)\n", mpath, (int)m->nv, (int)m->ne, ypath, (int)data->nframes, data->status));
+    PetscCall(VKFitSetUp(fit));
+    PetscCall(ViewFromOptions(comm, "-fit_view", FitView, fit));
+    PetscCall(VKFitRun(fit, data, dir));
+    PetscCall(PetscLogStagePop());
+  }
+  PetscCall(VKFitDataDestroy(&data));
+  PetscCall(VKFitDestroy(&fit));
+  PetscCall(VKSceneDestroy(&scene));
+  PetscCall(VKMaterialDestroy(&mat));
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);

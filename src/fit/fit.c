@@ -150,6 +150,11 @@ PetscErrorCode VKFitSetUp(VKFit fit)
 {
   PetscFunctionBegin;
   if (fit->setup) PetscFunctionReturn(0);
+  if (!fit->scene->setup) { /* boxes relative to the yarn's rest bounding box, as in yls and sim */
+    PetscReal lo[3], hi[3];
+    PetscCall(VKCurvesBoundingBox(&fit->mesh->yarn->curves, lo, hi));
+    PetscCall(VKSceneSetUp(fit->scene, lo, hi));
+  }
   PetscCall(VKShapeFitSetUp(fit->sf));
   PetscCall(VKPDSetUp(fit->pd));
   PetscCall(VKMeshCreateNodeMat(fit->mesh, 3, &fit->H));

@@ -127,6 +127,15 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
   PetscCall(TetVoxels(w->mesh, voxel, kuhn));
   PetscCall(VKH5Create(out->tmp, &h));
   ierr = VKH5WriteReal(&h, "/material/gamma", w->mesh->ne, 2, w->gamma);
+  { /* each column alone as well, for XDMF cell attributes (material.xdmf) */
+    PetscReal *col;
+    PetscCall(PetscMalloc1(w->mesh->ne + 1, &col));
+    for (int c = 0; c < 2 && !ierr; c++) {
+      for (PetscInt e = 0; e < w->mesh->ne; e++) col[e] = w->gamma[2 * e + c];
+      ierr = VKH5WriteReal(&h, c ? "/material/g_v" : "/material/g_s", w->mesh->ne, 1, col);
+    }
+    PetscCall(PetscFree(col));
+  }
   if (!ierr) ierr = VKH5WriteInt(&h, "/material/voxel", w->mesh->ne, 3, voxel);
   if (!ierr) ierr = VKH5WriteInt(&h, "/material/kuhn", w->mesh->ne, 1, kuhn);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
