@@ -17,6 +17,7 @@
 #include <vkfit.h>
 #include <slepcsys.h>
 #include "vktest.h"
+#include "fitproblem.h"
 
 typedef struct {
   VKYarn     y;
@@ -49,22 +50,12 @@ static PetscErrorCode Deformed(VKMesh m, PetscReal s, PetscReal sag, Vec x)
 static PetscErrorCode SetUp(Setup *s)
 {
   PetscMPIInt size;
-  PetscReal   lo[3], hi[3];
   Vec         xh[3];
   PetscRandom rnd;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
-  PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &s->y));
-  PetscCall(VKYarnSetKnit(s->y, "rib1x1", 2, 2));
-  PetscCall(VKYarnSetUp(s->y));
-  PetscCall(VKMeshCreate(PETSC_COMM_WORLD, &s->m));
-  PetscCall(VKMeshSetYarn(s->m, s->y));
-  PetscCall(VKMeshSetDomains(s->m, size));
-  PetscCall(VKMeshSetUp(s->m));
-  PetscCall(VKMaterialCreate(s->m, &s->mat));
-  PetscCall(VKMaterialSetUniform(s->mat, 1e3, 2e3));
-  PetscCall(VKMaterialSetUp(s->mat));
+  PetscCall(FitProblemCreate(PETSC_COMM_WORLD, size, &s->y, &s->m, &s->mat, &s->scene));
   /* heterogeneous: each parameter scaled by a factor in [0.5, 2] drawn from the global tet number */
   PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, 0.5, 2));
@@ -76,24 +67,6 @@ static PetscErrorCode SetUp(Setup *s)
       for (int k = 0; k < 2; k++) s->mat->gamma[2 * (e - s->m->layout.eStart) + k] *= f[k];
   }
   PetscCall(PetscRandomDestroy(&rnd));
-  /* scene: the left edge held, the right edge pulled, gravity */
-  PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &s->scene));
-  s->scene->gravity[2] = -9.81;
-  s->scene->nhandles   = 2;
-  for (int h = 0; h < 2; h++) {
-    VKHandle *H = &s->scene->handle[h];
-    for (int a = 0; a < 3; a++) {
-      H->box[a]     = -1;
-      H->box[3 + a] = 1;
-    }
-    if (h == 0) H->box[3] = -0.45;
-    else H->box[0] = 0.45;
-    H->velocity[0] = h == 0 ? 0 : 0.5;
-    H->axis[1]     = 1;
-    H->window[1]   = PETSC_MAX_REAL;
-  }
-  PetscCall(VKCurvesBoundingBox(&s->m->yarn->curves, lo, hi));
-  PetscCall(VKSceneSetUp(s->scene, lo, hi));
   PetscCall(VKFitCreate(s->mat, s->scene, &s->fit));
   PetscCall(VKFitSetTimeStep(s->fit, 1.0 / 100));
   PetscCall(VKFitSetFromOptions(s->fit));

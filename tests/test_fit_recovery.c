@@ -30,6 +30,7 @@
 #include <vkutil.h>
 #include <slepcsys.h>
 #include "vktest.h"
+#include "fitproblem.h"
 
 #define NSTEPS 4
 
@@ -67,12 +68,6 @@ static PetscErrorCode GatherAll(Vec x, PetscReal **all)
   PetscFunctionReturn(0);
 }
 
-static void TetNodes(VKMesh m, PetscInt e, const PetscReal x[], PetscReal X[])
-{
-  for (int a = 0; a < 4; a++)
-    for (int r = 0; r < 3; r++) X[3 * a + r] = x[3 * m->tet[4 * e + a] + r];
-}
-
 /* Yarn data of a mesh configuration: x^Y = N x, and each segment's rest
  * normal turned by the polar rotation of the tet holding its first vertex,
  * made orthogonal to the new segment and unit. */
@@ -93,7 +88,8 @@ static PetscErrorCode YarnData(VKFit fit, Vec x, PetscReal xy[], PetscReal n1[])
     PetscInt         k0 = sf->seg[2 * s], k1 = sf->seg[2 * s + 1], e = m->emb_tet[k0];
     const PetscReal *nb = m->yarn->normal + 3 * s;
     PetscReal        X[12], F[9], R[9], t[3], *n = n1 + 3 * s, d = 0;
-    TetNodes(m, e, xa, X);
+    for (int a = 0; a < 4; a++)
+      for (int r = 0; r < 3; r++) X[3 * a + r] = xa[3 * m->tet[4 * e + a] + r];
     VKTetDeformation(m->G + 12 * e, X, F);
     VKPolar3(F, R, NULL);
     for (int r = 0; r < 3; r++) {
@@ -126,40 +122,14 @@ static PetscErrorCode Target(VKFit fit, Vec x, Vec xhat, PetscReal *eps_hat)
 
 static PetscErrorCode BuildProblem(MPI_Comm comm, Problem *p)
 {
-  PetscReal lo[3], hi[3], t = 0, dt = 1.0 / 100, mean[2], all[2], eps_hat;
+  PetscReal t = 0, dt = 1.0 / 100, mean[2], all[2], eps_hat;
   Vec       x[NSTEPS + 1], xhat[3];
   PetscInt  nloc;
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(p, sizeof(*p)));
   p->comm = comm;
-  PetscCall(VKYarnCreate(comm, &p->y));
-  PetscCall(VKYarnSetKnit(p->y, "rib1x1", 2, 2));
-  PetscCall(VKYarnSetUp(p->y));
-  PetscCall(VKMeshCreate(comm, &p->m));
-  PetscCall(VKMeshSetYarn(p->m, p->y));
-  PetscCall(VKMeshSetDomains(p->m, 2)); /* the same mesh numbering on 1 and 2 ranks */
-  PetscCall(VKMeshSetUp(p->m));
-  PetscCall(VKMaterialCreate(p->m, &p->mat));
-  PetscCall(VKMaterialSetUniform(p->mat, 1e3, 2e3));
-  PetscCall(VKMaterialSetUp(p->mat));
-  PetscCall(VKSceneCreate(comm, &p->scene));
-  p->scene->gravity[2] = -9.81;
-  p->scene->nhandles   = 2;
-  for (int h = 0; h < 2; h++) {
-    VKHandle *H = &p->scene->handle[h];
-    for (int a = 0; a < 3; a++) {
-      H->box[a]     = -1;
-      H->box[3 + a] = 1;
-    }
-    if (h == 0) H->box[3] = -0.45;
-    else H->box[0] = 0.45;
-    H->velocity[0] = h == 0 ? 0 : 0.5;
-    H->axis[1]     = 1;
-    H->window[1]   = PETSC_MAX_REAL;
-  }
-  PetscCall(VKCurvesBoundingBox(&p->m->yarn->curves, lo, hi));
-  PetscCall(VKSceneSetUp(p->scene, lo, hi));
+  PetscCall(FitProblemCreate(comm, 2, &p->y, &p->m, &p->mat, &p->scene)); /* 2 domains: the same mesh numbering on 1 and 2 ranks */
   PetscCall(VKFitCreate(p->mat, p->scene, &p->fit));
   PetscCall(VKFitSetTimeStep(p->fit, dt));
   PetscCall(VKFitSetFromOptions(p->fit));
@@ -203,18 +173,18 @@ static PetscErrorCode BuildProblem(MPI_Comm comm, Problem *p)
   /* strain energy per tet at the sample frame */
   {
     const VKLayout    *L = &p->m->layout;
-    PetscReal         *xa;
-    const PetscScalar *g;
-    PetscCall(GatherAll(x[NSTEPS], &xa));
+    const PetscScalar *xa, *g;
+    Vec                local;
     PetscCall(PetscMalloc1(L->eEnd - L->eStart + 1, &p->energy));
+    PetscCall(VKMeshGetLocalPositions(x[NSTEPS], &local, &xa));
     PetscCall(VecGetArrayRead(p->gstar, &g));
-    for (PetscInt e = L->eStart; e < L->eEnd; e++) {
+    for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
       PetscReal X[12];
-      TetNodes(p->m, e, xa, X);
-      PetscCall(VKTetEvaluate(p->m->G + 12 * e, p->m->vol[e], X, g[2 * (e - L->eStart)], g[2 * (e - L->eStart) + 1], PETSC_FALSE, &p->energy[e - L->eStart], NULL, NULL, NULL));
+      VKLayoutGatherTet(L, e, xa, X);
+      PetscCall(VKTetEvaluate(p->m->G + 12 * (L->eStart + e), p->m->vol[L->eStart + e], X, g[2 * e], g[2 * e + 1], PETSC_FALSE, &p->energy[e], NULL, NULL, NULL));
     }
     PetscCall(VecRestoreArrayRead(p->gstar, &g));
-    PetscCall(PetscFree(xa));
+    PetscCall(VKMeshRestoreLocalPositions(x[NSTEPS], &local, &xa));
   }
   /* the sample: frame NSTEPS from its yarn data, inertia from the two before */
   for (int k = 0; k < 3; k++) PetscCall(VecDuplicate(x[0], &xhat[k]));

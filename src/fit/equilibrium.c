@@ -73,9 +73,9 @@ static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
   PetscFunctionReturn(0);
 }
 
-/* The solve itself; *ok says whether |g| <= eq_rtol x scale was reached.
- * A PD global-solve failure stays an error: it is not a matter of gamma. */
-static PetscErrorCode Equilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats, PetscBool *ok)
+/* *ok says whether |g| <= eq_rtol x scale was reached.  A PD global-solve
+ * failure stays an error: it is not a matter of gamma. */
+PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats, PetscBool *ok)
 {
   VKPD           pd = fit->pd;
   VKPDStats      st;
@@ -94,23 +94,15 @@ static PetscErrorCode Equilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats,
   PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
   PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the PD global solve failed (see -pd_global_ksp_converged_reason)", (int)f->index, (double)f->t);
   *ok = (st.reason != VK_PD_DIVERGED_NAN && st.residual <= PetscMax(tol, pd->res_floor)) ? PETSC_TRUE : PETSC_FALSE;
-  stats->pd_its         = st.iterations;
-  stats->newton_its     = st.newton_its;
-  stats->residual       = st.reason == VK_PD_DIVERGED_NAN ? PETSC_INFINITY : st.residual;
-  stats->tolerance      = tol;
-  stats->fail_iteration = st.fail_iteration;
+  if (stats) {
+    stats->pd_its         = st.iterations;
+    stats->newton_its     = st.newton_its;
+    stats->residual       = st.reason == VK_PD_DIVERGED_NAN ? PETSC_INFINITY : st.residual;
+    stats->tolerance      = tol;
+    stats->fail_iteration = st.fail_iteration;
+  }
   fit->time_eq += VKWallTime() - t0;
   PetscCall(PetscLogEventEnd(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats, PetscBool *ok)
-{
-  VKFitEqStats st;
-
-  PetscFunctionBegin;
-  PetscCall(Equilibrium(fit, f, &st, ok));
-  if (stats) *stats = st;
   PetscFunctionReturn(0);
 }
 
@@ -120,7 +112,7 @@ PetscErrorCode VKFitEquilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats)
   PetscBool    ok;
 
   PetscFunctionBegin;
-  PetscCall(Equilibrium(fit, f, &st, &ok));
+  PetscCall(VKFitEquilibriumTry(fit, f, &st, &ok));
   PetscCheck(st.residual < PETSC_INFINITY, fit->comm, PETSC_ERR_FP, "Equilibrium of sample frame %d (t = %g s): Phi or its gradient became NaN/Inf at iteration %d; the material parameters or the data are not usable", (int)f->index, (double)f->t, (int)st.fail_iteration);
   PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s) not reached: |g| = %.3e > %.3e (-fit_eq_rtol %g of the force scale %.3e) after %d PD and %d Newton iterations; raise -fit_eq_newton_its or -pd_max_it", (int)f->index, (double)f->t, (double)st.residual, (double)st.tolerance, (double)fit->eq_rtol, (double)f->scale, (int)st.pd_its, (int)st.newton_its);
   if (stats) *stats = st;
