@@ -68,7 +68,12 @@ PETSC_EXTERN PetscErrorCode VKShapeFitLoss(VKShapeFit, const PetscReal Fhat[], c
 PETSC_EXTERN PetscErrorCode VKShapeFitQuadraticLoss(VKShapeFit, Vec xhat, PetscReal eps_hat, Vec x, PetscReal *eps, Vec grad);
 
 /* ---- the fitting problem (fit.c, equilibrium.c, adjoint.c) -------------- */
-typedef enum { VK_FIT_INERTIA_IMPLICIT } VKFitInertia;
+/* Inertia in the equilibrium of a frame (DESIGN §8): implicit,
+ * M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2; data, the data's acceleration
+ * M (xhat_i - 2 xhat_{i-1} + xhat_{i-2})/dt^2 as a constant force (the
+ * paper's Eq. 14); none, a static equilibrium.  The last two need handles
+ * that hold the mesh (H = Hessian of E alone). */
+typedef enum { VK_FIT_INERTIA_IMPLICIT, VK_FIT_INERTIA_DATA, VK_FIT_INERTIA_NONE } VKFitInertia;
 PETSC_EXTERN const char *const VKFitInertias[];
 
 /* One sample frame i: its shape-fit target xhat_i with eps(xhat_i), the
@@ -81,6 +86,7 @@ typedef struct {
   PetscReal weight; /* yarn elastic energy (sample averaging, Eq. 22) */
   PetscReal eps_hat, scale; /* eps(xhat); force scale of the equilibrium tolerance */
   Vec       xhat, xprev, y, x; /* xprev = xhat_{i-1}: start of the step (friction) */
+  Vec       fext; /* inertia data: M (g - a_data) = M (y - xhat)/dt^2; none: M g; implicit: NULL */
 } VKFitFrame;
 
 typedef struct {
@@ -131,8 +137,21 @@ struct _n_VKFit {
   PetscInt   rbasis;
   PetscReal *basis, *basis_eig;
   PetscLogDouble time_eq, time_adjoint, time_kkt, time_eigen;
+  /* checkpoints: after every checkpoint_every accepted iterations the
+   * schedule calls checkpoint(fit, phase, iteration, ctx) with the place
+   * a restart goes on from (VK_FIT_PHASE_*, the next iteration); it stops
+   * (stopped) after max_iterations in all (0: no limit).  A restart sets
+   * resume, and the next VKFitOptimize goes on from resume_phase and
+   * resume_iteration instead of starting the stage. */
+  PetscInt  checkpoint_every, max_iterations, nits;
+  PetscBool restart, stopped, resume; /* restart: VKFitRun starts from DIR/fit_checkpoint.h5 */
+  PetscInt  resume_phase, resume_iteration;
+  PetscErrorCode (*checkpoint)(VKFit, PetscInt phase, PetscInt iteration, void *ctx);
+  void     *checkpoint_ctx;
   PetscBool setup;
 };
+/* Phases of a stage, as a checkpoint records where to go on. */
+enum { VK_FIT_PHASE_GD = VK_FIT_GD, VK_FIT_PHASE_GN = VK_FIT_GN, VK_FIT_PHASE_DONE };
 PETSC_EXTERN PetscErrorCode VKFitCreate(VKMaterial, VKScene, VKFit *);
 PETSC_EXTERN PetscErrorCode VKFitSetTimeStep(VKFit, PetscReal dt);
 PETSC_EXTERN PetscErrorCode VKFitSetFromOptions(VKFit);
@@ -217,6 +236,31 @@ PETSC_EXTERN PetscReal VKFitDataElasticEnergy(VKFitData, PetscInt k);
  * (energy: largest yarn elastic energy; even: evenly in time), in time
  * order; samples has room for maxs. */
 PETSC_EXTERN PetscErrorCode VKFitDataSelect(VKFitData, PetscInt *nsamples, PetscInt samples[], PetscInt maxs);
+
+/* ---- checkpoints (checkpoint.c) ------------------------------------------ */
+#define VK_FIT_MAX_SAMPLES 256
+#define VK_FIT_MAX_STAGES  9 /* harmonic stages, then the full gamma */
+/* A fitting run between two iterations: its plan (sample frames, stage
+ * basis sizes r, 0 for the full gamma), where it goes on (sample and stage
+ * indices; phase -1 when the stage has not begun, else VK_FIT_PHASE_*; the
+ * next iteration), the Eq. 22 weight and average of the finished samples,
+ * and, inside a stage, the current gamma and equilibrium x.  The history,
+ * floors, iteration count and time split are the VKFit's own. */
+typedef struct {
+  PetscInt  ns, samples[VK_FIT_MAX_SAMPLES];
+  PetscInt  nstages, stages[VK_FIT_MAX_STAGES];
+  PetscInt  sample, stage, phase, iteration;
+  PetscReal weight;
+  Vec       avg, gamma, x;
+  PetscLogDouble wall; /* elapsed */
+} VKFitState;
+/* DIR/fit_checkpoint.h5, written atomically (rank 0, gathered in global
+ * order); read back on any number of ranks into st (avg, gamma, x created
+ * by the caller) and the fit's history, floors and totals. */
+PETSC_EXTERN PetscErrorCode VKFitCheckpointWrite(VKFit, const char path[], const VKFitState *);
+PETSC_EXTERN PetscErrorCode VKFitCheckpointRead(VKFit, const char path[], VKFitState *);
+/* Append one iteration to fit->hist. */
+PETSC_EXTERN PetscErrorCode VKFitAppendIterate(VKFit, const VKFitIterate *);
 
 /* ---- the whole fitting (run.c) ------------------------------------------ */
 /* Sample by sample (Eq. 22) over the frames VKFitDataSelect picks, starting

@@ -63,6 +63,11 @@ struct _n_VKPD {
   VKMaterial mat;
   VKScene    scene;
   PetscReal  dt;
+  /* inertia: 1, or 0 for a static equilibrium (fitting, -fit_inertia
+   * data|none), where Phi = E(x) - fconst . x; fconst (optional, not
+   * owned) is a constant force per node, added in either case */
+  PetscReal  inertia;
+  Vec        fconst;
   /* options */
   PetscReal rtol, atol;
   PetscInt  max_it;
@@ -99,7 +104,7 @@ struct _n_VKPD {
   /* Newton */
   SNES      snes;
   Mat       H;
-  Vec       hdiag; /* diagonal added to the material Hessian: M/dt^2 + contact weights */
+  Vec       hdiag; /* diagonal added to the material Hessian: inertia M/dt^2 + contact weights */
   const Vec *ysnes; /* inertial target seen by the SNES callbacks */
   PetscInt   step;  /* time step number for messages (set by the caller) */
   /* Phi and |grad Phi| at every iteration of the last solve (max_it + 1) */
@@ -114,6 +119,11 @@ PETSC_EXTERN PetscErrorCode VKPDSetFromOptions(VKPD);
 PETSC_EXTERN PetscErrorCode VKPDSetUp(VKPD);
 PETSC_EXTERN PetscErrorCode VKPDView(VKPD, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKPDDestroy(VKPD *);
+/* Static (no M/dt^2 term; K reassembled) or inertial (the default). */
+PETSC_EXTERN PetscErrorCode VKPDSetStatic(VKPD, PetscBool);
+/* A constant force f (node vector, NULL: none): Phi gains -f . x.  The Vec
+ * is referenced, not copied; the caller keeps it alive across solves. */
+PETSC_EXTERN PetscErrorCode VKPDSetConstantForce(VKPD, Vec f);
 /* The material changed (fitting): K is reassembled and refactored. */
 PETSC_EXTERN PetscErrorCode VKPDMaterialChanged(VKPD);
 

@@ -39,6 +39,22 @@ PetscErrorCode VKFitFrameCreate(VKFit fit, PetscInt index, PetscReal t, Vec xhat
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
     for (int r = 0; r < 3; r++) ya[3 * i + r] += fit->dt * fit->dt * fit->scene->gravity[r];
   PetscCall(VecRestoreArray(f->y, &ya));
+  if (fit->inertia != VK_FIT_INERTIA_IMPLICIT) { /* M (y - xhat)/dt^2 = M (g - a_data), or M g */
+    const PetscScalar *xa;
+    PetscScalar       *fa;
+    PetscCall(VecDuplicate(xhat, &f->fext));
+    PetscCall(VecGetArrayRead(f->xhat, &xa));
+    PetscCall(VecGetArrayRead(f->y, (const PetscScalar **)&ya));
+    PetscCall(VecGetArray(f->fext, &fa));
+    for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
+      for (int r = 0; r < 3; r++) {
+        PetscReal m = fit->mesh->mass[L->nStart + i];
+        fa[3 * i + r] = fit->inertia == VK_FIT_INERTIA_DATA ? m * (ya[3 * i + r] - xa[3 * i + r]) / (fit->dt * fit->dt) : m * fit->scene->gravity[r];
+      }
+    PetscCall(VecRestoreArray(f->fext, &fa));
+    PetscCall(VecRestoreArrayRead(f->y, (const PetscScalar **)&ya));
+    PetscCall(VecRestoreArrayRead(f->xhat, &xa));
+  }
   PetscFunctionReturn(0);
 }
 
@@ -49,10 +65,11 @@ PetscErrorCode VKFitFrameDestroy(VKFitFrame *f)
   PetscCall(VecDestroy(&f->xprev));
   PetscCall(VecDestroy(&f->x));
   PetscCall(VecDestroy(&f->y));
+  PetscCall(VecDestroy(&f->fext));
   PetscFunctionReturn(0);
 }
 
-/* |grad E(xhat)| + |M (xhat - y)|/dt^2 */
+/* |grad E(xhat)| + |M (xhat - y)|/dt^2, or |fext| in a static equilibrium */
 static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
 {
   const VKLayout    *L = &fit->mesh->layout;
@@ -62,6 +79,11 @@ static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
   PetscFunctionBegin;
   PetscCall(VKMaterialGradient(fit->mat, f->xhat, fit->work));
   PetscCall(VecNorm(fit->work, NORM_2, &gE));
+  if (f->fext) {
+    PetscCall(VecNorm(f->fext, NORM_2, &all));
+    *scale = gE + all;
+    PetscFunctionReturn(0);
+  }
   PetscCall(VecGetArrayRead(f->xhat, &xa));
   PetscCall(VecGetArrayRead(f->y, &ya));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
@@ -91,7 +113,9 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
   pd->newton_its  = fit->eq_newton_its;
   pd->newton_rtol = 0;
   pd->step        = f->index;
+  PetscCall(VKPDSetConstantForce(pd, f->fext));
   PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
+  PetscCall(VKPDSetConstantForce(pd, NULL));
   PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the PD global solve failed (see -pd_global_ksp_converged_reason)", (int)f->index, (double)f->t);
   *ok = (st.reason != VK_PD_DIVERGED_NAN && st.residual <= PetscMax(tol, pd->res_floor)) ? PETSC_TRUE : PETSC_FALSE;
   if (stats) {

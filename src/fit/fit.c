@@ -9,7 +9,7 @@
 #include <vkfit.h>
 #include <vkutil.h>
 
-const char *const VKFitInertias[] = {"implicit", "VKFitInertia", "VK_FIT_INERTIA_", NULL};
+const char *const VKFitInertias[] = {"implicit", "data", "none", "VKFitInertia", "VK_FIT_INERTIA_", NULL};
 const char *const VKFitMethods[]  = {"GD", "GN", "VKFitMethod", "VK_FIT_", NULL};
 
 PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
@@ -39,6 +39,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->harm_r[0]     = 1;
   fit->harm_r[1]     = 10;
   fit->harm_r[2]     = 30;
+  fit->checkpoint_every = 10;
   fit->wall0         = VKWallTime();
   PetscCall(VKShapeFitCreate(fit->mesh, &fit->sf));
   PetscCall(VKPDCreate(mat, scene, &fit->pd));
@@ -124,8 +125,11 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL));
   PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s or g_v of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
   PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
+  PetscCall(PetscOptionsInt("-fit_checkpoint_every", "Write DIR/fit_checkpoint.h5 every this many iterations (0: only after each sample)", "VKFitRun", fit->checkpoint_every, &fit->checkpoint_every, NULL));
+  PetscCall(PetscOptionsInt("-fit_max_iterations", "Stop after this many iterations in all, with a checkpoint to go on from (0: no limit)", "VKFitRun", fit->max_iterations, &fit->max_iterations, NULL));
+  PetscCall(PetscOptionsBool("-fit_restart", "Go on from DIR/fit_checkpoint.h5 (sample frames and stages as the checkpoint has them)", "VKFitRun", fit->restart, &fit->restart, NULL));
   PetscCall(PetscOptionsBool("-fit_monitor", "Print every iteration of the schedule", "VKFitOptimize", fit->monitor, &fit->monitor, NULL));
-  PetscCall(PetscOptionsEnum("-fit_inertia", "Inertia in the equilibrium of a frame: implicit, M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2", "VKFitEquilibrium", VKFitInertias, (PetscEnum)fit->inertia, (PetscEnum *)&fit->inertia, NULL));
+  PetscCall(PetscOptionsEnum("-fit_inertia", "Inertia in the equilibrium of a frame: implicit, M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2; data, the data acceleration as a force; none, static", "VKFitEquilibrium", VKFitInertias, (PetscEnum)fit->inertia, (PetscEnum *)&fit->inertia, NULL));
   PetscOptionsEnd();
   PetscCheck(fit->eq_rtol > 0 && fit->eq_rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_rtol must be in (0, 1), got %g", (double)fit->eq_rtol);
   PetscCheck(fit->eq_newton_its >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_newton_its must be >= 1, got %d", (int)fit->eq_newton_its);
@@ -134,6 +138,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->kappa >= 0 && fit->kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_kappa must be >= 0, got %g", (double)fit->kappa);
   PetscCheck(fit->rtol >= 0 && fit->rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_rtol must be in [0, 1), got %g", (double)fit->rtol);
   PetscCheck(fit->max_halvings >= 0 && fit->max_pivots >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_max_halvings and -fit_max_pivots must be >= 0");
+  PetscCheck(fit->checkpoint_every >= 0 && fit->max_iterations >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_checkpoint_every and -fit_max_iterations must be >= 0, got %d and %d", (int)fit->checkpoint_every, (int)fit->max_iterations);
   PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
   if (set) {
     PetscCheck(nharm >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_harmonic needs a list of basis sizes, e.g. 1,10,30 (or 0 for none)");
@@ -155,7 +160,9 @@ PetscErrorCode VKFitSetUp(VKFit fit)
     PetscCall(VKCurvesBoundingBox(&fit->mesh->yarn->curves, lo, hi));
     PetscCall(VKSceneSetUp(fit->scene, lo, hi));
   }
+  PetscCheck(fit->inertia == VK_FIT_INERTIA_IMPLICIT || fit->scene->nhandles > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_inertia %s is a static equilibrium, which needs scene handles to hold the mesh (this scene has none); use -fit_inertia implicit", VKFitInertias[fit->inertia]);
   PetscCall(VKShapeFitSetUp(fit->sf));
+  PetscCall(VKPDSetStatic(fit->pd, fit->inertia == VK_FIT_INERTIA_IMPLICIT ? PETSC_FALSE : PETSC_TRUE));
   PetscCall(VKPDSetUp(fit->pd));
   PetscCall(VKMeshCreateNodeMat(fit->mesh, 3, &fit->H));
   PetscCall(VKMaterialCreateGammaJacobian(fit->mat, &fit->J));

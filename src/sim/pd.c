@@ -31,6 +31,7 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   pd->mat         = mat;
   pd->scene       = scene;
   pd->dt          = 1.0 / 150;
+  pd->inertia     = 1;
   pd->rtol        = 1e-2;
   pd->atol        = 0;
   pd->max_it      = 100;
@@ -85,6 +86,21 @@ PetscErrorCode VKPDSetTimeStep(VKPD pd, PetscReal dt)
   PetscCheck(dt > 0 && dt < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "The time step must be positive and finite, got %g", (double)dt);
   if (dt != pd->dt) pd->kset = PETSC_FALSE;
   pd->dt = dt;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetStatic(VKPD pd, PetscBool isstatic)
+{
+  PetscFunctionBegin;
+  if ((isstatic ? 0 : 1) != pd->inertia) pd->kset = PETSC_FALSE;
+  pd->inertia = isstatic ? 0 : 1;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetConstantForce(VKPD pd, Vec f)
+{
+  PetscFunctionBegin;
+  pd->fconst = f;
   PetscFunctionReturn(0);
 }
 
@@ -184,7 +200,7 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscCall(MatSetValuesLocal(pd->K, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, Ke, ADD_VALUES));
   }
   for (PetscInt i = L->nStart; i < L->nEnd; i++) {
-    PetscReal m = mesh->mass[i] / dt2;
+    PetscReal m = pd->inertia * mesh->mass[i] / dt2;
     PetscCall(MatSetValue(pd->K, i, i, m, ADD_VALUES));
   }
   PetscCall(MatAssemblyBegin(pd->K, MAT_FINAL_ASSEMBLY));

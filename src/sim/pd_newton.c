@@ -36,7 +36,7 @@ PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
   PetscCall(VKMaterialHessian(pd->mat, x, PETSC_FALSE, H));
   PetscCall(VecGetArray(pd->hdiag, &ma));
   for (PetscInt i = 0; i < nown; i++)
-    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
+    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
   PetscCall(VecRestoreArray(pd->hdiag, &ma));
   PetscCall(MatDiagonalSet(H, pd->hdiag, ADD_VALUES));
   PetscCall(VKPDGetEliminatedRows(pd, &n, &rows));

@@ -56,27 +56,29 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
   PetscFunctionReturn(0);
 }
 
-/* My = M y / dt^2 over owned nodes. */
+/* My = inertia M y / dt^2 + fconst over owned nodes. */
 static PetscErrorCode InertialTarget(VKPD pd, Vec y)
 {
-  const PetscScalar *ya;
+  const PetscScalar *ya, *fa = NULL;
   PetscScalar       *m;
   const VKLayout    *L = &pd->mesh->layout;
 
   PetscFunctionBegin;
   PetscCall(VecGetArrayRead(y, &ya));
+  if (pd->fconst) PetscCall(VecGetArrayRead(pd->fconst, &fa));
   PetscCall(VecGetArray(pd->My, &m));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) m[3 * i + r] = pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r];
+    for (int r = 0; r < 3; r++) m[3 * i + r] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r] + (fa ? fa[3 * i + r] : 0);
   PetscCall(VecRestoreArray(pd->My, &m));
+  if (pd->fconst) PetscCall(VecRestoreArrayRead(pd->fconst, &fa));
   PetscCall(VecRestoreArrayRead(y, &ya));
   PetscFunctionReturn(0);
 }
 
-/* 1/(2 dt^2) |x - y|^2_M */
+/* inertia/(2 dt^2) |x - y|^2_M - fconst . x */
 static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
 {
-  const PetscScalar *xa, *ya;
+  const PetscScalar *xa, *ya, *fa = NULL;
   const VKLayout    *L   = &pd->mesh->layout;
   VKSum              sum = {0, 0};
   PetscReal          mine;
@@ -84,11 +86,16 @@ static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
   PetscFunctionBegin;
   PetscCall(VecGetArrayRead(x, &xa));
   PetscCall(VecGetArrayRead(y, &ya));
+  if (pd->fconst) PetscCall(VecGetArrayRead(pd->fconst, &fa));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
-    PetscReal d2 = 0;
-    for (int r = 0; r < 3; r++) d2 += PetscSqr(xa[3 * i + r] - ya[3 * i + r]);
-    VKSumAdd(&sum, 0.5 * pd->mesh->mass[L->nStart + i] * d2 / (pd->dt * pd->dt));
+    PetscReal d2 = 0, fx = 0;
+    for (int r = 0; r < 3; r++) {
+      d2 += PetscSqr(xa[3 * i + r] - ya[3 * i + r]);
+      if (fa) fx += fa[3 * i + r] * xa[3 * i + r];
+    }
+    VKSumAdd(&sum, 0.5 * pd->inertia * pd->mesh->mass[L->nStart + i] * d2 / (pd->dt * pd->dt) - fx);
   }
+  if (pd->fconst) PetscCall(VecRestoreArrayRead(pd->fconst, &fa));
   PetscCall(VecRestoreArrayRead(y, &ya));
   PetscCall(VecRestoreArrayRead(x, &xa));
   mine = VKSumValue(&sum);
