@@ -264,7 +264,11 @@ PETSC_EXTERN PetscErrorCode VKFitAppendIterate(VKFit, const VKFitIterate *);
 
 /* ---- the whole fitting (run.c) ------------------------------------------ */
 /* Sample by sample (Eq. 22) over the frames VKFitDataSelect picks, starting
- * from the material's gamma; the averaged gamma is left in the material and
+ * from the material's gamma (or, with -fit_restart, from
+ * dir/fit_checkpoint.h5); the averaged gamma is left in the material and
  * written with the reports to dir: material.h5, material.xdmf, fit.csv,
- * fit.json, fit.png. */
+ * fit.json, fit.png.  A checkpoint is written after each sample and every
+ * -fit_checkpoint_every iterations and removed when the fit completes; a
+ * fit stopped by -fit_max_iterations returns with fit->stopped set and
+ * writes no material. */
 PETSC_EXTERN PetscErrorCode VKFitRun(VKFit, VKFitData, const char dir[]);

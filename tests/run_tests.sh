@@ -7,7 +7,10 @@
 #     fail with a non-zero status, no crash and no hang, print the expected
 #     message, and leave no file in its output directory;
 #  3. `volknit mesh` on the demo scene with 1 and 2 ranks, compared by
-#     tests/tool_compare_mesh (same mesh, masses, embedding, partition).
+#     tests/tool_compare_mesh (same mesh, masses, embedding, partition);
+#  4. the example programs;
+#  5. `volknit fit` with 1 and 2 ranks, stopped and restarted, killed and
+#     restarted, and with broken checkpoints (tests/tool_compare_material).
 # Ends with the line "N passed, M failed"; exit status 1 if M > 0.
 set -u
 cd "$(dirname "$0")/.."
@@ -114,6 +117,82 @@ for n in 1 2; do
   else not_ok "ex2_stretch -n $n: status $rc, width ratio '$ratio' (1.5 expected), sim.h5 written (see $log)"; fi
 done
 printf '%-22s       : examples ex1_chart_mesh, ex2_stretch with 1 and 2 ranks\n' "examples"
+
+# 5. volknit fit on a small yarn-level run (2 x 2 rib, stretch): 1 and 2
+#    ranks give the same material; a run stopped by -fit_max_iterations, or
+#    killed, leaves no material.h5 and goes on with -fit_restart (also on
+#    another rank count) to the material of the uninterrupted run; broken
+#    checkpoints are refused without a material.h5 written.
+fit_passed=$passed
+fit_failed=$failed
+fd="$out/fit"
+FIT_OPTS="-options_file options/stretch.opts -fit_gd_its 3 -fit_gn_its 5 -fit_harmonic 1,10"
+compare_material() { # a b rtol what
+  log="$fd/compare.$4.log"
+  bin/tests/tool_compare_material "$1" "$2" "$3" > "$log" 2>&1
+  rc=$?
+  p=$(grep -c '^ok ' "$log"); f=$(grep -c '^not ok ' "$log")
+  passed=$((passed + p)); failed=$((failed + f))
+  grep '^not ok' "$log" | sed "s|^|fit, $4: |"
+  if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then not_ok "fit, $4: tool_compare_material exited with status $rc (see $log)"; fi
+}
+fit_dir() { # name -> a fresh directory with the reference run's mesh.h5 and yls.h5
+  rm -rf "${fd:?}/$1"; mkdir -p "$fd/$1"; cp "$fd/ref/mesh.h5" "$fd/ref/yls.h5" "$fd/$1/"
+}
+fit_run() { # name ranks [options]: volknit fit in $fd/name, log in $fd/name.log
+  d=$1; n=$2; shift 2
+  # shellcheck disable=SC2086
+  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit fit -o "$fd/$d" $FIT_OPTS "$@" > "$fd/$d.log" 2>&1
+}
+mkdir -p "$fd"
+if timeout "$TIMEOUT" bin/volknit run -run_reference -o "$fd/ref" -options_file options/stretch.opts -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -scene_duration 0.1 > "$fd/ref.log" 2>&1; then
+  for n in 1 2; do
+    fit_dir "n$n"
+    if fit_run "n$n" "$n" && [ -s "$fd/n$n/material.h5" ] && [ -s "$fd/n$n/fit.csv" ] && [ -s "$fd/n$n/fit.json" ] && [ ! -e "$fd/n$n/fit_checkpoint.h5" ]; then ok
+    else not_ok "volknit fit -n $n: failed, an output missing, or the checkpoint left behind (see $fd/n$n.log)"; fi
+  done
+  compare_material "$fd/n1/material.h5" "$fd/n2/material.h5" 1e-5 "1 vs 2 ranks"
+  # stopped, then restarted: with the same rank count, and with the other
+  for case in "1 1 1e-7" "2 1 1e-5"; do
+    set -- $case
+    d="stop.n$1.n$2"; fit_dir "$d"
+    fit_run "$d" "$1" -fit_max_iterations 9 -fit_checkpoint_every 4
+    rc=$?
+    if [ "$rc" -eq 0 ] && [ ! -e "$fd/$d/material.h5" ] && [ -s "$fd/$d/fit_checkpoint.h5" ] && grep -q 'stopped after 9 iterations' "$fd/$d.log"; then ok
+    else not_ok "fit -n $1 -fit_max_iterations 9: status $rc, expected a checkpoint, no material.h5 (see $fd/$d.log)"; fi
+    mv "$fd/$d.log" "$fd/$d.first.log"
+    cp "$fd/$d/fit_checkpoint.h5" "$fd/checkpoint.$d.h5" 2> /dev/null
+    if fit_run "$d" "$2" -fit_restart && grep -q 'resuming' "$fd/$d.log"; then compare_material "$fd/n$2/material.h5" "$fd/$d/material.h5" "$3" "stopped on $1 rank(s), restarted on $2"
+    else not_ok "fit -n $2 -fit_restart after a stop on $1 rank(s) failed (see $fd/$d.log)"; fi
+  done
+  # killed (SIGKILL) once a checkpoint exists: no material.h5, and the restart still gets there
+  d="killed"; fit_dir "$d"
+  # shellcheck disable=SC2086
+  bin/volknit fit -o "$fd/$d" $FIT_OPTS -fit_checkpoint_every 1 > "$fd/$d.first.log" 2>&1 &
+  pid=$!
+  for _ in $(seq 1 600); do [ -e "$fd/$d/fit_checkpoint.h5" ] && break; sleep 0.05; done
+  kill -9 "$pid" 2> /dev/null; wait "$pid" 2> /dev/null
+  if [ ! -e "$fd/$d/material.h5" ] && [ -e "$fd/$d/fit_checkpoint.h5" ]; then ok
+  else not_ok "fit killed after its first checkpoint: expected the checkpoint and no material.h5 (see $fd/$d.first.log)"; fi
+  if fit_run "$d" 1 -fit_restart; then compare_material "$fd/n1/material.h5" "$fd/$d/material.h5" 1e-7 "killed, restarted"
+  else not_ok "fit -fit_restart after a kill failed (see $fd/$d.log)"; fi
+  # broken checkpoints: refused with a message, no material.h5
+  for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint"; do
+    kind=${case%%:*}; expect=${case#*:}
+    d="broken.$kind"; fit_dir "$d"
+    case "$kind" in
+      truncated) head -c 3000 "$fd/checkpoint.stop.n1.n1.h5" > "$fd/$d/fit_checkpoint.h5" ;;
+      other) cp "$fd/ref/yls.h5" "$fd/$d/fit_checkpoint.h5" ;;
+    esac
+    fit_run "$d" 2 -fit_restart
+    rc=$?
+    if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q "$expect" "$fd/$d.log" && [ ! -e "$fd/$d/material.h5" ] && ! grep -qiE 'segmentation|caught signal' "$fd/$d.log"; then ok
+    else not_ok "fit -fit_restart with a $kind checkpoint: status $rc, message '$expect', no material.h5 expected (see $fd/$d.log)"; fi
+  done
+else
+  not_ok "the reference run for the fit tests failed (see $fd/ref.log)"
+fi
+printf '%-22s       : %4d passed, %d failed\n' "fit command" "$((passed - fit_passed))" "$((failed - fit_failed))"
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

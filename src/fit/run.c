@@ -11,13 +11,14 @@
  *                  equilibrium residual, wall time)
  *   fit.json       samples, losses, iterations and the split of time
  *   fit.png        loss against iteration and against wall time, GD and
- *                  GN marked (gnuplot, when installed). */
+ *                  GN marked (gnuplot, when installed)
+ * and, while the fit runs, fit_checkpoint.h5 (checkpoint.c): written after
+ * each sample and every -fit_checkpoint_every iterations, read by
+ * -fit_restart, removed once material.h5 is written. */
 #include <vkfit.h>
 #include <vkio.h>
 #include <vkutil.h>
 #include <vklog.h>
-
-#define MAX_SAMPLES 256
 
 /* xhat and eps(xhat) of yarn frame k. */
 static PetscErrorCode FrameTarget(VKFit fit, VKFitData data, PetscInt k, PetscReal xy[], PetscReal n1[], PetscReal Fhat[], Vec xhat, PetscReal *eps)
@@ -176,55 +177,87 @@ static PetscErrorCode Plot(VKFit fit, const char dir[])
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
+/* The frame's first and last loss in the history. */
+static void SampleLosses(VKFit fit, PetscInt frame, PetscReal *l0, PetscReal *l1, PetscInt *its)
 {
-  PetscInt       samples[MAX_SAMPLES], ns, rmax = 0;
-  PetscReal      dt, w = 0, loss0[MAX_SAMPLES], loss1[MAX_SAMPLES];
-  Vec            gamma, avg;
+  *l0 = *l1 = NAN;
+  *its      = 0;
+  for (PetscInt i = 0; i < fit->nhist; i++)
+    if (fit->hist[i].sample == frame) {
+      if (PetscIsNanReal(*l0)) *l0 = fit->hist[i].loss;
+      *l1 = fit->hist[i].loss;
+      if (fit->hist[i].iteration > 0) (*its)++;
+    }
+}
+
+typedef struct {
+  VKFitState st;
+  char       path[PETSC_MAX_PATH_LEN];
+} RunCtx;
+
+/* The schedule's checkpoint hook: the place to go on from, then the file. */
+static PetscErrorCode Checkpoint(VKFit fit, PetscInt phase, PetscInt iteration, void *ctx)
+{
+  RunCtx *c = (RunCtx *)ctx;
+
+  PetscFunctionBegin;
+  c->st.phase     = phase;
+  c->st.iteration = iteration;
+  c->st.wall      = VKWallTime() - fit->wall0;
+  PetscCall(VKFitCheckpointWrite(fit, c->path, &c->st));
+  if (fit->monitor) PetscCall(PetscPrintf(fit->comm, "  fit checkpoint after %d iterations -> %s\n", (int)fit->nits, c->path));
+  PetscFunctionReturn(0);
+}
+
+/* A new run's plan: the sample frames and the stages (harmonic sizes
+ * below the tet count, then 0 for every parameter), from the start
+ * material. */
+static PetscErrorCode Plan(VKFit fit, VKFitData data, VKFitState *st)
+{
+  PetscFunctionBegin;
+  PetscCall(VKFitDataSelect(data, &st->ns, st->samples, VK_FIT_MAX_SAMPLES));
+  st->nstages = 0;
+  for (PetscInt h = 0; h < fit->nharm; h++)
+    if (fit->harm_r[h] < fit->mesh->ne) st->stages[st->nstages++] = fit->harm_r[h];
+  st->stages[st->nstages++] = 0;
+  PetscCall(VKFitGetGamma(fit, st->avg));
+  PetscCall(VKFitSetGammaFloor(fit, st->avg));
+  st->sample = st->stage = st->iteration = 0;
+  st->phase  = -1;
+  st->weight = 0;
+  fit->nhist = fit->nits = 0;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Resume(VKFit fit, VKFitData data, VKFitState *st, const char path[])
+{
+  PetscBool exists;
+
+  PetscFunctionBegin;
+  PetscCall(VKFileExists(fit->comm, path, &exists));
+  PetscCheck(exists, fit->comm, PETSC_ERR_FILE_OPEN, "-fit_restart: no checkpoint %s (a fit writes it after each sample and every -fit_checkpoint_every iterations)", path);
+  PetscCall(VKFitCheckpointRead(fit, path, st));
+  for (PetscInt s = 0; s < st->ns; s++) PetscCheck(st->samples[s] >= 0 && st->samples[s] < data->nframes, fit->comm, PETSC_ERR_FILE_UNEXPECTED, "%s names sample frame %d; %s has %d frames", path, (int)st->samples[s], data->path, (int)data->nframes);
+  if (st->sample < st->ns) PetscCall(PetscPrintf(fit->comm, "volknit fit: resuming %s at sample %d of %d (frame %d), stage r = %d (0: full), %s iteration %d, after %d iterations\n", path, (int)(st->sample + 1), (int)st->ns, (int)st->samples[st->sample], (int)st->stages[st->stage], st->phase < 0 ? "first" : st->phase == VK_FIT_PHASE_DONE ? "after the last" : VKFitMethods[st->phase], (int)st->iteration, (int)fit->nits));
+  else PetscCall(PetscPrintf(fit->comm, "volknit fit: %s holds a finished fit; writing its outputs\n", path));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *st, const char dir[], PetscLogDouble total)
+{
   char           path[PETSC_MAX_PATH_LEN];
-  PetscLogDouble t0 = VKWallTime();
+  PetscReal      loss0[VK_FIT_MAX_SAMPLES], loss1[VK_FIT_MAX_SAMPLES];
+  PetscInt       its;
   Summary        sum;
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
-  PetscCall(VKFitDataTimeStep(data, &dt));
-  PetscCall(VKFitSetTimeStep(fit, dt));
-  PetscCall(VKFitDataSelect(data, &ns, samples, MAX_SAMPLES));
-  PetscCall(VKFitSetUp(fit));
-  PetscCall(VKFitCreateGammaVec(fit, &gamma));
-  PetscCall(VecDuplicate(gamma, &avg));
-  PetscCall(VKFitGetGamma(fit, avg));
-  PetscCall(VKFitSetGammaFloor(fit, avg));
-  for (PetscInt s = 0; s < fit->nharm; s++) rmax = PetscMax(rmax, fit->harm_r[s]);
-  if (rmax) PetscCall(VKFitHarmonicSetUp(fit, PetscMin(rmax, fit->mesh->ne)));
-  fit->wall0 = t0;
-  PetscCall(PetscPrintf(fit->comm, "volknit fit: %d sample frame%s of %s (frame interval %g s), %d parameters\n", (int)ns, ns > 1 ? "s" : "", data->path, (double)dt, (int)(2 * fit->mesh->ne)));
-  for (PetscInt s = 0; s < ns; s++) {
-    VKFitFrame f;
-    PetscInt   first = fit->nhist;
-    fit->sample      = samples[s];
-    PetscCall(SampleFrame(fit, data, samples[s], &f));
-    PetscCall(VecCopy(avg, gamma));
-    for (PetscInt h = 0; h < fit->nharm; h++)
-      if (fit->harm_r[h] < fit->mesh->ne) PetscCall(VKFitOptimize(fit, &f, fit->harm_r[h], gamma));
-    PetscCall(VKFitOptimize(fit, &f, 0, gamma));
-    loss0[s] = fit->hist[first].loss;
-    loss1[s] = fit->hist[fit->nhist - 1].loss;
-    if (s == 0 || !(w + f.weight > 0)) { /* the first sample, or no energy to weigh by */
-      if (s == 0) PetscCall(VecCopy(gamma, avg));
-      else PetscCall(VecAXPBY(avg, 1.0 / (s + 1), (PetscReal)s / (s + 1), gamma));
-    } else PetscCall(VecAXPBY(avg, f.weight / (w + f.weight), w / (w + f.weight), gamma));
-    w = PetscMax(w, f.weight);
-    PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e in %d iterations (%.1f s)\n", (int)samples[s], (double)f.t, (double)f.weight, (double)loss0[s], (double)loss1[s], (int)(fit->nhist - first - 1), VKWallTime() - t0));
-    PetscCall(VKFitFrameDestroy(&f));
-  }
-  PetscCall(VKFitSetGamma(fit, avg));
-  PetscCall(VKMakeDirectory(fit->comm, dir));
+  for (PetscInt s = 0; s < st->ns; s++) SampleLosses(fit, st->samples[s], &loss0[s], &loss1[s], &its);
   PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
   PetscCall(VKMaterialWriteH5(fit->mat, path));
-  sum = (Summary){fit, data, ns, samples, loss0, loss1, VKWallTime() - t0};
+  sum = (Summary){fit, data, st->ns, (PetscInt *)st->samples, loss0, loss1, total};
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));
     ierr = VKOutputWrite(path, PETSC_TRUE, WriteXdmf, fit->mesh);
@@ -239,8 +272,80 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
   }
   PetscCall(VKCollective(fit->comm, ierr, dir));
   PetscCall(Plot(fit, dir));
-  PetscCall(PetscPrintf(fit->comm, "volknit fit: %d iterations, equilibrium %.1f s, adjoint %.1f s, KKT %.1f s, eigensolves %.1f s, total %.1f s -> %s/material.h5\n", (int)fit->nhist, fit->time_eq, fit->time_adjoint, fit->time_kkt, fit->time_eigen, VKWallTime() - t0, dir));
-  PetscCall(VecDestroy(&gamma));
-  PetscCall(VecDestroy(&avg));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
+{
+  PetscInt       rmax = 0;
+  PetscReal      dt;
+  Vec            xread = NULL;
+  PetscLogDouble t0 = VKWallTime();
+  RunCtx         c;
+  VKFitState    *st = &c.st;
+  PetscMPIInt    rank;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
+  PetscCall(VKFitDataTimeStep(data, &dt));
+  PetscCall(VKFitSetTimeStep(fit, dt));
+  PetscCall(VKFitSetUp(fit));
+  PetscCall(PetscMemzero(&c, sizeof(c)));
+  PetscCall(VKFitCreateGammaVec(fit, &st->gamma));
+  PetscCall(VecDuplicate(st->gamma, &st->avg));
+  PetscCall(VKMakeDirectory(fit->comm, dir));
+  PetscCall(VKPathJoin(dir, "fit_checkpoint.h5", c.path, sizeof(c.path)));
+  fit->stopped = PETSC_FALSE;
+  if (fit->restart) {
+    PetscCall(VecDuplicate(fit->rhs, &xread));
+    st->x = xread;
+    PetscCall(Resume(fit, data, st, c.path));
+  } else PetscCall(Plan(fit, data, st));
+  fit->wall0 = t0 - st->wall;
+  for (PetscInt k = 0; k < st->nstages; k++) rmax = PetscMax(rmax, st->stages[k]);
+  if (rmax) PetscCall(VKFitHarmonicSetUp(fit, rmax));
+  fit->checkpoint     = Checkpoint;
+  fit->checkpoint_ctx = &c;
+  if (st->sample < st->ns) PetscCall(PetscPrintf(fit->comm, "volknit fit: %d sample frame%s of %s (frame interval %g s), %d parameters\n", (int)st->ns, st->ns > 1 ? "s" : "", data->path, (double)dt, (int)(2 * fit->mesh->ne)));
+  for (; st->sample < st->ns && !fit->stopped; st->sample++) {
+    PetscInt   frame = st->samples[st->sample], its;
+    PetscReal  l0, l1, w = st->weight;
+    VKFitFrame f;
+    fit->sample = frame;
+    PetscCall(SampleFrame(fit, data, frame, &f));
+    if (st->phase >= 0) { /* a restart inside this sample */
+      PetscCall(VecCopy(xread, f.x));
+      fit->resume           = PETSC_TRUE;
+      fit->resume_phase     = st->phase;
+      fit->resume_iteration = st->iteration;
+    } else {
+      PetscCall(VecCopy(st->avg, st->gamma));
+      st->stage = 0;
+    }
+    st->x = f.x;
+    for (; st->stage < st->nstages && !fit->stopped; st->stage++) PetscCall(VKFitOptimize(fit, &f, st->stages[st->stage], st->gamma));
+    if (!fit->stopped) { /* Eq. 22; the first sample, or no energy to weigh by: plain mean */
+      if (st->sample == 0) PetscCall(VecCopy(st->gamma, st->avg));
+      else if (!(w + f.weight > 0)) PetscCall(VecAXPBY(st->avg, 1.0 / (st->sample + 1), (PetscReal)st->sample / (st->sample + 1), st->gamma));
+      else PetscCall(VecAXPBY(st->avg, f.weight / (w + f.weight), w / (w + f.weight), st->gamma));
+      st->weight = PetscMax(w, f.weight);
+      SampleLosses(fit, frame, &l0, &l1, &its);
+      PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e in %d iterations (%.1f s)\n", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (int)its, VKWallTime() - fit->wall0));
+      PetscCall(Checkpoint(fit, -1, 0, &c)); /* the next sample from its start */
+    }
+    PetscCall(VKFitFrameDestroy(&f));
+    if (!fit->stopped) st->stage = 0;
+  }
+  if (fit->stopped) PetscCall(PetscPrintf(fit->comm, "volknit fit: stopped after %d iterations (-fit_max_iterations %d); the state is in %s, go on with -fit_restart (no material.h5 written)\n", (int)fit->nits, (int)fit->max_iterations, c.path));
+  else {
+    PetscCall(VKFitSetGamma(fit, st->avg));
+    PetscCall(WriteOutputs(fit, data, st, dir, VKWallTime() - fit->wall0));
+    if (!rank) (void)remove(c.path); /* the fit is done: material.h5 is its result */
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: %d iterations, equilibrium %.1f s, adjoint %.1f s, KKT %.1f s, eigensolves %.1f s, total %.1f s -> %s/material.h5\n", (int)fit->nits, fit->time_eq, fit->time_adjoint, fit->time_kkt, fit->time_eigen, VKWallTime() - fit->wall0, dir));
+  }
+  fit->checkpoint = NULL;
+  PetscCall(VecDestroy(&st->gamma));
+  PetscCall(VecDestroy(&st->avg));
+  PetscCall(VecDestroy(&xread));
   PetscFunctionReturn(0);
 }

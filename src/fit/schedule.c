@@ -18,7 +18,12 @@
  * parameters at the floor whose gradient pushes down are frozen (d = 0);
  * when the projected Gauss-Newton step no longer descends, the parameter
  * that would go most negative is pivoted out (frozen) and the KKT system
- * solved again.  In a harmonic space a trial below the floor is halved. */
+ * solved again.  In a harmonic space a trial below the floor is halved.
+ *
+ * Checkpoints: after every fit->checkpoint_every accepted iterations (and
+ * at the -fit_max_iterations stop) the caller's hook records where a
+ * restart goes on (phase, next iteration); a restart (fit->resume) skips
+ * the stage's start and goes on there from the restored gamma and x. */
 #include <vkfit.h>
 #include <vkutil.h>
 
@@ -52,11 +57,8 @@ PetscErrorCode VKFitSetGammaFloor(VKFit fit, Vec gamma)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal step)
+PetscErrorCode VKFitAppendIterate(VKFit fit, const VKFitIterate *it)
 {
-  VKFit         fit = o->fit;
-  VKFitIterate *h;
-
   PetscFunctionBegin;
   if (fit->nhist == fit->maxhist) {
     VKFitIterate *more;
@@ -66,16 +68,19 @@ static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal 
     PetscCall(PetscFree(fit->hist));
     fit->hist = more;
   }
-  h              = &fit->hist[fit->nhist++];
-  h->sample      = fit->sample;
-  h->stage       = o->r;
-  h->method      = method;
-  h->iteration   = it;
-  h->loss        = o->loss;
-  h->gnorm       = o->gnorm;
-  h->step        = step;
-  h->eq_residual = o->eq_residual;
-  h->wall        = VKWallTime() - fit->wall0;
+  fit->hist[fit->nhist++] = *it;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal step)
+{
+  VKFit         fit = o->fit;
+  VKFitIterate *h, rec = {fit->sample, o->r, it, method, o->loss, o->gnorm, step, o->eq_residual, VKWallTime() - fit->wall0};
+
+  PetscFunctionBegin;
+  PetscCall(VKFitAppendIterate(fit, &rec));
+  h = &fit->hist[fit->nhist - 1];
+  if (it > 0) fit->nits++;
   if (fit->monitor) PetscCall(PetscPrintf(fit->comm, "  fit sample %d %s%-3d %s %3d loss %.6e |grad| %.3e step %.3e |g|/scale %.1e\n", (int)h->sample, o->r ? "r=" : "full", o->r ? (int)o->r : 0, VKFitMethods[method], (int)it, (double)h->loss, (double)h->gnorm, (double)step, (double)h->eq_residual));
   PetscFunctionReturn(0);
 }
@@ -226,15 +231,32 @@ static PetscErrorCode FullGaussNewton(Opt *o, PetscReal kappa)
   PetscFunctionReturn(0);
 }
 
-/* One phase (GD or GN) of up to `its` iterations. */
-static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt its)
+/* After accepted iteration `it` of a phase (`last`: the phase ends there):
+ * stop at the iteration limit, and checkpoint with the place to go on from. */
+static PetscErrorCode AfterIteration(Opt *o, VKFitMethod method, PetscInt it, PetscBool last)
+{
+  VKFit    fit   = o->fit;
+  PetscInt phase = method, next = it + 1;
+
+  PetscFunctionBegin;
+  if (last) {
+    phase = method == VK_FIT_GD ? VK_FIT_PHASE_GN : VK_FIT_PHASE_DONE;
+    next  = 1;
+  }
+  if (fit->max_iterations && fit->nits >= fit->max_iterations) fit->stopped = PETSC_TRUE;
+  if (fit->checkpoint && (fit->stopped || (fit->checkpoint_every && fit->nits % fit->checkpoint_every == 0))) PetscCall(fit->checkpoint(fit, phase, next, fit->checkpoint_ctx));
+  PetscFunctionReturn(0);
+}
+
+/* One phase (GD or GN): iterations first..its. */
+static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt its)
 {
   VKFit fit = o->fit;
 
   PetscFunctionBegin;
-  for (PetscInt it = 1; it <= its; it++) {
+  for (PetscInt it = first; it <= its && !fit->stopped; it++) {
     PetscReal    s, gnorm_gamma, dn = 0, loss_old = o->loss;
-    PetscBool    accepted = PETSC_FALSE;
+    PetscBool    accepted = PETSC_FALSE, stalled;
     VKFitEqStats st;
 
     PetscCall(VecNorm(o->gamma, NORM_2, &gnorm_gamma));
@@ -283,14 +305,17 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt its)
     }
     PetscCall(Gradient(o));
     PetscCall(Record(o, method, it, s * dn));
-    if (loss_old - o->loss < fit->rtol * loss_old) break;
+    stalled = loss_old - o->loss < fit->rtol * loss_old ? PETSC_TRUE : PETSC_FALSE;
+    PetscCall(AfterIteration(o, method, it, stalled || it == its ? PETSC_TRUE : PETSC_FALSE));
+    if (stalled) break;
   }
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
 {
-  Opt          o = {0};
+  Opt          o     = {0};
+  PetscInt     phase = VK_FIT_PHASE_GD, first = 1;
   VKFitEqStats st;
 
   PetscFunctionBegin;
@@ -317,9 +342,16 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
   PetscCall(VKFitEquilibrium(fit, f, &st));
   o.eq_residual = st.residual / f->scale;
   PetscCall(Gradient(&o));
-  PetscCall(Record(&o, fit->gd_its ? VK_FIT_GD : VK_FIT_GN, 0, 0));
-  PetscCall(Phase(&o, VK_FIT_GD, fit->gd_its));
-  PetscCall(Phase(&o, VK_FIT_GN, fit->gn_its));
+  if (fit->resume) { /* a restart goes on where its checkpoint was written */
+    phase       = fit->resume_phase;
+    first       = fit->resume_iteration;
+    fit->resume = PETSC_FALSE;
+  } else PetscCall(Record(&o, fit->gd_its ? VK_FIT_GD : VK_FIT_GN, 0, 0));
+  if (phase == VK_FIT_PHASE_GD) {
+    PetscCall(Phase(&o, VK_FIT_GD, first, fit->gd_its));
+    first = 1;
+  }
+  if (phase != VK_FIT_PHASE_DONE) PetscCall(Phase(&o, VK_FIT_GN, first, fit->gn_its));
   if (r) {
     PetscCall(PetscFree3(o.gq, o.dq, o.work));
     PetscCall(VecDestroyVecs(2 * r, &o.Z));

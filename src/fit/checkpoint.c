@@ -1,0 +1,225 @@
+/* checkpoint.c: the state of a fitting run on disk (DESIGN §8), so a fit
+ * stopped by a job's time limit, a crash or -fit_max_iterations goes on
+ * with -fit_restart to the gamma an uninterrupted run reaches.
+ *
+ * DIR/fit_checkpoint.h5, group /checkpoint:
+ *   attributes  format "volknit-fit-checkpoint 1"; the mesh it belongs to
+ *               (tets, nodes, domains, a fingerprint of the connectivity);
+ *               where to go on: sample (index into samples), stage (index
+ *               into stages), phase (-1: the stage not begun, else
+ *               VK_FIT_PHASE_GD/GN/DONE) and the next iteration; the Eq. 22
+ *               weight so far, the floors, the accepted iteration count,
+ *               the elapsed wall time and its split
+ *   samples     the sample frames (rows), stages the basis sizes r (0: full)
+ *   average     g_s, g_v per tet: the average of the finished samples
+ *   gamma, x    the current gamma and equilibrium of the sample in
+ *               progress (only when phase >= 0)
+ *   history     every iteration so far, the columns of fit.csv
+ * Rows are in the mesh's global numbering, which mesh.h5 fixes by its
+ * domains, so a restart may use another number of ranks.  The file is
+ * written under a temporary name and renamed (VKOutputWrite), so an
+ * interrupted write leaves the previous checkpoint intact. */
+#include <vkfit.h>
+#include <vkio.h>
+#include <vkutil.h>
+
+#define CHECKPOINT_FORMAT "volknit-fit-checkpoint 1"
+#define HIST_COLS         9
+
+/* Connectivity fingerprint: exact in double for any mesh we can hold. */
+static PetscReal Fingerprint(VKMesh m)
+{
+  PetscReal s = 0;
+
+  for (PetscInt e = 0; e < m->ne; e++) s += (PetscReal)(e % 1000 + 1) * (PetscReal)(m->tet[4 * e] + 2 * m->tet[4 * e + 1] + 3 * m->tet[4 * e + 2] + 4 * m->tet[4 * e + 3]);
+  return s;
+}
+
+/* The whole of v in global order on rank 0 (*all NULL elsewhere). */
+static PetscErrorCode GatherToZero(Vec v, Vec *seq, const PetscScalar **all)
+{
+  VecScatter sc;
+
+  PetscFunctionBegin;
+  PetscCall(VecScatterCreateToZero(v, &sc, seq));
+  PetscCall(VecScatterBegin(sc, v, *seq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, v, *seq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterDestroy(&sc));
+  PetscCall(VecGetArrayRead(*seq, all));
+  PetscFunctionReturn(0);
+}
+
+typedef struct {
+  VKFit              fit;
+  const VKFitState  *st;
+  const PetscScalar *avg, *gamma, *x;
+} WriteCtx;
+
+static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
+{
+  WriteCtx         *w   = (WriteCtx *)ctx;
+  VKFit             fit = w->fit;
+  const VKFitState *st  = w->st;
+  VKH5              h;
+  PetscReal        *hist;
+  PetscErrorCode    ierr;
+  const char       *g   = "/checkpoint";
+  struct {
+    const char *name;
+    PetscReal   v;
+  } reals[] = {{"weight", st->weight}, {"gamma_min_s", fit->gamma_min[0]}, {"gamma_min_v", fit->gamma_min[1]}, {"fingerprint", Fingerprint(fit->mesh)}, {"wall", st->wall}, {"time_equilibrium", fit->time_eq}, {"time_adjoint", fit->time_adjoint}, {"time_kkt", fit->time_kkt}, {"time_eigensolves", fit->time_eigen}};
+  struct {
+    const char *name;
+    PetscInt    v;
+  } ints[] = {{"tets", fit->mesh->ne}, {"nodes", fit->mesh->nv}, {"domains", fit->mesh->ndomains}, {"sample", st->sample}, {"stage", st->stage}, {"phase", st->phase}, {"iteration", st->iteration}, {"iterations", fit->nits}};
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(HIST_COLS * fit->nhist + 1, &hist));
+  for (PetscInt i = 0; i < fit->nhist; i++) {
+    const VKFitIterate *it = &fit->hist[i];
+    PetscReal           row[HIST_COLS] = {it->sample, it->stage, it->method, it->iteration, it->loss, it->gnorm, it->step, it->eq_residual, it->wall};
+    PetscCall(PetscArraycpy(hist + HIST_COLS * i, row, HIST_COLS));
+  }
+  PetscCall(VKH5Create(out->tmp, &h));
+  ierr = VKH5WriteInt(&h, "/checkpoint/samples", st->ns, 1, st->samples);
+  if (!ierr) ierr = VKH5WriteInt(&h, "/checkpoint/stages", st->nstages, 1, st->stages);
+  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/average", fit->mesh->ne, 2, w->avg);
+  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", fit->mesh->ne, 2, w->gamma);
+  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/x", fit->mesh->nv, 3, w->x);
+  if (!ierr && fit->nhist) ierr = VKH5WriteReal(&h, "/checkpoint/history", fit->nhist, HIST_COLS, hist);
+  if (!ierr) ierr = VKH5WriteAttrString(&h, g, "format", CHECKPOINT_FORMAT);
+  for (size_t i = 0; i < sizeof(reals) / sizeof(reals[0]) && !ierr; i++) ierr = VKH5WriteAttrReal(&h, g, reals[i].name, reals[i].v);
+  for (size_t i = 0; i < sizeof(ints) / sizeof(ints[0]) && !ierr; i++) ierr = VKH5WriteAttrInt(&h, g, ints[i].name, ints[i].v);
+  {
+    PetscErrorCode cerr = VKH5Close(&h);
+    if (!ierr) ierr = cerr;
+  }
+  PetscCall(PetscFree(hist));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitCheckpointWrite(VKFit fit, const char path[], const VKFitState *st)
+{
+  WriteCtx       w = {fit, st, NULL, NULL, NULL};
+  Vec            sa = NULL, sg = NULL, sx = NULL;
+  PetscMPIInt    rank;
+  PetscErrorCode ierr = 0;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
+  PetscCall(GatherToZero(st->avg, &sa, &w.avg));
+  if (st->phase >= 0) {
+    PetscCall(GatherToZero(st->gamma, &sg, &w.gamma));
+    PetscCall(GatherToZero(st->x, &sx, &w.x));
+  }
+  if (rank == 0) ierr = VKOutputWrite(path, PETSC_FALSE, WriteCheckpoint, &w);
+  PetscCall(VecRestoreArrayRead(sa, &w.avg));
+  PetscCall(VecDestroy(&sa));
+  if (sg) {
+    PetscCall(VecRestoreArrayRead(sg, &w.gamma));
+    PetscCall(VecRestoreArrayRead(sx, &w.x));
+  }
+  PetscCall(VecDestroy(&sg));
+  PetscCall(VecDestroy(&sx));
+  PetscCall(VKCollective(fit->comm, ierr, path));
+  PetscFunctionReturn(0);
+}
+
+#define BAD(...) PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, __VA_ARGS__)
+
+/* This rank's rows of a replicated (rows x cols) array into v, checked
+ * finite (and non-negative when nonneg). */
+static PetscErrorCode TakeOwned(const char path[], const char name[], const PetscReal all[], PetscBool nonneg, Vec v)
+{
+  PetscInt     lo, hi;
+  PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetOwnershipRange(v, &lo, &hi));
+  PetscCall(VecGetArray(v, &a));
+  for (PetscInt i = lo; i < hi; i++) a[i - lo] = all[i];
+  PetscCall(VecRestoreArray(v, &a));
+  PetscCall(VecGetSize(v, &hi));
+  for (PetscInt i = 0; i < hi; i++) PetscCheck(isfinite(all[i]) && (!nonneg || all[i] >= 0), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: /checkpoint/%s holds %g at entry %d", path, name, (double)all[i], (int)i);
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *st)
+{
+  VKMesh     m = fit->mesh;
+  VKH5       h;
+  char       format[64];
+  PetscInt   ne, nv, nd, rows, *samples = NULL, *stages = NULL;
+  PetscReal  fp, *avg = NULL, *gamma = NULL, *x = NULL, *hist = NULL;
+  PetscErrorCode ierr;
+  const char *g = "/checkpoint";
+
+  PetscFunctionBegin;
+  PetscCall(VKH5Open(path, &h));
+  ierr = VKH5ReadAttrString(&h, g, "format", format, sizeof(format));
+  if (!ierr && strcmp(format, CHECKPOINT_FORMAT)) ierr = BAD("%s: format '%s', expected '%s'", path, format, CHECKPOINT_FORMAT);
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "tets", &ne);
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "nodes", &nv);
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "domains", &nd);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "fingerprint", &fp);
+  if (!ierr && !(ne == m->ne && nv == m->nv && nd == m->ndomains && fp == Fingerprint(m))) ierr = BAD("%s belongs to another mesh (%d tets, %d nodes, %d domains; this one has %d, %d, %d%s)", path, (int)ne, (int)nv, (int)nd, (int)m->ne, (int)m->nv, (int)m->ndomains, ne == m->ne && nv == m->nv && nd == m->ndomains ? ", numbered differently" : "");
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "sample", &st->sample);
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "stage", &st->stage);
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "phase", &st->phase);
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "iteration", &st->iteration);
+  if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "iterations", &fit->nits);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "weight", &st->weight);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_min_s", &fit->gamma_min[0]);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_min_v", &fit->gamma_min[1]);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "wall", &st->wall);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_equilibrium", &fit->time_eq);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_adjoint", &fit->time_adjoint);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_kkt", &fit->time_kkt);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_eigensolves", &fit->time_eigen);
+  if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/samples", 1, &st->ns, &samples);
+  if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/stages", 1, &st->nstages, &stages);
+  if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/average", 2, &rows, &avg);
+  if (!ierr && rows != ne) ierr = BAD("%s: /checkpoint/average has %d rows for %d tets", path, (int)rows, (int)ne);
+  if (!ierr && !(st->ns >= 1 && st->ns <= VK_FIT_MAX_SAMPLES && st->nstages >= 1 && st->nstages <= VK_FIT_MAX_STAGES && st->sample >= 0 && st->sample <= st->ns && st->stage >= 0 && st->stage < st->nstages && st->phase >= -1 && st->phase <= VK_FIT_PHASE_DONE && st->iteration >= 0 && fit->nits >= 0 && st->weight >= 0 && fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && st->wall >= 0))
+    ierr = BAD("%s: inconsistent position (sample %d of %d, stage %d of %d, phase %d, iteration %d) or totals", path, (int)st->sample, (int)st->ns, (int)st->stage, (int)st->nstages, (int)st->phase, (int)st->iteration);
+  if (!ierr && st->phase >= 0) ierr = VKH5ReadReal(&h, "/checkpoint/gamma", 2, &rows, &gamma);
+  if (!ierr && st->phase >= 0 && rows != ne) ierr = BAD("%s: /checkpoint/gamma has %d rows for %d tets", path, (int)rows, (int)ne);
+  if (!ierr && st->phase >= 0) ierr = VKH5ReadReal(&h, "/checkpoint/x", 3, &rows, &x);
+  if (!ierr && st->phase >= 0 && rows != nv) ierr = BAD("%s: /checkpoint/x has %d rows for %d nodes", path, (int)rows, (int)nv);
+  if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/history", HIST_COLS, &rows, &hist);
+  VKH5Close(&h);
+  if (!ierr) {
+    PetscCall(PetscArraycpy(st->samples, samples, st->ns));
+    PetscCall(PetscArraycpy(st->stages, stages, st->nstages));
+    for (PetscInt i = 0; i < st->nstages; i++) PetscCheck(stages[i] >= 0 && stages[i] <= m->ne, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: stage %d has basis size %d", path, (int)i, (int)stages[i]);
+    PetscCall(TakeOwned(path, "average", avg, PETSC_TRUE, st->avg));
+    if (st->phase >= 0) {
+      PetscCall(TakeOwned(path, "gamma", gamma, PETSC_TRUE, st->gamma));
+      PetscCall(TakeOwned(path, "x", x, PETSC_FALSE, st->x));
+    }
+    fit->nhist = 0;
+    for (PetscInt i = 0; i < rows; i++) {
+      const PetscReal *r = hist + HIST_COLS * i;
+      VKFitIterate     it;
+      PetscCheck(r[2] == VK_FIT_GD || r[2] == VK_FIT_GN, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: history row %d names method %g", path, (int)i, (double)r[2]);
+      it = (VKFitIterate){(PetscInt)r[0], (PetscInt)r[1], (PetscInt)r[3], (VKFitMethod)(int)r[2], r[4], r[5], r[6], r[7], r[8]};
+      PetscCall(VKFitAppendIterate(fit, &it));
+    }
+  }
+  PetscCall(PetscFree(samples));
+  PetscCall(PetscFree(stages));
+  PetscCall(PetscFree(avg));
+  PetscCall(PetscFree(gamma));
+  PetscCall(PetscFree(x));
+  PetscCall(PetscFree(hist));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitCheckpointRead(VKFit fit, const char path[], VKFitState *st)
+{
+  PetscFunctionBegin;
+  VKCallCollective(fit->comm, ReadCheckpoint(fit, path, st));
+  PetscFunctionReturn(0);
+}
