@@ -118,8 +118,9 @@ for n in 1 2; do
 done
 printf '%-22s       : examples ex1_chart_mesh, ex2_stretch with 1 and 2 ranks\n' "examples"
 
-# 5. volknit fit on a small yarn-level run (2 x 2 rib, stretch): 1 and 2
-#    ranks give the same material; a run stopped by -fit_max_iterations, or
+# 5. volknit run -run_fit on a small patch (2 x 2 rib, stretch): yarn, yls,
+#    mesh, fit and sim, the fit the same as volknit fit's on its data; 1 and
+#    2 ranks give the same material; a run stopped by -fit_max_iterations, or
 #    killed, leaves no material.h5 and goes on with -fit_restart (also on
 #    another rank count) to the material of the uninterrupted run; broken
 #    checkpoints are refused without a material.h5 written.
@@ -145,12 +146,16 @@ fit_run() { # name ranks [options]: volknit fit in $fd/name, log in $fd/name.log
   timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit fit -o "$fd/$d" $FIT_OPTS "$@" > "$fd/$d.log" 2>&1
 }
 mkdir -p "$fd"
-if timeout "$TIMEOUT" bin/volknit run -run_reference -o "$fd/ref" -options_file options/stretch.opts -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -scene_duration 0.1 > "$fd/ref.log" 2>&1; then
+# shellcheck disable=SC2086
+if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -scene_duration 0.1 > "$fd/ref.log" 2>&1 \
+   && [ -s "$fd/ref/material.h5" ] && [ -s "$fd/ref/sim.h5" ] && grep -q 'stages yarn, yls, mesh, fit, sim done' "$fd/ref.log"; then
+  ok
   for n in 1 2; do
     fit_dir "n$n"
     if fit_run "n$n" "$n" && [ -s "$fd/n$n/material.h5" ] && [ -s "$fd/n$n/fit.csv" ] && [ -s "$fd/n$n/fit.json" ] && [ ! -e "$fd/n$n/fit_checkpoint.h5" ]; then ok
     else not_ok "volknit fit -n $n: failed, an output missing, or the checkpoint left behind (see $fd/n$n.log)"; fi
   done
+  compare_material "$fd/ref/material.h5" "$fd/n1/material.h5" 1e-7 "volknit run -run_fit vs volknit fit"
   compare_material "$fd/n1/material.h5" "$fd/n2/material.h5" 1e-5 "1 vs 2 ranks"
   # stopped, then restarted: with the same rank count, and with the other
   for case in "1 1 1e-7" "2 1 1e-5"; do
@@ -190,7 +195,7 @@ if timeout "$TIMEOUT" bin/volknit run -run_reference -o "$fd/ref" -options_file 
     else not_ok "fit -fit_restart with a $kind checkpoint: status $rc, message '$expect', no material.h5 expected (see $fd/$d.log)"; fi
   done
 else
-  not_ok "the reference run for the fit tests failed (see $fd/ref.log)"
+  not_ok "volknit run -run_fit (the reference run of the fit tests) failed or left no material.h5/sim.h5 (see $fd/ref.log)"
 fi
 printf '%-22s       : %4d passed, %d failed\n' "fit command" "$((passed - fit_passed))" "$((failed - fit_failed))"
 

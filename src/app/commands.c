@@ -22,7 +22,7 @@ const VKCommand VKCommands[] = {
   {"sim",  "simulate the homogenized mesh over a scene by projective dynamics (reads DIR/mesh.h5): DIR/sim.{h5,xdmf,json}", VKCommandSim},
   {"yls",  "simulate the yarn-level model over a scene (reads DIR/yarn.h5 or the -yarn_ options): DIR/yls.{h5,xdmf,csv,json}", VKCommandYLS},
   {"fit",  "learn two material parameters per tet from the yarn-level frames (reads DIR/yls.h5, DIR/mesh.h5): DIR/material.{h5,xdmf}, DIR/fit.{csv,json,png}", VKCommandFit},
-  {"run",  "run the stages the scene needs (yarn, yls with -run_reference, mesh, sim)", VKCommandRun},
+  {"run",  "run the stages the scene needs (yarn, yls with -run_reference, mesh, fit with -run_fit, sim)", VKCommandRun},
   {NULL,   NULL, NULL}
 };
 
@@ -343,45 +343,87 @@ PetscErrorCode VKCommandYLS(MPI_Comm comm)
   PetscFunctionReturn(0);
 }
 
-/* run: every stage the scene needs, options of all stages checked first. */
+static PetscErrorCode FitView(void *f, PetscViewer v)
+{
+  return VKFitView((VKFit)f, v);
+}
+
+/* The fitting stage: frames from DIR/yls.h5, the fit's own -fit_view. */
+static PetscErrorCode FitStage(VKFit fit, const char dir[])
+{
+  char      ypath[PETSC_MAX_PATH_LEN];
+  VKFitData data = NULL;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogStagePush(VK_STAGE_FIT));
+  PetscCall(VKPathJoin(dir, "yls.h5", ypath, sizeof(ypath)));
+  PetscCall(VKFitDataLoad(fit->comm, ypath, &data));
+  PetscCall(PetscPrintf(fit->comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)fit->mesh->nv, (int)fit->mesh->ne, ypath, (int)data->nframes, data->status));
+  PetscCall(VKFitSetUp(fit));
+  PetscCall(ViewFromOptions(fit->comm, "-fit_view", FitView, fit));
+  PetscCall(VKFitRun(fit, data, dir));
+  PetscCall(VKFitDataDestroy(&data));
+  PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode FitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit)
+{
+  PetscFunctionBegin;
+  PetscCall(VKFitCreate(mat, scene, fit));
+  PetscCall(VKFitSetFromOptions(*fit));
+  PetscOptionsBegin(mat->comm, NULL, "Fitting outputs", "volknit fit");
+  PetscCall(PetscOptionsName("-fit_view", "Print the fitting's set-up (schedule, shape fit, solvers) before the run", "VKFitView", NULL));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+/* run: every stage the scene needs, options of all stages checked first.
+ * -run_fit: the homogenized material is fitted to the scene's own
+ * yarn-level run (yarn relaxed, yls, mesh, fit), then simulated; the fit
+ * starts from the -mat_ material and leaves its result in it. */
 PetscErrorCode VKCommandRun(MPI_Comm comm)
 {
   char           dir[PETSC_MAX_PATH_LEN];
   VKYarn         y;
   VKMesh         m;
   VKYLS          yls = NULL;
+  VKFit          fit = NULL;
   SimParts       p   = {0};
-  PetscBool      help, reference = PETSC_FALSE;
+  PetscBool      help, reference = PETSC_FALSE, fitting = PETSC_FALSE;
   PetscLogDouble t0 = VKWallTime();
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
   PetscOptionsBegin(comm, NULL, "Pipeline", "volknit run");
   PetscCall(PetscOptionsBool("-run_reference", "The scene needs yarn-level reference data: relax the yarns, run volknit yls on the scene (DIR/yls.*), then mesh the relaxed yarns", "volknit run", reference, &reference, NULL));
+  PetscCall(PetscOptionsBool("-run_fit", "Fit the material to the scene's yarn-level run (implies -run_reference; volknit fit, DIR/material.h5), then simulate with it", "volknit run", fitting, &fitting, NULL));
   PetscOptionsEnd();
+  if (fitting) reference = PETSC_TRUE;
   PetscCall(YarnFromOptions(comm, &y));
   PetscCall(MeshFromOptions(comm, y, &m));
   PetscCall(SimFromOptions(m, dir, &p));
   if (reference) PetscCall(YLSFromOptions(y, p.scene, dir, &yls));
+  if (fitting) PetscCall(FitFromOptions(p.mat, p.scene, &fit));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
     /* relaxed first, so yarn.h5, the reference run and the mesh share one rest state */
     PetscCall(YarnStage(y, dir, PETSC_TRUE, reference));
     if (reference) PetscCall(YLSStage(yls));
     PetscCall(MeshStage(m, dir));
-    PetscCall(SimStage(&p));
-    PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, sim done in %.2f s; outputs in %s/\n", reference ? "yls, " : "", VKWallTime() - t0, dir));
+    if (fitting) PetscCall(FitStage(fit, dir));
+    if (fitting && fit->stopped) PetscCall(PetscPrintf(comm, "volknit run: the fit stopped before the end; go on with volknit fit -o %s -fit_restart, then volknit sim -o %s -mat_file %s/material.h5\n", dir, dir, dir));
+    else {
+      PetscCall(SimStage(&p));
+      PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim done in %.2f s; outputs in %s/\n", reference ? "yls, " : "", fitting ? "fit, " : "", VKWallTime() - t0, dir));
+    }
   }
+  PetscCall(VKFitDestroy(&fit));
   PetscCall(VKYLSDestroy(&yls));
   PetscCall(SimPartsDestroy(&p));
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
-}
-
-static PetscErrorCode FitView(void *f, PetscViewer v)
-{
-  return VKFitView((VKFit)f, v);
 }
 
 /* fit: the mesh (with the yarn model the reference run started from) from
@@ -396,7 +438,6 @@ PetscErrorCode VKCommandFit(MPI_Comm comm)
   VKMaterial mat = NULL;
   VKScene   scene = NULL;
   VKFit     fit = NULL;
-  VKFitData data = NULL;
   PetscBool mexists, yexists, help;
 
   PetscFunctionBegin;
@@ -414,21 +455,11 @@ PetscErrorCode VKCommandFit(MPI_Comm comm)
   PetscCall(VKMaterialSetFromOptions(mat));
   PetscCall(VKSceneCreate(comm, &scene));
   PetscCall(VKSceneSetFromOptions(scene));
-  PetscCall(VKFitCreate(mat, scene, &fit));
-  PetscCall(VKFitSetFromOptions(fit));
-  PetscOptionsBegin(comm, NULL, "Fitting outputs", "volknit fit");
-  PetscCall(PetscOptionsName("-fit_view", "Print the fitting's set-up (schedule, shape fit, solvers) before the run", "VKFitView", NULL));
-  PetscOptionsEnd();
+  PetscCall(FitFromOptions(mat, scene, &fit));
   if (!help) {
-    PetscCall(PetscLogStagePush(VK_STAGE_FIT));
-    PetscCall(VKFitDataLoad(comm, ypath, &data));
-    PetscCall(PetscPrintf(comm, "volknit fit: mesh %s (%d nodes, %d tets), yarn frames %s (%d frames, run %s)\n", mpath, (int)m->nv, (int)m->ne, ypath, (int)data->nframes, data->status));
-    PetscCall(VKFitSetUp(fit));
-    PetscCall(ViewFromOptions(comm, "-fit_view", FitView, fit));
-    PetscCall(VKFitRun(fit, data, dir));
-    PetscCall(PetscLogStagePop());
+    PetscCall(PetscPrintf(comm, "volknit fit: mesh %s\n", mpath));
+    PetscCall(FitStage(fit, dir));
   }
-  PetscCall(VKFitDataDestroy(&data));
   PetscCall(VKFitDestroy(&fit));
   PetscCall(VKSceneDestroy(&scene));
   PetscCall(VKMaterialDestroy(&mat));

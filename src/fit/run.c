@@ -257,6 +257,7 @@ static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *
   for (PetscInt s = 0; s < st->ns; s++) SampleLosses(fit, st->samples[s], &loss0[s], &loss1[s], &its);
   PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
   PetscCall(VKMaterialWriteH5(fit->mat, path));
+  PetscCall(PetscStrncpy(fit->mat->file, path, sizeof(fit->mat->file))); /* the material is now that file's (VKMaterialView) */
   sum = (Summary){fit, data, st->ns, (PetscInt *)st->samples, loss0, loss1, total};
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));
