@@ -203,8 +203,8 @@ PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v
  * rises, each phase ending when the relative loss decrease falls below
  * -fit_rtol.  r > 0 moves gamma in the span of the r lowest harmonics
  * (gamma = gamma0 + B q), r = 0 moves every parameter.  gamma stays above
- * the floor gamma_min (projection; frozen and pivoted parameters in the
- * full space, step halving in a harmonic space).  Iterations are appended
+ * the floor gamma_min (projection of every trial; frozen and pivoted
+ * parameters in the full space).  Iterations are appended
  * to fit->hist.  The frame is left at the equilibrium of the final gamma. */
 PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma);
 /* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
@@ -248,6 +248,7 @@ PETSC_EXTERN PetscErrorCode VKFitDataSelect(VKFitData, PetscInt *nsamples, Petsc
  * floors, iteration count and time split are the VKFit's own. */
 typedef struct {
   PetscInt  ns, samples[VK_FIT_MAX_SAMPLES];
+  PetscReal floor[VK_FIT_MAX_SAMPLES]; /* eps(xhat) of each sample begun: the loss no material can go below */
   PetscInt  nstages, stages[VK_FIT_MAX_STAGES];
   PetscInt  sample, stage, phase, iteration;
   PetscReal weight;

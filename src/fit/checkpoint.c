@@ -10,7 +10,8 @@
  *               VK_FIT_PHASE_GD/GN/DONE) and the next iteration; the Eq. 22
  *               weight so far, the floors, the accepted iteration count,
  *               the elapsed wall time and its split
- *   samples     the sample frames (rows), stages the basis sizes r (0: full)
+ *   samples     the sample frames (rows), loss_floor their eps(xhat) (0
+ *               before a sample begins), stages the basis sizes r (0: full)
  *   average     g_s, g_v per tet: the average of the finished samples
  *   gamma, x    the current gamma and equilibrium of the sample in
  *               progress (only when phase >= 0)
@@ -82,6 +83,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   }
   PetscCall(VKH5Create(out->tmp, &h));
   ierr = VKH5WriteInt(&h, "/checkpoint/samples", st->ns, 1, st->samples);
+  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/loss_floor", st->ns, 1, st->floor);
   if (!ierr) ierr = VKH5WriteInt(&h, "/checkpoint/stages", st->nstages, 1, st->stages);
   if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/average", fit->mesh->ne, 2, w->avg);
   if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", fit->mesh->ne, 2, w->gamma);
@@ -150,8 +152,8 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   VKMesh     m = fit->mesh;
   VKH5       h;
   char       format[64];
-  PetscInt   ne, nv, nd, rows, *samples = NULL, *stages = NULL;
-  PetscReal  fp, *avg = NULL, *gamma = NULL, *x = NULL, *hist = NULL;
+  PetscInt   ne, nv, nd, rows, nfl = 0, *samples = NULL, *stages = NULL;
+  PetscReal  fp, *avg = NULL, *gamma = NULL, *x = NULL, *hist = NULL, *fl = NULL;
   PetscErrorCode ierr;
   const char *g = "/checkpoint";
 
@@ -178,6 +180,8 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_kkt", &fit->time_kkt);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_eigensolves", &fit->time_eigen);
   if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/samples", 1, &st->ns, &samples);
+  if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/loss_floor", 1, &nfl, &fl);
+  if (!ierr && nfl != st->ns) ierr = BAD("%s: /checkpoint/loss_floor has %d rows for %d samples", path, (int)nfl, (int)st->ns);
   if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/stages", 1, &st->nstages, &stages);
   if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/average", 2, &rows, &avg);
   if (!ierr && rows != ne) ierr = BAD("%s: /checkpoint/average has %d rows for %d tets", path, (int)rows, (int)ne);
@@ -191,6 +195,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   VKH5Close(&h);
   if (!ierr) {
     PetscCall(PetscArraycpy(st->samples, samples, st->ns));
+    PetscCall(PetscArraycpy(st->floor, fl, st->ns));
     PetscCall(PetscArraycpy(st->stages, stages, st->nstages));
     for (PetscInt i = 0; i < st->nstages; i++) PetscCheck(stages[i] >= 0 && stages[i] <= m->ne, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: stage %d has basis size %d", path, (int)i, (int)stages[i]);
     PetscCall(TakeOwned(path, "average", avg, PETSC_TRUE, st->avg));
@@ -208,6 +213,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
     }
   }
   PetscCall(PetscFree(samples));
+  PetscCall(PetscFree(fl));
   PetscCall(PetscFree(stages));
   PetscCall(PetscFree(avg));
   PetscCall(PetscFree(gamma));

@@ -67,7 +67,7 @@ typedef struct {
   VKFit     fit;
   VKFitData data;
   PetscInt  ns, *samples;
-  PetscReal *loss0, *loss1;
+  PetscReal *loss0, *loss1, *floor;
   PetscLogDouble total;
 } Summary;
 
@@ -104,6 +104,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONReal(&j, "weight", VKFitDataElasticEnergy(c->data, c->samples[s])));
     PetscCall(VKJSONReal(&j, "loss_start", c->loss0[s]));
     PetscCall(VKJSONReal(&j, "loss_end", c->loss1[s]));
+    PetscCall(VKJSONReal(&j, "loss_floor", c->floor[s]));
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONArrayEnd(&j));
@@ -258,7 +259,7 @@ static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *
   PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
   PetscCall(VKMaterialWriteH5(fit->mat, path));
   PetscCall(PetscStrncpy(fit->mat->file, path, sizeof(fit->mat->file))); /* the material is now that file's (VKMaterialView) */
-  sum = (Summary){fit, data, st->ns, (PetscInt *)st->samples, loss0, loss1, total};
+  sum = (Summary){fit, data, st->ns, (PetscInt *)st->samples, loss0, loss1, (PetscReal *)st->floor, total};
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));
     ierr = VKOutputWrite(path, PETSC_TRUE, WriteXdmf, fit->mesh);
@@ -314,6 +315,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
     VKFitFrame f;
     fit->sample = frame;
     PetscCall(SampleFrame(fit, data, frame, &f));
+    st->floor[st->sample] = f.eps_hat;
     if (st->phase >= 0) { /* a restart inside this sample */
       PetscCall(VecCopy(xread, f.x));
       fit->resume           = PETSC_TRUE;
@@ -331,7 +333,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
       else PetscCall(VecAXPBY(st->avg, f.weight / (w + f.weight), w / (w + f.weight), st->gamma));
       st->weight = PetscMax(w, f.weight);
       SampleLosses(fit, frame, &l0, &l1, &its);
-      PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e in %d iterations (%.1f s)\n", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (int)its, VKWallTime() - fit->wall0));
+      PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e (of its excess over the floor eps(xhat) = %.4e, %.1f%% remains) in %d iterations (%.1f s)\n", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (double)f.eps_hat, l0 > f.eps_hat ? 100 * (double)((l1 - f.eps_hat) / (l0 - f.eps_hat)) : 0.0, (int)its, VKWallTime() - fit->wall0));
       PetscCall(Checkpoint(fit, -1, 0, &c)); /* the next sample from its start */
     }
     PetscCall(VKFitFrameDestroy(&f));

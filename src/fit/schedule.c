@@ -18,7 +18,9 @@
  * parameters at the floor whose gradient pushes down are frozen (d = 0);
  * when the projected Gauss-Newton step no longer descends, the parameter
  * that would go most negative is pivoted out (frozen) and the KKT system
- * solved again.  In a harmonic space a trial below the floor is halved.
+ * solved again.  In a harmonic space the trial is projected as well (a
+ * parameter left at the floor by an earlier sample must not block every
+ * move in the span).
  *
  * Checkpoints: after every fit->checkpoint_every accepted iterations (and
  * at the -fit_max_iterations stop) the caller's hook records where a
@@ -81,7 +83,11 @@ static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal 
   PetscCall(VKFitAppendIterate(fit, &rec));
   h = &fit->hist[fit->nhist - 1];
   if (it > 0) fit->nits++;
-  if (fit->monitor) PetscCall(PetscPrintf(fit->comm, "  fit sample %d %s%-3d %s %3d loss %.6e |grad| %.3e step %.3e |g|/scale %.1e\n", (int)h->sample, o->r ? "r=" : "full", o->r ? (int)o->r : 0, VKFitMethods[method], (int)it, (double)h->loss, (double)h->gnorm, (double)step, (double)h->eq_residual));
+  if (fit->monitor) {
+    char stage[16] = "full";
+    if (o->r) PetscCall(PetscSNPrintf(stage, sizeof(stage), "r=%d", (int)o->r));
+    PetscCall(PetscPrintf(fit->comm, "  fit sample %d %-5s %s %3d loss %.6e |grad| %.3e step %.3e |g|/scale %.1e\n", (int)h->sample, stage, VKFitMethods[method], (int)it, (double)h->loss, (double)h->gnorm, (double)step, (double)h->eq_residual));
+  }
   PetscFunctionReturn(0);
 }
 
@@ -120,13 +126,11 @@ static PetscErrorCode Gradient(Opt *o)
   PetscFunctionReturn(0);
 }
 
-/* trial = gamma + s d (full: projected onto the floor; harmonic: d = B dq);
- * *feasible is false when a harmonic trial goes below the floor. */
-static PetscErrorCode Trial(Opt *o, PetscReal s, PetscBool *feasible)
+/* trial = gamma + s d (harmonic: d = B dq), projected onto the floor. */
+static PetscErrorCode Trial(Opt *o, PetscReal s)
 {
   VKFit        fit = o->fit;
   PetscScalar *t;
-  PetscInt     bad = 0, any;
 
   PetscFunctionBegin;
   PetscCall(VecCopy(o->gamma, o->trial));
@@ -138,14 +142,8 @@ static PetscErrorCode Trial(Opt *o, PetscReal s, PetscBool *feasible)
     PetscCall(PetscFree(sdq));
   } else PetscCall(VecAXPY(o->trial, s, o->d));
   PetscCall(VecGetArray(o->trial, &t));
-  for (PetscInt i = 0; i < o->nloc; i++)
-    if (t[i] < Floor(fit, i)) {
-      if (o->r) bad = 1;
-      else t[i] = Floor(fit, i);
-    }
+  for (PetscInt i = 0; i < o->nloc; i++) t[i] = PetscMax(t[i], Floor(fit, i));
   PetscCall(VecRestoreArray(o->trial, &t));
-  PetscCallMPI(MPI_Allreduce(&bad, &any, 1, MPIU_INT, MPIU_MAX, fit->comm));
-  *feasible = any ? PETSC_FALSE : PETSC_TRUE;
   PetscFunctionReturn(0);
 }
 
@@ -283,10 +281,9 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
     s = method == VK_FIT_GD ? fit->gd_step * gnorm_gamma / dn : 1;
     PetscCall(VecCopy(o->f->x, o->x_acc));
     for (PetscInt h = 0; h <= fit->max_halvings && !accepted; h++, s /= 2) {
-      PetscBool feasible = PETSC_FALSE, ok = PETSC_FALSE;
+      PetscBool ok   = PETSC_FALSE;
       PetscReal loss = PETSC_INFINITY;
-      PetscCall(Trial(o, s, &feasible));
-      if (!feasible) continue;
+      PetscCall(Trial(o, s));
       PetscCall(VKFitSetGamma(fit, o->trial));
       PetscCall(VKFitEquilibriumTry(fit, o->f, &st, &ok));
       if (ok) PetscCall(VKFitFrameLoss(fit, o->f, &loss, NULL));
