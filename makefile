@@ -57,6 +57,8 @@ check: deps
 bench: deps
 	@$(MAKE) --no-print-directory all $(BENCH_BIN)
 	@tests/bench/run_bench.sh
+	@echo
+	@tests/bench/run_fit_bench.sh
 
 tests: $(TEST_BIN)
 examples: $(EX_BIN)

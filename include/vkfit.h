@@ -122,6 +122,8 @@ struct _n_VKFit {
   Vec       rhs, lambda, work;
   /* Gauss-Newton */
   Mat       G;    /* 2 A x I3 as AIJ, made at the first KKT solve */
+  Mat       kkt, JT; /* the KKT matrix and J^T, kept: their pattern never changes, so the
+                      * factorization's analysis is done once (kkt.c) */
   KSP       kkkt; /* prefix -fit_kkt_ */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
@@ -184,6 +186,8 @@ PETSC_EXTERN PetscErrorCode VKFitFrameLoss(VKFit, VKFitFrame *, PetscReal *eps, 
  * adjoint gradient; frozen (optional, per local parameter) holds
  * parameters at d = 0. */
 PETSC_EXTERN PetscErrorCode VKFitGaussNewtonDirection(VKFit, VKFitFrame *, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d);
+/* fit->kkkt with its defaults (kkt.c; VKFitCreate). */
+PETSC_EXTERN PetscErrorCode VKFitCreateKKTSolver(VKFit);
 
 /* ---- harmonic bases (harmonic.c, paper Eq. 23-24) ------------------------ */
 /* The r lowest eigenvectors of the tet dual-graph Laplacian (SLEPc,

@@ -7,7 +7,11 @@
  * iterations, then Newton with the exact Hessian until
  *   |g| <= eq_rtol (|grad E(xhat_i)| + |M (xhat_i - y)|/dt^2),
  * a scale made of the forces that balance at the data, so the tolerance
- * does not shrink as the fit approaches the data.  The adjoint and
+ * does not shrink as the fit approaches the data.  -fit_inertia data and
+ * none make it static (VKPDSetStatic): M a_data - f_ext + grad E(x) = 0
+ * with the data acceleration a_data = (xhat_i - 2 xhat_{i-1} + xhat_{i-2})/dt^2
+ * (paper Eq. 14), or -f_ext + grad E(x) = 0, the constant force passed
+ * to PD (VKPDSetConstantForce) and its norm in the scale.  The adjoint and
  * Gauss-Newton are only valid at equilibrium, so a solve that does not get
  * there is an error, not a warning. */
 #include <vkfit.h>

@@ -49,27 +49,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   PetscCall(KSPGetPC(fit->kadj, &pc));
   PetscCall(PCSetType(pc, PCLU));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-  PetscCall(KSPCreate(fit->comm, &fit->kkkt));
-  PetscCall(KSPSetOptionsPrefix(fit->kkkt, "fit_kkt_"));
-  PetscCall(KSPSetType(fit->kkkt, KSPPREONLY));
-  PetscCall(KSPGetPC(fit->kkkt, &pc));
-  {
-    PetscMPIInt size;
-    PetscCallMPI(MPI_Comm_size(fit->comm, &size));
-    if (size == 1) {
-      PetscCall(PCSetType(pc, PCCHOLESKY));
-      PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-    } else { /* see kkt.c: distributed MUMPS LDL^T fails on the KKT matrix */
-      KSP inner;
-      PC  ipc;
-      PetscCall(PCSetType(pc, PCREDUNDANT));
-      PetscCall(PCRedundantGetKSP(pc, &inner));
-      PetscCall(KSPSetType(inner, KSPPREONLY));
-      PetscCall(KSPGetPC(inner, &ipc));
-      PetscCall(PCSetType(ipc, PCCHOLESKY));
-      PetscCall(PCFactorSetMatSolverType(ipc, MATSOLVERMUMPS));
-    }
-  }
+  PetscCall(VKFitCreateKKTSolver(fit));
   *out = fit;
   PetscFunctionReturn(0);
 }
@@ -87,6 +67,8 @@ PetscErrorCode VKFitDestroy(VKFit *p)
   PetscCall(MatDestroy(&fit->H));
   PetscCall(MatDestroy(&fit->J));
   PetscCall(MatDestroy(&fit->G));
+  PetscCall(MatDestroy(&fit->kkt));
+  PetscCall(MatDestroy(&fit->JT));
   PetscCall(VecDestroy(&fit->rhs));
   PetscCall(VecDestroy(&fit->lambda));
   PetscCall(VecDestroy(&fit->work));

@@ -10,7 +10,10 @@
  * J is dropped and its row becomes d_c = 0.  The three blocks are assembled into one symmetric indefinite
  * AIJ matrix whose rows on each rank are [mu_own, nu_own, d_own], so the
  * matrix is distributed like the mesh, and solved by MUMPS LDL^T through
- * a KSP with prefix -fit_kkt_, after a symmetric equilibration.  On
+ * a KSP with prefix -fit_kkt_, after a symmetric equilibration.  The
+ * pattern is the same at every call (J keeps its zeroed entries, a frozen
+ * row keeps its J^T entries as zeros), so the matrix is kept and refilled
+ * and the factorization's symbolic analysis is done once per fit.  On
  * several ranks the default is PC redundant, each rank factoring the whole
  * matrix with sequential MUMPS LDL^T: MUMPS 5.5.1's distributed
  * factorization fails on this matrix (INFOG(1) = -9 even at ICNTL(14) =
@@ -80,7 +83,8 @@ typedef struct {
 } KKTRow;
 
 /* Count (pass 0) or insert (pass 1) the entries of the local rows of
- * block row `br`. */
+ * block row `br`; a row marked in `zero` becomes d_i = 0 (its entries
+ * inserted as zeros, so the pattern does not depend on the frozen set). */
 static PetscErrorCode KKTBlockRow(const KKTLayout *K, Mat kkt, PetscMPIInt rank, int br, const KKTRow *R, PetscInt nrows, const PetscReal *diag, const PetscBool *zero, int pass, PetscInt *d_nnz, PetscInt *o_nnz)
 {
   PetscInt   rstart, off = 0, cap = 0, *cols = NULL;
@@ -89,12 +93,8 @@ static PetscErrorCode KKTBlockRow(const KKTLayout *K, Mat kkt, PetscMPIInt rank,
   PetscFunctionBegin;
   for (int a = 0; a < br; a++) off += K->bstart[a][rank + 1] - K->bstart[a][rank];
   for (PetscInt i = 0; i < nrows; i++) {
-    PetscInt row = K->start[rank] + off + i, n = 0;
-    if (zero && zero[i]) { /* the row d_i = 0 of a frozen parameter */
-      if (pass == 0) d_nnz[off + i]++;
-      else PetscCall(MatSetValue(kkt, row, row, 1, ADD_VALUES));
-      continue;
-    }
+    PetscInt  row = K->start[rank] + off + i, n = 0;
+    PetscBool z   = zero && zero[i] ? PETSC_TRUE : PETSC_FALSE;
     for (int m = 0; m < 2; m++) {
       const PetscInt    *c;
       const PetscScalar *v;
@@ -109,7 +109,7 @@ static PetscErrorCode KKTBlockRow(const KKTLayout *K, Mat kkt, PetscMPIInt rank,
       }
       for (PetscInt j = 0; j < nc; j++) {
         cols[n]   = KKTColumn(K, R->cb[m], c[j]);
-        vals[n++] = R->s[m] * v[j];
+        vals[n++] = z ? 0 : R->s[m] * v[j];
       }
       PetscCall(MatRestoreRow(R->M[m], rstart + i, &nc, &c, &v));
     }
@@ -120,7 +120,7 @@ static PetscErrorCode KKTBlockRow(const KKTLayout *K, Mat kkt, PetscMPIInt rank,
         PetscCall(PetscRealloc(sizeof(PetscReal) * cap, &vals));
       }
       cols[n]   = row;
-      vals[n++] = diag[i];
+      vals[n++] = z ? 1 : diag[i];
     }
     if (pass == 0) {
       for (PetscInt j = 0; j < n; j++) {
@@ -163,6 +163,33 @@ static PetscErrorCode Equilibrate(Mat K, Vec rhs, Vec *scale)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKFitCreateKKTSolver(VKFit fit)
+{
+  PC          pc;
+  PetscMPIInt size;
+
+  PetscFunctionBegin;
+  PetscCall(KSPCreate(fit->comm, &fit->kkkt));
+  PetscCall(KSPSetOptionsPrefix(fit->kkkt, "fit_kkt_"));
+  PetscCall(KSPSetType(fit->kkkt, KSPPREONLY));
+  PetscCall(KSPGetPC(fit->kkkt, &pc));
+  PetscCallMPI(MPI_Comm_size(fit->comm, &size));
+  if (size == 1) {
+    PetscCall(PCSetType(pc, PCCHOLESKY));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  } else { /* distributed MUMPS LDL^T fails on the KKT matrix (above) */
+    KSP inner;
+    PC  ipc;
+    PetscCall(PCSetType(pc, PCREDUNDANT));
+    PetscCall(PCRedundantGetKSP(pc, &inner));
+    PetscCall(KSPSetType(inner, KSPPREONLY));
+    PetscCall(KSPGetPC(inner, &ipc));
+    PetscCall(PCSetType(ipc, PCCHOLESKY));
+    PetscCall(PCFactorSetMatSolverType(ipc, MATSOLVERMUMPS));
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
 {
   const VKLayout    *L  = &fit->mesh->layout;
@@ -174,6 +201,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscScalar       *ra;
   const PetscScalar *ga, *sa;
   PetscMPIInt        rank;
+  PetscBool          fresh;
   KSPConvergedReason reason;
   PetscLogDouble     t0 = VKWallTime();
 
@@ -205,16 +233,22 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(MatConvert(fit->sf->A3, MATAIJ, MAT_INITIAL_MATRIX, &fit->G));
     PetscCall(MatScale(fit->G, 2));
   }
-  PetscCall(MatTranspose(fit->J, MAT_INITIAL_MATRIX, &JT));
+  PetscCall(MatTranspose(fit->J, fit->JT ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, &fit->JT));
+  JT = fit->JT;
   PetscCall(KKTLayoutCreate(fit, &K));
   nloc = 2 * nn + ng;
   PetscCall(PetscCalloc2(nloc + 1, &d_nnz, nloc + 1, &o_nnz));
   PetscCall(PetscMalloc1(ng + 1, &kdiag));
   for (PetscInt i = 0; i < ng; i++) kdiag[i] = kappa;
-  PetscCall(MatCreate(fit->comm, &kkt));
-  PetscCall(MatSetSizes(kkt, nloc, nloc, PETSC_DETERMINE, PETSC_DETERMINE));
-  PetscCall(MatSetType(kkt, MATAIJ));
-  for (int pass = 0; pass < 2; pass++) {
+  fresh = fit->kkt ? PETSC_FALSE : PETSC_TRUE;
+  if (!fresh) PetscCall(MatZeroEntries(fit->kkt)); /* the same pattern: refilled below */
+  else {
+    PetscCall(MatCreate(fit->comm, &fit->kkt));
+    PetscCall(MatSetSizes(fit->kkt, nloc, nloc, PETSC_DETERMINE, PETSC_DETERMINE));
+    PetscCall(MatSetType(fit->kkt, MATAIJ));
+  }
+  kkt = fit->kkt;
+  for (int pass = fresh ? 0 : 1; pass < 2; pass++) {
     KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}}, r1 = {{fit->H, fit->J}, {0, 2}, {-1, 1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
     PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
     PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
@@ -227,6 +261,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(MatAssemblyBegin(kkt, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(kkt, MAT_FINAL_ASSEMBLY));
   PetscCall(MatSetOption(kkt, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatSetOption(kkt, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE)); /* a pattern change would redo the analysis: make it loud */
   /* right-hand side [0; 0; -grad] (0 for frozen parameters) and the solve */
   PetscCall(MatCreateVecs(kkt, &sol, &rhs));
   PetscCall(VecSet(rhs, 0));
@@ -239,6 +274,18 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
   PetscCall(KSPSolve(fit->kkkt, rhs, sol));
   PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
+  if (reason == KSP_DIVERGED_PC_FAILED && !fresh) {
+    /* The analysis of an earlier matrix (its workspace estimate, made with
+     * other values) does not fit these values (MUMPS INFOG(1) = -9 when
+     * delayed pivots outgrow it): a new solver and a new analysis. */
+    PetscCall(PetscInfo(fit->kkkt, "KKT: a new analysis after a failed factorization with the old one\n"));
+    PetscCall(KSPDestroy(&fit->kkkt));
+    PetscCall(VKFitCreateKKTSolver(fit));
+    PetscCall(KSPSetFromOptions(fit->kkkt));
+    PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
+    PetscCall(KSPSolve(fit->kkkt, rhs, sol));
+    PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
+  }
   PetscCall(VecPointwiseMult(sol, sol, scale));
   PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Gauss-Newton KKT solve of sample frame %d failed (KSP reason %s); raise -fit_kappa or see -fit_kkt_ksp_view", (int)f->index, KSPConvergedReasons[reason]);
   PetscCall(VecGetArrayRead(sol, &sa));
@@ -249,8 +296,6 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(VecDestroy(&rhs));
   PetscCall(VecDestroy(&sol));
   PetscCall(VecDestroy(&scale));
-  PetscCall(MatDestroy(&kkt));
-  PetscCall(MatDestroy(&JT));
   PetscCall(PetscFree(kdiag));
   PetscCall(PetscFree2(d_nnz, o_nnz));
   PetscCall(KKTLayoutDestroy(&K));

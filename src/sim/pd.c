@@ -8,7 +8,9 @@
  * and the handle correction of the right-hand side.  With colliders, each
  * free node's constraint weight w_i = -pd_contact_weight K_ii is added to
  * the diagonal, whether or not the node touches a collider, so the factor
- * survives changes of the contact set. */
+ * survives changes of the contact set.  VKPDSetStatic drops M/dt^2 (a
+ * static equilibrium, for the fitting; then handles must hold the mesh),
+ * VKPDSetConstantForce adds a constant nodal force to Phi. */
 #include <vkpd.h>
 #include <vklog.h>
 

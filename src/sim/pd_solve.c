@@ -1,6 +1,7 @@
 /* pd_solve.c: the PD iterations of one implicit step (DESIGN §7, paper
  * §7.1).  Local step: R_e and V_e of every owned tet (VKTetProject) and
- * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e).
+ * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e)
+ * (+ the constant force of VKPDSetConstantForce; no M y/dt^2 when static).
  * Colliders (DESIGN §7) are PD constraints w_i/2 |x_i - P(x_i)|^2 with
  * P the projection out of the colliders (VKSceneCollide, with friction);
  * their local step adds w_i P(x_i) to b, and w_i is already in K.
