@@ -18,7 +18,7 @@
  * parameters at the floor whose gradient pushes down are frozen (d = 0);
  * when the projected Gauss-Newton step no longer descends, the parameter
  * that would go most negative is pivoted out (frozen) and the KKT system
- * solved again.  In a harmonic space the trial is projected as well (a
+ * solved again, more at a time in later rounds (FullGaussNewton).  In a harmonic space the trial is projected as well (a
  * parameter left at the floor by an earlier sample must not block every
  * move in the span).
  *
@@ -183,8 +183,13 @@ static PetscErrorCode HarmonicGaussNewton(Opt *o, PetscReal kappa)
   PetscFunctionReturn(0);
 }
 
-/* Full-space Gauss-Newton with the frozen set, pivoting out the parameter
- * going most negative while the projected step does not descend. */
+/* Full-space Gauss-Newton with the frozen set.  While the clamped step
+ * does not descend, parameters that would go below the floor are pivoted
+ * out (frozen) and the KKT system solved again: in round p those whose
+ * relative violation (gamma + d - floor)/floor is within 4^p of the worst,
+ * so the first round pivots the most negative alone (DESIGN §8) and later
+ * rounds grow geometrically (one at a time cannot catch up when the step
+ * pushes thousands of parameters below the floor). */
 static PetscErrorCode FullGaussNewton(Opt *o, PetscReal kappa)
 {
   VKFit fit = o->fit;
@@ -192,9 +197,8 @@ static PetscErrorCode FullGaussNewton(Opt *o, PetscReal kappa)
   PetscFunctionBegin;
   for (PetscInt piv = 0;; piv++) {
     const PetscScalar *g, *d, *gr;
-    PetscReal          slope = 0, all;
-    PetscReal worst = 0; /* the most negative (gamma + d - floor)/floor of the unfrozen */
-    PetscInt  iworst = -1;
+    PetscReal          slope = 0, all, worst = 0, gworst, cut;
+    PetscInt           n = 0, nall;
     PetscCall(VKFitGaussNewtonDirection(fit, o->f, kappa, o->frozen, o->grad, o->d));
     PetscCall(VecGetArrayRead(o->gamma, &g));
     PetscCall(VecGetArrayRead(o->d, &d));
@@ -202,29 +206,23 @@ static PetscErrorCode FullGaussNewton(Opt *o, PetscReal kappa)
     for (PetscInt i = 0; i < o->nloc; i++) {
       PetscReal to = g[i] + d[i], fl = Floor(fit, i);
       slope += gr[i] * (PetscMax(to, fl) - g[i]);
-      if (!o->frozen[i] && (to - fl) / fl < worst) {
-        worst  = (to - fl) / fl;
-        iworst = i;
-      }
+      if (!o->frozen[i]) worst = PetscMin(worst, (to - fl) / fl);
     }
+    PetscCallMPI(MPI_Allreduce(&slope, &all, 1, MPIU_REAL, MPIU_SUM, fit->comm));
+    PetscCallMPI(MPI_Allreduce(&worst, &gworst, 1, MPIU_REAL, MPIU_MIN, fit->comm));
+    cut = gworst / PetscPowReal(4.0, (PetscReal)piv);
+    if (!(all < 0 || piv == fit->max_pivots || gworst >= 0))
+      for (PetscInt i = 0; i < o->nloc; i++)
+        if (!o->frozen[i] && (g[i] + d[i] - Floor(fit, i)) / Floor(fit, i) <= cut) {
+          o->frozen[i] = PETSC_TRUE;
+          n++;
+        }
     PetscCall(VecRestoreArrayRead(o->grad, &gr));
     PetscCall(VecRestoreArrayRead(o->d, &d));
     PetscCall(VecRestoreArrayRead(o->gamma, &g));
-    PetscCallMPI(MPI_Allreduce(&slope, &all, 1, MPIU_REAL, MPIU_SUM, fit->comm));
-    if (all < 0 || piv == fit->max_pivots) break;
-    { /* the most negative over all ranks; ties to the lowest rank */
-      PetscMPIInt rank;
-      struct {
-        double v;
-        int    rank;
-      } mine, best;
-      PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
-      mine.v    = (double)worst;
-      mine.rank = (int)rank;
-      PetscCallMPI(MPI_Allreduce(&mine, &best, 1, MPI_DOUBLE_INT, MPI_MINLOC, fit->comm));
-      if (best.v >= 0) break; /* nothing would go below the floor: nothing to pivot */
-      if (best.rank == rank) o->frozen[iworst] = PETSC_TRUE;
-    }
+    PetscCallMPI(MPI_Allreduce(&n, &nall, 1, MPIU_INT, MPI_SUM, fit->comm));
+    PetscCall(PetscInfo(NULL, "Gauss-Newton pivot round %d: clamped slope %g, most negative (gamma + d - floor)/floor %g, %d pivoted\n", (int)piv, (double)all, (double)gworst, (int)nall));
+    if (!nall) break; /* descends, the last round, or nothing below the floor */
   }
   PetscFunctionReturn(0);
 }
