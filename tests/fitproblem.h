@@ -35,3 +35,13 @@ static inline PetscErrorCode FitProblemCreate(MPI_Comm comm, PetscInt ndomains, 
   }
   PetscFunctionReturn(0);
 }
+
+static inline PetscErrorCode FitProblemDestroy(VKYarn *y, VKMesh *m, VKMaterial *mat, VKScene *scene)
+{
+  PetscFunctionBegin;
+  PetscCall(VKSceneDestroy(scene));
+  PetscCall(VKMaterialDestroy(mat));
+  PetscCall(VKMeshDestroy(m));
+  PetscCall(VKYarnDestroy(y));
+  PetscFunctionReturn(0);
+}

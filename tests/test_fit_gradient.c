@@ -91,10 +91,7 @@ static PetscErrorCode Destroy(Setup *s)
   PetscFunctionBegin;
   PetscCall(VKFitFrameDestroy(&s->frame));
   PetscCall(VKFitDestroy(&s->fit));
-  PetscCall(VKSceneDestroy(&s->scene));
-  PetscCall(VKMaterialDestroy(&s->mat));
-  PetscCall(VKMeshDestroy(&s->m));
-  PetscCall(VKYarnDestroy(&s->y));
+  PetscCall(FitProblemDestroy(&s->y, &s->m, &s->mat, &s->scene));
   PetscFunctionReturn(0);
 }
 

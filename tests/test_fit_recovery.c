@@ -212,15 +212,26 @@ static PetscErrorCode BuildProblem(MPI_Comm comm, Problem *p)
   PetscFunctionReturn(0);
 }
 
+/* The loss after gd_its gradient-descent and gn_its Gauss-Newton
+ * iterations over every parameter from the uniform start. */
+static PetscErrorCode LossAfter(Problem *p, PetscInt gd_its, PetscInt gn_its, Vec gamma, PetscReal *loss)
+{
+  PetscFunctionBegin;
+  p->fit->gd_its = gd_its;
+  p->fit->gn_its = gn_its;
+  p->fit->nhist  = 0;
+  PetscCall(VecCopy(p->gamma0, gamma));
+  PetscCall(VKFitOptimize(p->fit, &p->frame, 0, gamma));
+  *loss = p->fit->hist[p->fit->nhist - 1].loss;
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode DestroyProblem(Problem *p)
 {
   PetscFunctionBegin;
   PetscCall(VKFitFrameDestroy(&p->frame));
   PetscCall(VKFitDestroy(&p->fit));
-  PetscCall(VKSceneDestroy(&p->scene));
-  PetscCall(VKMaterialDestroy(&p->mat));
-  PetscCall(VKMeshDestroy(&p->m));
-  PetscCall(VKYarnDestroy(&p->y));
+  PetscCall(FitProblemDestroy(&p->y, &p->m, &p->mat, &p->scene));
   PetscCall(VecDestroy(&p->gstar));
   PetscCall(VecDestroy(&p->gamma0));
   PetscCall(PetscFree(p->energy));
@@ -398,20 +409,9 @@ int main(int argc, char **argv)
     PetscCall(VKTestCheck((PetscBool)(rises == 0 && below == 0 && fit->hist[fit->nhist - 1].loss <= loss1), NULL, "then every parameter (%d iterations): the loss never rises (%.4e -> %.4e), no parameter below the floor (%d)", (int)(fit->nhist - first), (double)loss1, (double)fit->hist[fit->nhist - 1].loss, (int)below));
   }
   { /* Gauss-Newton 20 against gradient descent 200, every parameter, from the uniform start */
-    VKFit fit = p.fit;
-    fit->rtol = 0;
-    fit->gd_its = 200;
-    fit->gn_its = 0;
-    fit->nhist  = 0;
-    PetscCall(VecCopy(p.gamma0, gamma));
-    PetscCall(VKFitOptimize(fit, &p.frame, 0, gamma));
-    lossGD      = fit->hist[fit->nhist - 1].loss;
-    fit->gd_its = 0;
-    fit->gn_its = 20;
-    fit->nhist  = 0;
-    PetscCall(VecCopy(p.gamma0, gamma));
-    PetscCall(VKFitOptimize(fit, &p.frame, 0, gamma));
-    lossGN = fit->hist[fit->nhist - 1].loss;
+    p.fit->rtol = 0;
+    PetscCall(LossAfter(&p, 200, 0, gamma, &lossGD));
+    PetscCall(LossAfter(&p, 0, 20, gamma, &lossGN));
     PetscCall(VKTestCheck((PetscBool)(lossGN < lossGD), NULL, "Gauss-Newton in 20 iterations reaches a lower loss (%.4e) than gradient descent in 200 (%.4e), from %.4e", (double)lossGN, (double)lossGD, (double)loss0));
   }
   PetscCall(VecDestroy(&gamma));
