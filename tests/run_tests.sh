@@ -179,7 +179,9 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
   kill -9 "$pid" 2> /dev/null; wait "$pid" 2> /dev/null
   if [ ! -e "$fd/$d/material.h5" ] && [ -e "$fd/$d/fit_checkpoint.h5" ]; then ok
   else not_ok "fit killed after its first checkpoint: expected the checkpoint and no material.h5 (see $fd/$d.first.log)"; fi
-  if fit_run "$d" 1 -fit_restart; then compare_material "$fd/n1/material.h5" "$fd/$d/material.h5" 1e-7 "killed, restarted"
+  # the kill lands anywhere, so the restart may re-converge an equilibrium the run had left at its
+  # tolerance: the same gamma to solver tolerance, as for 1 vs 2 ranks (measured 6e-11 .. 1.3e-7)
+  if fit_run "$d" 1 -fit_restart; then compare_material "$fd/n1/material.h5" "$fd/$d/material.h5" 1e-5 "killed, restarted"
   else not_ok "fit -fit_restart after a kill failed (see $fd/$d.log)"; fi
   # broken checkpoints: refused with a message, no material.h5
   for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint"; do
