@@ -129,6 +129,8 @@ struct _n_VKFit {
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
   PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2];
   PetscBool monitor;
+  PetscBool step_memory; /* -fit_step_memory: an iteration's halving begins at the last accepted step */
+  PetscReal step_factor; /* where the next iteration's halving begins, relative to the phase's full step */
   PetscInt      nhist, maxhist; /* every iteration so far (fit.csv) */
   VKFitIterate *hist;
   PetscInt      sample;   /* recorded with each iteration */

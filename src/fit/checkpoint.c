@@ -3,11 +3,12 @@
  * with -fit_restart to the gamma an uninterrupted run reaches.
  *
  * DIR/fit_checkpoint.h5, group /checkpoint:
- *   attributes  format "volknit-fit-checkpoint 1"; the mesh it belongs to
+ *   attributes  format "volknit-fit-checkpoint 2"; the mesh it belongs to
  *               (tets, nodes, domains, a fingerprint of the connectivity);
  *               where to go on: sample (index into samples), stage (index
  *               into stages), phase (-1: the stage not begun, else
- *               VK_FIT_PHASE_GD/GN/DONE) and the next iteration; the Eq. 22
+ *               VK_FIT_PHASE_GD/GN/DONE), the next iteration and the step
+ *               factor its halving begins at (schedule.c); the Eq. 22
  *               weight so far, the floors, the accepted iteration count,
  *               the elapsed wall time and its split
  *   samples     the sample frames (rows), loss_floor their eps(xhat) (0
@@ -24,7 +25,7 @@
 #include <vkio.h>
 #include <vkutil.h>
 
-#define CHECKPOINT_FORMAT "volknit-fit-checkpoint 1"
+#define CHECKPOINT_FORMAT "volknit-fit-checkpoint 2"
 #define HIST_COLS         9
 
 /* Connectivity fingerprint: exact in double for any mesh we can hold. */
@@ -68,7 +69,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   struct {
     const char *name;
     PetscReal   v;
-  } reals[] = {{"weight", st->weight}, {"gamma_min_s", fit->gamma_min[0]}, {"gamma_min_v", fit->gamma_min[1]}, {"fingerprint", Fingerprint(fit->mesh)}, {"wall", st->wall}, {"time_equilibrium", fit->time_eq}, {"time_adjoint", fit->time_adjoint}, {"time_kkt", fit->time_kkt}, {"time_eigensolves", fit->time_eigen}};
+  } reals[] = {{"weight", st->weight}, {"gamma_min_s", fit->gamma_min[0]}, {"gamma_min_v", fit->gamma_min[1]}, {"fingerprint", Fingerprint(fit->mesh)}, {"wall", st->wall}, {"step_factor", fit->step_factor}, {"time_equilibrium", fit->time_eq}, {"time_adjoint", fit->time_adjoint}, {"time_kkt", fit->time_kkt}, {"time_eigensolves", fit->time_eigen}};
   struct {
     const char *name;
     PetscInt    v;
@@ -175,6 +176,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_min_s", &fit->gamma_min[0]);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_min_v", &fit->gamma_min[1]);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "wall", &st->wall);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "step_factor", &fit->step_factor);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_equilibrium", &fit->time_eq);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_adjoint", &fit->time_adjoint);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_kkt", &fit->time_kkt);
@@ -185,7 +187,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/stages", 1, &st->nstages, &stages);
   if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/average", 2, &rows, &avg);
   if (!ierr && rows != ne) ierr = BAD("%s: /checkpoint/average has %d rows for %d tets", path, (int)rows, (int)ne);
-  if (!ierr && !(st->ns >= 1 && st->ns <= VK_FIT_MAX_SAMPLES && st->nstages >= 1 && st->nstages <= VK_FIT_MAX_STAGES && st->sample >= 0 && st->sample <= st->ns && st->stage >= 0 && st->stage < st->nstages && st->phase >= -1 && st->phase <= VK_FIT_PHASE_DONE && st->iteration >= 0 && fit->nits >= 0 && st->weight >= 0 && fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && st->wall >= 0))
+  if (!ierr && !(st->ns >= 1 && st->ns <= VK_FIT_MAX_SAMPLES && st->nstages >= 1 && st->nstages <= VK_FIT_MAX_STAGES && st->sample >= 0 && st->sample <= st->ns && st->stage >= 0 && st->stage < st->nstages && st->phase >= -1 && st->phase <= VK_FIT_PHASE_DONE && st->iteration >= 0 && fit->nits >= 0 && st->weight >= 0 && fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && st->wall >= 0 && fit->step_factor > 0 && fit->step_factor <= 1))
     ierr = BAD("%s: inconsistent position (sample %d of %d, stage %d of %d, phase %d, iteration %d) or totals", path, (int)st->sample, (int)st->ns, (int)st->stage, (int)st->nstages, (int)st->phase, (int)st->iteration);
   if (!ierr && st->phase >= 0) ierr = VKH5ReadReal(&h, "/checkpoint/gamma", 2, &rows, &gamma);
   if (!ierr && st->phase >= 0 && rows != ne) ierr = BAD("%s: /checkpoint/gamma has %d rows for %d tets", path, (int)rows, (int)ne);

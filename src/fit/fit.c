@@ -33,6 +33,8 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->kappa         = 1e-3;
   fit->rtol          = 1e-6;
   fit->max_halvings  = 12;
+  fit->step_memory   = PETSC_TRUE;
+  fit->step_factor   = 1;
   fit->max_pivots    = 8;
   fit->gamma_min_rel = 1e-3;
   fit->nharm         = 3;
@@ -102,8 +104,9 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsInt("-fit_gn_its", "Gauss-Newton iterations per stage", "VKFitOptimize", fit->gn_its, &fit->gn_its, NULL));
   PetscCall(PetscOptionsReal("-fit_gd_step", "Gradient-descent step as a fraction of |gamma|", "VKFitOptimize", fit->gd_step, &fit->gd_step, NULL));
   PetscCall(PetscOptionsReal("-fit_kappa", "Levenberg-Marquardt damping of Gauss-Newton, relative: kappa = fit_kappa |grad| / |gamma|", "VKFitOptimize", fit->kappa, &fit->kappa, NULL));
-  PetscCall(PetscOptionsReal("-fit_rtol", "A phase (GD or GN) stops when an iteration lowers the loss by less than this fraction", "VKFitOptimize", fit->rtol, &fit->rtol, NULL));
+  PetscCall(PetscOptionsReal("-fit_rtol", "Accept a step only when it lowers the loss by more than this fraction of it (a phase, GD or GN, ends when no halving of the step does)", "VKFitOptimize", fit->rtol, &fit->rtol, NULL));
   PetscCall(PetscOptionsInt("-fit_max_halvings", "Step halvings allowed while the loss rises", "VKFitOptimize", fit->max_halvings, &fit->max_halvings, NULL));
+  PetscCall(PetscOptionsBool("-fit_step_memory", "Begin each iteration's step halving at the step the last one accepted (twice it if that needed no halving; at most the full step), not at the full step", "VKFitOptimize", fit->step_memory, &fit->step_memory, NULL));
   PetscCall(PetscOptionsInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL));
   PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s or g_v of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
   PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
@@ -161,7 +164,7 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
   PetscFunctionBegin;
   PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting: frame interval %g s, inertia %s, equilibrium to %g relative (PD, then up to %d Newton iterations)\n", (double)fit->dt, VKFitInertias[fit->inertia], (double)fit->eq_rtol, (int)fit->eq_newton_its));
   PetscCall(PetscViewerASCIIPushTab(viewer));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), stop below %g relative decrease, up to %d halvings; floor %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, (double)fit->gamma_min_rel));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), steps accepted above %g relative decrease, up to %d halvings%s; floor %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, fit->step_memory ? " from the last accepted step" : " from the full step", (double)fit->gamma_min_rel));
   PetscCall(PetscViewerASCIIUseTabs(viewer, PETSC_FALSE));
   for (PetscInt i = 0; i < fit->nharm; i++) PetscCall(PetscViewerASCIIPrintf(viewer, " %d,", (int)fit->harm_r[i]));
   PetscCall(PetscViewerASCIIPrintf(viewer, " then full\n"));

@@ -8,10 +8,19 @@
  * Step: gradient descent moves gamma by gd_step |gamma| along -grad;
  * Gauss-Newton takes the full step of (P + kappa I) d = -grad with
  * kappa = fit_kappa |grad| / |gamma| (units of P, vanishing at a minimum).
- * A trial is accepted when its equilibrium converges and the loss drops;
- * otherwise the step is halved.  A phase ends after its iteration count,
- * when an iteration lowers the loss by less than rtol of it, or when no
- * halving helps.
+ * A trial is accepted when its equilibrium converges and the loss drops
+ * by more than rtol (-fit_rtol) of itself; otherwise the step is halved,
+ * until the decrease the gradient predicts for the step, -grad.d s, is
+ * below that too.  (Accepting any decrease would take steps whose
+ * decrease is the noise of the equilibrium tolerance: in flat directions
+ * of the loss they move gamma by much, differently on another number of
+ * ranks.)  With -fit_step_memory (default) an iteration begins where the
+ * previous one was accepted, or at twice that (at most the full step)
+ * when it was accepted without halving: far from the minimum the
+ * Gauss-Newton step overshoots by the same factor iteration after
+ * iteration, and each trial costs an equilibrium solve (fit->step_factor,
+ * checkpointed so a restart takes the same steps).  A phase ends after its
+ * iteration count or when no step is accepted.
  *
  * Non-negativity (DESIGN §8): every parameter stays above its floor
  * gamma_min.  Over every parameter a trial is projected onto the floor;
@@ -250,9 +259,10 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
   VKFit fit = o->fit;
 
   PetscFunctionBegin;
+  if (first == 1) fit->step_factor = 1; /* else a restart inside the phase: the checkpoint's */
   for (PetscInt it = first; it <= its && !fit->stopped; it++) {
-    PetscReal    s, gnorm_gamma, dn = 0, loss_old = o->loss;
-    PetscBool    accepted = PETSC_FALSE, stalled;
+    PetscReal    s, gnorm_gamma, dn = 0, slope = 0;
+    PetscBool    accepted = PETSC_FALSE;
     VKFitEqStats st;
 
     PetscCall(VecNorm(o->gamma, NORM_2, &gnorm_gamma));
@@ -261,7 +271,10 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
       if (method == VK_FIT_GD)
         for (PetscInt j = 0; j < 2 * o->r; j++) o->dq[j] = -o->gq[j];
       else PetscCall(HarmonicGaussNewton(o, fit->kappa * o->gnorm / gnorm_gamma));
-      for (PetscInt j = 0; j < 2 * o->r; j++) dn += PetscSqr(o->dq[j]);
+      for (PetscInt j = 0; j < 2 * o->r; j++) {
+        dn += PetscSqr(o->dq[j]);
+        slope += o->gq[j] * o->dq[j];
+      }
       dn = PetscSqrtReal(dn);
     } else {
       if (method == VK_FIT_GD) {
@@ -274,19 +287,22 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
         PetscCall(VecRestoreArray(o->d, &d));
       } else PetscCall(FullGaussNewton(o, fit->kappa * o->gnorm / gnorm_gamma));
       PetscCall(VecNorm(o->d, NORM_2, &dn));
+      PetscCall(VecDot(o->grad, o->d, &slope));
     }
     if (!(dn > 0)) break;
-    s = method == VK_FIT_GD ? fit->gd_step * gnorm_gamma / dn : 1;
+    s = fit->step_factor * (method == VK_FIT_GD ? fit->gd_step * gnorm_gamma / dn : 1);
     PetscCall(VecCopy(o->f->x, o->x_acc));
     for (PetscInt h = 0; h <= fit->max_halvings && !accepted; h++, s /= 2) {
       PetscBool ok   = PETSC_FALSE;
       PetscReal loss = PETSC_INFINITY;
+      if (h && -slope * s <= fit->rtol * o->loss) break; /* not even the predicted decrease is enough */
       PetscCall(Trial(o, s));
       PetscCall(VKFitSetGamma(fit, o->trial));
       PetscCall(VKFitEquilibriumTry(fit, o->f, &st, &ok));
       if (ok) PetscCall(VKFitFrameLoss(fit, o->f, &loss, NULL));
-      if (ok && loss < o->loss) {
+      if (ok && o->loss - loss > fit->rtol * o->loss) {
         accepted       = PETSC_TRUE;
+        if (fit->step_memory) fit->step_factor = h ? fit->step_factor / PetscPowReal(2, (PetscReal)h) : PetscMin(1, 2 * fit->step_factor);
         o->eq_residual = st.residual / o->f->scale;
         PetscCall(VecCopy(o->trial, o->gamma));
         break;
@@ -300,9 +316,7 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
     }
     PetscCall(Gradient(o));
     PetscCall(Record(o, method, it, s * dn));
-    stalled = loss_old - o->loss < fit->rtol * loss_old ? PETSC_TRUE : PETSC_FALSE;
-    PetscCall(AfterIteration(o, method, it, stalled || it == its ? PETSC_TRUE : PETSC_FALSE));
-    if (stalled) break;
+    PetscCall(AfterIteration(o, method, it, it == its ? PETSC_TRUE : PETSC_FALSE));
   }
   PetscFunctionReturn(0);
 }
