@@ -124,6 +124,8 @@ struct _n_VKFit {
   Mat       G;    /* 2 A x I3 as AIJ, made at the first KKT solve */
   Mat       kkt, JT; /* the KKT matrix and J^T, kept: their pattern never changes, so the
                       * factorization's analysis is done once (kkt.c) */
+  Mat       JJT;  /* J J^T, the reduced KKT form's (2,2) block */
+  PetscBool kkt_reduced, kkt_is_reduced; /* -fit_kkt_reduced; the form fit->kkt has */
   KSP       kkkt; /* prefix -fit_kkt_ */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;

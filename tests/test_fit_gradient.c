@@ -9,9 +9,11 @@
  *    along random directions in g_s alone, in g_v alone and in both, and
  *    for the single parameter with the largest gradient, and in the
  *    harmonic subspace (grad_q = B^T grad against differences along B dq);
- *  - the Gauss-Newton direction of the sparse KKT system (MUMPS LDL^T)
- *    equals the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad solve, it
- *    descends, and frozen parameters stay at 0.
+ *  - the Gauss-Newton direction of the sparse KKT system (MUMPS LDL^T), in
+ *    its reduced form (d eliminated) and its full three-block form, at a
+ *    larger and a small damping, equals the dense
+ *    (J^T H^-1 G H^-1 J + kappa I) d = -grad solve and descends; frozen
+ *    parameters stay at 0, and both forms agree with a frozen set.
  * The target positions are manufactured (a smooth deformation of the rest
  * mesh), so the test needs no yarn-level run.  Everything is checked for
  * each -fit_inertia: implicit, data (the data acceleration as a force) and
@@ -112,17 +114,21 @@ static PetscErrorCode LossAt(Setup *s, Vec gamma0, Vec d, PetscReal h, Vec start
 }
 
 /* The KKT direction against the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad
- * solve: X = H^-1 J by a multi-column solve, P = X^T G X + kappa I gathered on
- * every rank and factored by dense LU. */
+ * solve: X = H^-1 J by a multi-column solve, P = X^T G X gathered on every
+ * rank, P + kappa I factored by dense LU for each kappa.  Both KKT forms
+ * (reduced, d eliminated; full, Eq. 21) at a damping of 1e-3 and 1e-6 of
+ * P's mean diagonal (the reduced form divides by kappa, so a small one is
+ * its hard case). */
 static PetscErrorCode TestGaussNewton(Setup *s, Vec grad)
 {
   VKFit       fit = s->fit;
-  Mat         Jd, X, G, GX, P, *Pseq;
+  Mat         Jd, X, G, GX, P, *Pseq, Pk;
   IS          all;
   Vec         d, dall, gall, ddense;
   VecScatter  sc;
   PetscInt    N;
-  PetscReal   kappa, trace, err, nd, descent;
+  PetscReal   trace, err, nd, descent;
+  PetscBool   reduced0 = fit->kkt_reduced;
 
   PetscFunctionBegin;
   PetscCall(VecDuplicate(grad, &d));
@@ -138,42 +144,61 @@ static PetscErrorCode TestGaussNewton(Setup *s, Vec grad)
   PetscCall(MatTransposeMatMult(X, GX, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &P));
   PetscCall(MatGetSize(P, &N, NULL));
   PetscCall(MatGetTrace(P, &trace));
-  kappa = 1e-3 * trace / N;
-  PetscCall(MatShift(P, kappa));
   PetscCall(ISCreateStride(PETSC_COMM_SELF, N, 0, 1, &all));
   PetscCall(MatCreateSubMatrices(P, 1, &all, &all, MAT_INITIAL_MATRIX, &Pseq));
-  PetscCall(MatLUFactor(Pseq[0], NULL, NULL, NULL));
   PetscCall(VecScatterCreateToAll(grad, &sc, &gall));
   PetscCall(VecDuplicate(gall, &ddense));
   PetscCall(VecDuplicate(gall, &dall));
   PetscCall(VecScatterBegin(sc, grad, gall, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(sc, grad, gall, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScale(gall, -1));
-  PetscCall(MatSolve(Pseq[0], gall, ddense));
-  PetscCall(VKFitGaussNewtonDirection(fit, &s->frame, kappa, NULL, grad, d));
-  PetscCall(VecScatterBegin(sc, d, dall, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sc, d, dall, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecNorm(ddense, NORM_2, &nd));
-  PetscCall(VecAXPY(dall, -1, ddense));
-  PetscCall(VecNorm(dall, NORM_2, &err));
-  PetscCall(VKTestCheck((PetscBool)(err <= 1e-8 * nd && nd > 0), NULL, "Gauss-Newton: the sparse KKT direction equals the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad solve (%d parameters, relative difference %.1e)", (int)N, (double)(err / nd)));
-  PetscCall(VecDot(d, grad, &descent));
-  PetscCall(VKTestCheck((PetscBool)(descent < 0), NULL, "Gauss-Newton: the direction descends (d . grad = %.3e)", (double)descent));
-  { /* frozen parameters stay put, the direction still descends */
-    const VKLayout *L = &s->m->layout;
-    PetscInt        n = 2 * (L->eEnd - L->eStart), bad = 0;
-    PetscBool      *frozen;
+  for (int k = 0; k < 2; k++) {
+    PetscReal kappa = (k ? 1e-6 : 1e-3) * trace / N;
+    PetscCall(MatDuplicate(Pseq[0], MAT_COPY_VALUES, &Pk));
+    PetscCall(MatShift(Pk, kappa));
+    PetscCall(MatLUFactor(Pk, NULL, NULL, NULL));
+    PetscCall(MatSolve(Pk, gall, ddense));
+    PetscCall(MatDestroy(&Pk));
+    PetscCall(VecNorm(ddense, NORM_2, &nd));
+    for (int form = 0; form < 2; form++) {
+      fit->kkt_reduced = form ? PETSC_FALSE : PETSC_TRUE;
+      PetscCall(VKFitGaussNewtonDirection(fit, &s->frame, kappa, NULL, grad, d));
+      PetscCall(VecScatterBegin(sc, d, dall, INSERT_VALUES, SCATTER_FORWARD));
+      PetscCall(VecScatterEnd(sc, d, dall, INSERT_VALUES, SCATTER_FORWARD));
+      PetscCall(VecAXPY(dall, -1, ddense));
+      PetscCall(VecNorm(dall, NORM_2, &err));
+      PetscCall(VKTestCheck((PetscBool)(err <= 1e-8 * nd && nd > 0), NULL, "Gauss-Newton, %s KKT form, kappa = %g x mean diag P: the sparse KKT direction equals the dense (J^T H^-1 G H^-1 J + kappa I) d = -grad solve (%d parameters, relative difference %.1e)", form ? "full" : "reduced", k ? 1e-6 : 1e-3, (int)N, (double)(err / nd)));
+      PetscCall(VecDot(d, grad, &descent));
+      PetscCall(VKTestCheck((PetscBool)(descent < 0), NULL, "Gauss-Newton, %s KKT form, kappa = %g x mean diag P: the direction descends (d . grad = %.3e)", form ? "full" : "reduced", k ? 1e-6 : 1e-3, (double)descent));
+    }
+  }
+  { /* frozen parameters stay put, the direction still descends, both forms agree */
+    const VKLayout    *L = &s->m->layout;
+    PetscInt           n = 2 * (L->eEnd - L->eStart), bad = 0;
+    PetscBool         *frozen;
     const PetscScalar *da;
+    Vec                dfull;
+    PetscCall(VecDuplicate(d, &dfull));
     PetscCall(PetscMalloc1(n + 1, &frozen));
     for (PetscInt i = 0; i < n; i++) frozen[i] = (PetscBool)(i % 3 == 0);
-    PetscCall(VKFitGaussNewtonDirection(fit, &s->frame, kappa, frozen, grad, d));
-    PetscCall(VecGetArrayRead(d, &da));
-    for (PetscInt i = 0; i < n; i++) if (frozen[i] && da[i] != 0) bad++;
-    PetscCall(VecRestoreArrayRead(d, &da));
-    PetscCall(VecDot(d, grad, &descent));
-    PetscCall(VKTestCheck((PetscBool)(!bad && descent < 0), NULL, "Gauss-Newton with a third of the parameters frozen: those stay at 0 (%d moved), d . grad = %.3e < 0", (int)bad, (double)descent));
+    for (int form = 0; form < 2; form++) {
+      Vec out = form ? dfull : d;
+      fit->kkt_reduced = form ? PETSC_FALSE : PETSC_TRUE;
+      PetscCall(VKFitGaussNewtonDirection(fit, &s->frame, 1e-3 * trace / N, frozen, grad, out));
+      PetscCall(VecGetArrayRead(out, &da));
+      for (PetscInt i = 0; i < n; i++) if (frozen[i] && da[i] != 0) bad++;
+      PetscCall(VecRestoreArrayRead(out, &da));
+      PetscCall(VecDot(out, grad, &descent));
+      PetscCall(VKTestCheck((PetscBool)(!bad && descent < 0), NULL, "Gauss-Newton, %s KKT form, a third of the parameters frozen: those stay at 0 (%d moved), d . grad = %.3e < 0", form ? "full" : "reduced", (int)bad, (double)descent));
+    }
+    PetscCall(VecNorm(dfull, NORM_2, &nd));
+    PetscCall(VecAXPY(dfull, -1, d));
+    PetscCall(VecNorm(dfull, NORM_2, &err));
+    PetscCall(VKTestCheck((PetscBool)(err <= 1e-8 * nd && nd > 0), NULL, "Gauss-Newton with frozen parameters: the reduced and full KKT forms give the same direction (relative difference %.1e)", (double)(err / nd)));
+    PetscCall(VecDestroy(&dfull));
     PetscCall(PetscFree(frozen));
   }
+  fit->kkt_reduced = reduced0;
   PetscCall(VecScatterDestroy(&sc));
   PetscCall(VecDestroy(&gall));
   PetscCall(VecDestroy(&dall));

@@ -36,6 +36,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->step_memory   = PETSC_TRUE;
   fit->step_factor   = 1;
   fit->max_pivots    = 8;
+  fit->kkt_reduced   = PETSC_TRUE;
   fit->gamma_min_rel = 1e-3;
   fit->nharm         = 3;
   fit->harm_r[0]     = 1;
@@ -71,6 +72,7 @@ PetscErrorCode VKFitDestroy(VKFit *p)
   PetscCall(MatDestroy(&fit->G));
   PetscCall(MatDestroy(&fit->kkt));
   PetscCall(MatDestroy(&fit->JT));
+  PetscCall(MatDestroy(&fit->JJT));
   PetscCall(VecDestroy(&fit->rhs));
   PetscCall(VecDestroy(&fit->lambda));
   PetscCall(VecDestroy(&fit->work));
@@ -107,6 +109,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsReal("-fit_rtol", "Accept a step only when it lowers the loss by more than this fraction of it (a phase, GD or GN, ends when no halving of the step does)", "VKFitOptimize", fit->rtol, &fit->rtol, NULL));
   PetscCall(PetscOptionsInt("-fit_max_halvings", "Step halvings allowed while the loss rises", "VKFitOptimize", fit->max_halvings, &fit->max_halvings, NULL));
   PetscCall(PetscOptionsBool("-fit_step_memory", "Begin each iteration's step halving at the step the last one accepted (twice it if that needed no halving; at most the full step), not at the full step", "VKFitOptimize", fit->step_memory, &fit->step_memory, NULL));
+  PetscCall(PetscOptionsBool("-fit_kkt_reduced", "Gauss-Newton KKT with d eliminated, [G -H; -H -J J^T/kappa] (needs kappa > 0); false: the three-block form of Eq. 21", "VKFitGaussNewtonDirection", fit->kkt_reduced, &fit->kkt_reduced, NULL));
   PetscCall(PetscOptionsInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL));
   PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s or g_v of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
   PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
@@ -173,7 +176,7 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
   PetscCall(VKPDView(fit->pd, viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "adjoint solver (prefix -fit_adjoint_):\n"));
   PetscCall(KSPView(fit->kadj, viewer));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "Gauss-Newton KKT solver (prefix -fit_kkt_):\n"));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Gauss-Newton KKT solver (prefix -fit_kkt_), %s:\n", fit->kkt_reduced && fit->kappa > 0 ? "reduced form [G -H; -H -J J^T/kappa] (d eliminated)" : "full form [G -H 0; -H 0 J; 0 J^T kappa I] (Eq. 21)"));
   PetscCall(KSPView(fit->kkkt, viewer));
   PetscCall(PetscViewerASCIIPopTab(viewer));
   PetscFunctionReturn(0);

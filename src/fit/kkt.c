@@ -7,19 +7,32 @@
  * the frame's equilibrium with handle rows and columns eliminated, J =
  * dg/dgamma with handle rows zeroed (so the handle parts of mu vanish),
  * kappa the Levenberg-Marquardt damping.  A frozen parameter's column of
- * J is dropped and its row becomes d_c = 0.  The three blocks are assembled into one symmetric indefinite
- * AIJ matrix whose rows on each rank are [mu_own, nu_own, d_own], so the
- * matrix is distributed like the mesh, and solved by MUMPS LDL^T through
- * a KSP with prefix -fit_kkt_, after a symmetric equilibration.  The
- * pattern is the same at every call (J keeps its zeroed entries, a frozen
- * row keeps its J^T entries as zeros), so the matrix is kept and refilled
- * and the factorization's symbolic analysis is done once per fit.  On
- * several ranks the default is PC redundant, each rank factoring the whole
- * matrix with sequential MUMPS LDL^T: MUMPS 5.5.1's distributed
- * factorization fails on this matrix (INFOG(1) = -9 even at ICNTL(14) =
- * 1000, or a wrong solution with ICNTL(13) = 1), although the same matrix
- * factors correctly on one rank (tests/test_fit_gradient.c);
- * -fit_kkt_pc_type cholesky selects the distributed factorization. */
+ * J is dropped and its row becomes d_c = 0.
+ *
+ * Reduced form (default when kappa > 0, -fit_kkt_reduced): the kappa block
+ * is diagonal, so d = -(grad + J^T nu)/kappa is eliminated exactly and
+ *   [ G   -H          ] [mu]   [ 0              ]
+ *   [ -H  -J J^T/kappa ] [nu] = [ J grad / kappa ]
+ * is solved instead: half the unknowns (2 x 3 per node, where the full
+ * form adds 2 per tet), every block with the node-adjacency pattern of H,
+ * and less than half the factorization work (on the 46K-tet rib of the
+ * benchmark: 81K unknowns, 2.4e10 flops against 174K and 5.8e10).  J J^T
+ * over the free columns is J J^T with J's frozen columns zeroed.  With
+ * -fit_kkt_reduced 0 (or kappa = 0) the three-block form above is solved.
+ *
+ * Either form is assembled into one symmetric indefinite AIJ matrix whose
+ * rows on each rank are the rank's [mu, nu(, d)], so the matrix is
+ * distributed like the mesh, and solved by MUMPS LDL^T through a KSP with
+ * prefix -fit_kkt_, after a symmetric equilibration.  The pattern is the
+ * same at every call (J keeps its zeroed entries, a frozen row keeps its
+ * J^T entries as zeros), so the matrix is kept and refilled and the
+ * factorization's symbolic analysis is done once per fit.  On several
+ * ranks the default is PC redundant, each rank factoring the whole matrix
+ * with sequential MUMPS LDL^T: MUMPS 5.5.1's distributed factorization
+ * fails on these matrices (INFOG(1) = -9 even at ICNTL(14) = 1000, or a
+ * wrong solution with ICNTL(13) = 1), although the same matrices factor
+ * correctly on one rank (tests/test_fit_gradient.c); -fit_kkt_pc_type
+ * cholesky selects the distributed factorization. */
 #include <vkfit.h>
 #include <vkutil.h>
 #include <vklog.h>
@@ -45,10 +58,10 @@ static PetscInt KKTColumn(const KKTLayout *K, int b, PetscInt c)
   return K->start[p] + off + (c - K->bstart[b][p]);
 }
 
-static PetscErrorCode KKTLayoutCreate(VKFit fit, KKTLayout *K)
+static PetscErrorCode KKTLayoutCreate(VKFit fit, PetscBool reduced, KKTLayout *K)
 {
   const VKLayout *L = &fit->mesh->layout;
-  PetscInt        mine[3] = {3 * (L->nEnd - L->nStart), 3 * (L->nEnd - L->nStart), 2 * (L->eEnd - L->eStart)}, *all;
+  PetscInt        mine[3] = {3 * (L->nEnd - L->nStart), 3 * (L->nEnd - L->nStart), reduced ? 0 : 2 * (L->eEnd - L->eStart)}, *all;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(fit->comm, &K->size));
@@ -190,6 +203,16 @@ PetscErrorCode VKFitCreateKKTSolver(VKFit fit)
   PetscFunctionReturn(0);
 }
 
+/* A new KKT solver with the defaults and the options: a new analysis. */
+static PetscErrorCode RenewKKTSolver(VKFit fit)
+{
+  PetscFunctionBegin;
+  PetscCall(KSPDestroy(&fit->kkkt));
+  PetscCall(VKFitCreateKKTSolver(fit));
+  PetscCall(KSPSetFromOptions(fit->kkkt));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
 {
   const VKLayout    *L  = &fit->mesh->layout;
@@ -201,7 +224,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscScalar       *ra;
   const PetscScalar *ga, *sa;
   PetscMPIInt        rank;
-  PetscBool          fresh;
+  PetscBool          fresh, reduced;
   KSPConvergedReason reason;
   PetscLogDouble     t0 = VKWallTime();
 
@@ -234,9 +257,15 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(MatScale(fit->G, 2));
   }
   PetscCall(MatTranspose(fit->J, fit->JT ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, &fit->JT));
-  JT = fit->JT;
-  PetscCall(KKTLayoutCreate(fit, &K));
-  nloc = 2 * nn + ng;
+  JT      = fit->JT;
+  reduced = fit->kkt_reduced && kappa > 0 ? PETSC_TRUE : PETSC_FALSE;
+  if (reduced) PetscCall(MatMatMult(fit->J, JT, fit->JJT ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, PETSC_DEFAULT, &fit->JJT));
+  if (fit->kkt && fit->kkt_is_reduced != reduced) { /* another form: another matrix, another factorization */
+    PetscCall(MatDestroy(&fit->kkt));
+    PetscCall(RenewKKTSolver(fit));
+  }
+  PetscCall(KKTLayoutCreate(fit, reduced, &K));
+  nloc = 2 * nn + (reduced ? 0 : ng);
   PetscCall(PetscCalloc2(nloc + 1, &d_nnz, nloc + 1, &o_nnz));
   PetscCall(PetscMalloc1(ng + 1, &kdiag));
   for (PetscInt i = 0; i < ng; i++) kdiag[i] = kappa;
@@ -246,13 +275,21 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(MatCreate(fit->comm, &fit->kkt));
     PetscCall(MatSetSizes(fit->kkt, nloc, nloc, PETSC_DETERMINE, PETSC_DETERMINE));
     PetscCall(MatSetType(fit->kkt, MATAIJ));
+    fit->kkt_is_reduced = reduced;
   }
   kkt = fit->kkt;
   for (int pass = fresh ? 0 : 1; pass < 2; pass++) {
-    KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}}, r1 = {{fit->H, fit->J}, {0, 2}, {-1, 1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
-    PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
-    PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
-    PetscCall(KKTBlockRow(&K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
+    KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}};
+    if (reduced) {
+      KKTRow r1 = {{fit->H, fit->JJT}, {0, 1}, {-1, -1 / kappa}};
+      PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
+      PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
+    } else {
+      KKTRow r1 = {{fit->H, fit->J}, {0, 2}, {-1, 1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
+      PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
+      PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
+      PetscCall(KKTBlockRow(&K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
+    }
     if (pass == 0) {
       PetscCall(MatSeqAIJSetPreallocation(kkt, 0, d_nnz));
       PetscCall(MatMPIAIJSetPreallocation(kkt, 0, d_nnz, 0, o_nnz));
@@ -262,13 +299,21 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(MatAssemblyEnd(kkt, MAT_FINAL_ASSEMBLY));
   PetscCall(MatSetOption(kkt, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(kkt, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE)); /* a pattern change would redo the analysis: make it loud */
-  /* right-hand side [0; 0; -grad] (0 for frozen parameters) and the solve */
+  /* right-hand side: full [0; 0; -grad] (0 for frozen parameters), reduced [0; J grad / kappa] */
   PetscCall(MatCreateVecs(kkt, &sol, &rhs));
   PetscCall(VecSet(rhs, 0));
   PetscCall(VecGetArray(rhs, &ra));
-  PetscCall(VecGetArrayRead(grad, &ga));
-  for (PetscInt i = 0; i < ng; i++) ra[2 * nn + i] = frozen && frozen[i] ? 0 : -ga[i];
-  PetscCall(VecRestoreArrayRead(grad, &ga));
+  if (reduced) {
+    const PetscScalar *jg;
+    PetscCall(MatMult(fit->J, grad, fit->work));
+    PetscCall(VecGetArrayRead(fit->work, &jg));
+    for (PetscInt i = 0; i < nn; i++) ra[nn + i] = jg[i] / kappa;
+    PetscCall(VecRestoreArrayRead(fit->work, &jg));
+  } else {
+    PetscCall(VecGetArrayRead(grad, &ga));
+    for (PetscInt i = 0; i < ng; i++) ra[2 * nn + i] = frozen && frozen[i] ? 0 : -ga[i];
+    PetscCall(VecRestoreArrayRead(grad, &ga));
+  }
   PetscCall(VecRestoreArray(rhs, &ra));
   PetscCall(Equilibrate(kkt, rhs, &scale));
   PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
@@ -279,9 +324,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
      * other values) does not fit these values (MUMPS INFOG(1) = -9 when
      * delayed pivots outgrow it): a new solver and a new analysis. */
     PetscCall(PetscInfo(fit->kkkt, "KKT: a new analysis after a failed factorization with the old one\n"));
-    PetscCall(KSPDestroy(&fit->kkkt));
-    PetscCall(VKFitCreateKKTSolver(fit));
-    PetscCall(KSPSetFromOptions(fit->kkkt));
+    PetscCall(RenewKKTSolver(fit));
     PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
     PetscCall(KSPSolve(fit->kkkt, rhs, sol));
     PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
@@ -289,9 +332,22 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(VecPointwiseMult(sol, sol, scale));
   PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Gauss-Newton KKT solve of sample frame %d failed (KSP reason %s); raise -fit_kappa or see -fit_kkt_ksp_view", (int)f->index, KSPConvergedReasons[reason]);
   PetscCall(VecGetArrayRead(sol, &sa));
-  PetscCall(VecGetArray(d, &ra));
-  for (PetscInt i = 0; i < ng; i++) ra[i] = sa[2 * nn + i];
-  PetscCall(VecRestoreArray(d, &ra));
+  if (reduced) { /* d = -(grad + J^T nu) / kappa, 0 where frozen */
+    PetscScalar *nu;
+    PetscCall(VecGetArray(fit->work, &nu));
+    for (PetscInt i = 0; i < nn; i++) nu[i] = sa[nn + i];
+    PetscCall(VecRestoreArray(fit->work, &nu));
+    PetscCall(MatMultTranspose(fit->J, fit->work, d));
+    PetscCall(VecGetArrayRead(grad, &ga));
+    PetscCall(VecGetArray(d, &ra));
+    for (PetscInt i = 0; i < ng; i++) ra[i] = frozen && frozen[i] ? 0 : -(ga[i] + ra[i]) / kappa;
+    PetscCall(VecRestoreArray(d, &ra));
+    PetscCall(VecRestoreArrayRead(grad, &ga));
+  } else {
+    PetscCall(VecGetArray(d, &ra));
+    for (PetscInt i = 0; i < ng; i++) ra[i] = sa[2 * nn + i];
+    PetscCall(VecRestoreArray(d, &ra));
+  }
   PetscCall(VecRestoreArrayRead(sol, &sa));
   PetscCall(VecDestroy(&rhs));
   PetscCall(VecDestroy(&sol));

@@ -300,6 +300,7 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
       PetscCall(VKFitSetGamma(fit, o->trial));
       PetscCall(VKFitEquilibriumTry(fit, o->f, &st, &ok));
       if (ok) PetscCall(VKFitFrameLoss(fit, o->f, &loss, NULL));
+      PetscCall(PetscInfo(NULL, "%s %d trial %d: step %g, loss %.10e -> %.10e (predicted decrease %g, needed %g)%s\n", VKFitMethods[method], (int)it, (int)h, (double)(s * dn), (double)o->loss, (double)loss, (double)(-slope * s), (double)(fit->rtol * o->loss), ok ? "" : ", equilibrium failed"));
       if (ok && o->loss - loss > fit->rtol * o->loss) {
         accepted       = PETSC_TRUE;
         if (fit->step_memory) fit->step_factor = h ? fit->step_factor / PetscPowReal(2, (PetscReal)h) : PetscMin(1, 2 * fit->step_factor);

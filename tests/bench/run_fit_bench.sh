@@ -65,7 +65,7 @@ echo "Rows produced by:"
 cat "$out/fit_commands"
 echo
 echo "Wall times in seconds on 2 ranks.  Each pose runs the harmonic stages r = 1, 10, 30 and then every parameter,"
-echo "each gradient descent then Gauss-Newton (sparse KKT, MUMPS LDL^T, PC redundant on 2 ranks).  'excess left' is"
+echo "each gradient descent then Gauss-Newton (sparse KKT in its reduced form, MUMPS LDL^T, PC redundant on 2 ranks).  'excess left' is"
 echo "(loss_end - eps(xhat)) / (loss_start - eps(xhat)): eps(xhat) is the loss floor of the shape fit that no material"
 echo "reaches.  Reference: paper Table 1, 1x1 rib, 66K yarn / 38K mesh DOFs, 2 poses, 0.5 h, 15 GN iterations per pose"
 echo "(i7-12700, RTX 3090)."
