@@ -16,7 +16,10 @@
  * of the loss they move gamma by much, differently on another number of
  * ranks.)  With -fit_step_memory (default) an iteration begins where the
  * previous one was accepted, or at twice that (at most the full step)
- * when it was accepted without halving: far from the minimum the
+ * when it was accepted without halving and its decrease was more than 3/4
+ * of the model's (gradient descent: -grad.d s, which on a quadratic holds
+ * up to half the best step; Gauss-Newton: its quadratic model
+ * -grad.d (s - s^2/2), (P + kappa I) d = -grad): far from the minimum the
  * Gauss-Newton step overshoots by the same factor iteration after
  * iteration, and each trial costs an equilibrium solve (fit->step_factor,
  * checkpointed so a restart takes the same steps).  A phase ends after its
@@ -27,9 +30,11 @@
  * parameters at the floor whose gradient pushes down are frozen (d = 0);
  * when the projected Gauss-Newton step no longer descends, the parameter
  * that would go most negative is pivoted out (frozen) and the KKT system
- * solved again, more at a time in later rounds (FullGaussNewton).  In a harmonic space the trial is projected as well (a
- * parameter left at the floor by an earlier sample must not block every
- * move in the span).
+ * solved again, more at a time in later rounds (FullGaussNewton).  In a
+ * harmonic space the moves are D B q, D zeroing the frozen parameters
+ * (those an earlier sample left at the floor, pushed down), and the trial
+ * is projected as well: the floor must not block every move in the span,
+ * nor a frozen parameter's push count in a decrease the floor forbids.
  *
  * Checkpoints: after every fit->checkpoint_every accepted iterations (and
  * at the -fit_max_iterations stop) the caller's hook records where a
@@ -42,7 +47,7 @@ typedef struct {
   VKFit       fit;
   VKFitFrame *f;
   PetscInt    r, nloc; /* basis size (0: full), local parameters */
-  Vec         gamma, grad, d, trial, x_acc;
+  Vec         gamma, grad, d, trial, x_acc, step; /* step: harmonic scratch, B dq masked */
   PetscBool  *frozen;
   PetscReal  *gq, *dq, *work; /* harmonic: 2r, 2r, dense scratch */
   Vec        *Z, *AZ;         /* harmonic Gauss-Newton columns */
@@ -105,37 +110,56 @@ static PetscReal Floor(VKFit fit, PetscInt i)
   return fit->gamma_min[i % 2];
 }
 
+/* v_i = 0 for the frozen parameters. */
+static PetscErrorCode MaskFrozen(Opt *o, Vec v)
+{
+  PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(v, &a));
+  for (PetscInt i = 0; i < o->nloc; i++)
+    if (o->frozen[i]) a[i] = 0;
+  PetscCall(VecRestoreArray(v, &a));
+  PetscFunctionReturn(0);
+}
+
 /* Loss and gradient at the accepted gamma (the frame at its equilibrium);
- * in the full space the parameters at the floor pushed down are frozen. */
+ * the parameters at the floor pushed down are frozen.  In a harmonic
+ * space the moves are D B q, D masking the frozen parameters: a parameter
+ * an earlier sample left at the floor would otherwise count its downward
+ * push in the predicted decrease of every move, which the floor then
+ * clamps away (and B q raises it elsewhere, at a cost). */
 static PetscErrorCode Gradient(Opt *o)
 {
-  VKFit fit = o->fit;
+  VKFit              fit = o->fit;
+  const PetscScalar *g, *gr;
+  PetscReal          s = 0;
 
   PetscFunctionBegin;
   PetscCall(VKFitFrameLoss(fit, o->f, &o->loss, o->grad));
+  PetscCall(VecGetArrayRead(o->gamma, &g));
+  PetscCall(VecGetArrayRead(o->grad, &gr));
+  for (PetscInt i = 0; i < o->nloc; i++) {
+    o->frozen[i] = (g[i] <= Floor(fit, i) * (1 + 1e-12) && gr[i] > 0) ? PETSC_TRUE : PETSC_FALSE;
+    if (!o->frozen[i]) s += PetscSqr(gr[i]);
+  }
+  PetscCall(VecRestoreArrayRead(o->grad, &gr));
+  PetscCall(VecRestoreArrayRead(o->gamma, &g));
   if (o->r) {
-    PetscCall(VKFitHarmonicApplyTranspose(fit, o->r, o->grad, o->gq));
+    PetscCall(VecCopy(o->grad, o->step));
+    PetscCall(MaskFrozen(o, o->step));
+    PetscCall(VKFitHarmonicApplyTranspose(fit, o->r, o->step, o->gq));
     o->gnorm = 0;
     for (PetscInt j = 0; j < 2 * o->r; j++) o->gnorm += PetscSqr(o->gq[j]);
     o->gnorm = PetscSqrtReal(o->gnorm);
   } else {
-    const PetscScalar *g, *gr;
-    PetscReal          s = 0;
-    PetscCall(VecGetArrayRead(o->gamma, &g));
-    PetscCall(VecGetArrayRead(o->grad, &gr));
-    for (PetscInt i = 0; i < o->nloc; i++) {
-      o->frozen[i] = (g[i] <= Floor(fit, i) * (1 + 1e-12) && gr[i] > 0) ? PETSC_TRUE : PETSC_FALSE;
-      if (!o->frozen[i]) s += PetscSqr(gr[i]);
-    }
-    PetscCall(VecRestoreArrayRead(o->grad, &gr));
-    PetscCall(VecRestoreArrayRead(o->gamma, &g));
     PetscCallMPI(MPI_Allreduce(&s, &o->gnorm, 1, MPIU_REAL, MPIU_SUM, fit->comm));
     o->gnorm = PetscSqrtReal(o->gnorm);
   }
   PetscFunctionReturn(0);
 }
 
-/* trial = gamma + s d (harmonic: d = B dq), projected onto the floor. */
+/* trial = gamma + s d (harmonic: d = D B dq), projected onto the floor. */
 static PetscErrorCode Trial(Opt *o, PetscReal s)
 {
   VKFit        fit = o->fit;
@@ -147,7 +171,10 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
     PetscReal *sdq;
     PetscCall(PetscMalloc1(2 * o->r, &sdq));
     for (PetscInt j = 0; j < 2 * o->r; j++) sdq[j] = s * o->dq[j];
-    PetscCall(VKFitHarmonicApply(fit, o->r, sdq, o->trial));
+    PetscCall(VecSet(o->step, 0));
+    PetscCall(VKFitHarmonicApply(fit, o->r, sdq, o->step));
+    PetscCall(MaskFrozen(o, o->step));
+    PetscCall(VecAXPY(o->trial, 1, o->step));
     PetscCall(PetscFree(sdq));
   } else PetscCall(VecAXPY(o->trial, s, o->d));
   PetscCall(VecGetArray(o->trial, &t));
@@ -156,8 +183,8 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
   PetscFunctionReturn(0);
 }
 
-/* Harmonic Gauss-Newton: Z_j = H^-1 J B e_j (the adjoint factorization of
- * the current equilibrium), P_q = Z^T G Z, (P_q + kappa I) dq = -gq by the
+/* Harmonic Gauss-Newton: Z_j = H^-1 J D B e_j (the adjoint factorization
+ * of the current equilibrium), P_q = Z^T G Z, (P_q + kappa I) dq = -gq by the
  * eigen-decomposition of the small dense matrix. */
 static PetscErrorCode HarmonicGaussNewton(Opt *o, PetscReal kappa)
 {
@@ -169,9 +196,10 @@ static PetscErrorCode HarmonicGaussNewton(Opt *o, PetscReal kappa)
   PetscCall(PetscMalloc4(n * n, &P, n, &l, n * n, &Q, n, &e));
   for (PetscInt j = 0; j < n; j++) {
     for (PetscInt i = 0; i < n; i++) e[i] = i == j;
-    PetscCall(VecSet(o->trial, 0));
-    PetscCall(VKFitHarmonicApply(fit, o->r, e, o->trial));
-    PetscCall(MatMult(fit->J, o->trial, fit->rhs));
+    PetscCall(VecSet(o->step, 0));
+    PetscCall(VKFitHarmonicApply(fit, o->r, e, o->step));
+    PetscCall(MaskFrozen(o, o->step));
+    PetscCall(MatMult(fit->J, o->step, fit->rhs));
     PetscCall(VKPDZeroEliminatedRows(fit->pd, fit->rhs));
     PetscCall(KSPSolve(fit->kadj, fit->rhs, o->Z[j]));
     PetscCall(MatMult(fit->sf->A3, o->Z[j], o->AZ[j]));
@@ -278,13 +306,9 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
       dn = PetscSqrtReal(dn);
     } else {
       if (method == VK_FIT_GD) {
-        PetscScalar *d;
         PetscCall(VecCopy(o->grad, o->d));
         PetscCall(VecScale(o->d, -1));
-        PetscCall(VecGetArray(o->d, &d));
-        for (PetscInt i = 0; i < o->nloc; i++)
-          if (o->frozen[i]) d[i] = 0;
-        PetscCall(VecRestoreArray(o->d, &d));
+        PetscCall(MaskFrozen(o, o->d));
       } else PetscCall(FullGaussNewton(o, fit->kappa * o->gnorm / gnorm_gamma));
       PetscCall(VecNorm(o->d, NORM_2, &dn));
       PetscCall(VecDot(o->grad, o->d, &slope));
@@ -303,7 +327,11 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
       PetscCall(PetscInfo(NULL, "%s %d trial %d: step %g, loss %.10e -> %.10e (predicted decrease %g, needed %g)%s\n", VKFitMethods[method], (int)it, (int)h, (double)(s * dn), (double)o->loss, (double)loss, (double)(-slope * s), (double)(fit->rtol * o->loss), ok ? "" : ", equilibrium failed"));
       if (ok && o->loss - loss > fit->rtol * o->loss) {
         accepted       = PETSC_TRUE;
-        if (fit->step_memory) fit->step_factor = h ? fit->step_factor / PetscPowReal(2, (PetscReal)h) : PetscMin(1, 2 * fit->step_factor);
+        if (fit->step_memory) { /* grow only while the decrease keeps up with the model's */
+          PetscReal rho = (o->loss - loss) / (-slope * s * (method == VK_FIT_GN ? 1 - s / 2 : 1));
+          if (h) fit->step_factor /= PetscPowReal(2, (PetscReal)h);
+          else if (rho > 0.75) fit->step_factor = PetscMin(1, 2 * fit->step_factor);
+        }
         o->eq_residual = st.residual / o->f->scale;
         PetscCall(VecCopy(o->trial, o->gamma));
         break;
@@ -336,15 +364,14 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
   o.r     = r;
   o.gamma = gamma;
   PetscCall(VecGetLocalSize(gamma, &o.nloc));
+  PetscCall(PetscMalloc1(o.nloc + 1, &o.frozen));
   if (r) {
     PetscCall(VKFitHarmonicSetUp(fit, r));
     PetscCall(PetscMalloc3(2 * r, &o.gq, 2 * r, &o.dq, 4 * r * r, &o.work));
     PetscCall(VecDuplicateVecs(fit->rhs, 2 * r, &o.Z));
     PetscCall(VecDuplicateVecs(fit->rhs, 2 * r, &o.AZ));
-  } else {
-    PetscCall(PetscMalloc1(o.nloc + 1, &o.frozen));
-    PetscCall(VecDuplicate(gamma, &o.d));
-  }
+    PetscCall(VecDuplicate(gamma, &o.step));
+  } else PetscCall(VecDuplicate(gamma, &o.d));
   PetscCall(VecDuplicate(gamma, &o.grad));
   PetscCall(VecDuplicate(gamma, &o.trial));
   PetscCall(VecDuplicate(f->x, &o.x_acc));
@@ -366,10 +393,9 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
     PetscCall(PetscFree3(o.gq, o.dq, o.work));
     PetscCall(VecDestroyVecs(2 * r, &o.Z));
     PetscCall(VecDestroyVecs(2 * r, &o.AZ));
-  } else {
-    PetscCall(PetscFree(o.frozen));
-    PetscCall(VecDestroy(&o.d));
-  }
+    PetscCall(VecDestroy(&o.step));
+  } else PetscCall(VecDestroy(&o.d));
+  PetscCall(PetscFree(o.frozen));
   PetscCall(VecDestroy(&o.grad));
   PetscCall(VecDestroy(&o.trial));
   PetscCall(VecDestroy(&o.x_acc));
