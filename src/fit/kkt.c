@@ -279,17 +279,11 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   }
   kkt = fit->kkt;
   for (int pass = fresh ? 0 : 1; pass < 2; pass++) {
-    KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}};
-    if (reduced) {
-      KKTRow r1 = {{fit->H, fit->JJT}, {0, 1}, {-1, -1 / kappa}};
-      PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
-      PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
-    } else {
-      KKTRow r1 = {{fit->H, fit->J}, {0, 2}, {-1, 1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
-      PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
-      PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
-      PetscCall(KKTBlockRow(&K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
-    }
+    KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
+    KKTRow r1 = reduced ? (KKTRow){{fit->H, fit->JJT}, {0, 1}, {-1, -1 / kappa}} : (KKTRow){{fit->H, fit->J}, {0, 2}, {-1, 1}};
+    PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
+    PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
+    if (!reduced) PetscCall(KKTBlockRow(&K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
     if (pass == 0) {
       PetscCall(MatSeqAIJSetPreallocation(kkt, 0, d_nnz));
       PetscCall(MatMPIAIJSetPreallocation(kkt, 0, d_nnz, 0, o_nnz));
