@@ -125,7 +125,7 @@ struct _n_VKFit {
   Mat       kkt, JT; /* the KKT matrix and J^T, kept: their pattern never changes, so the
                       * factorization's analysis is done once (kkt.c) */
   Mat       JJT;  /* J J^T, the reduced KKT form's (2,2) block */
-  PetscBool kkt_reduced, kkt_is_reduced; /* -fit_kkt_reduced; the form fit->kkt has */
+  PetscBool kkt_reduced; /* -fit_kkt_reduced */
   KSP       kkkt; /* prefix -fit_kkt_ */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;

@@ -4,6 +4,7 @@
  * wall time / peak memory for the summaries. */
 #pragma once
 #include <petscsys.h>
+#include <petscksp.h>
 #include <stdint.h>
 
 /* Sort keys ascending (stable LSD radix sort), permuting payload alongside
@@ -132,5 +133,8 @@ static inline PetscReal VKSumValue(const VKSum *s)
 }
 
 PETSC_EXTERN PetscLogDouble VKWallTime(void);
+/* ksp: KSPPREONLY with a MUMPS factorization of the given type (PCLU,
+ * PCCHOLESKY) as its PC (direct_solver.c). */
+PETSC_EXTERN PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor);
 /* Peak resident set size of this process in bytes. */
 PETSC_EXTERN PetscErrorCode VKPeakMemory(PetscLogDouble *);

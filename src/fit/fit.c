@@ -15,7 +15,6 @@ const char *const VKFitMethods[]  = {"GD", "GN", "VKFitMethod", "VK_FIT_", NULL}
 PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
 {
   VKFit fit;
-  PC    pc;
 
   PetscFunctionBegin;
   PetscCall(PetscNew(&fit));
@@ -48,10 +47,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   PetscCall(VKPDCreate(mat, scene, &fit->pd));
   PetscCall(KSPCreate(fit->comm, &fit->kadj));
   PetscCall(KSPSetOptionsPrefix(fit->kadj, "fit_adjoint_"));
-  PetscCall(KSPSetType(fit->kadj, KSPPREONLY));
-  PetscCall(KSPGetPC(fit->kadj, &pc));
-  PetscCall(PCSetType(pc, PCLU));
-  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(VKKSPSetMUMPS(fit->kadj, PCLU));
   PetscCall(VKFitCreateKKTSolver(fit));
   *out = fit;
   PetscFunctionReturn(0);

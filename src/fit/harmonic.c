@@ -70,7 +70,6 @@ PetscErrorCode VKFitHarmonicSetUp(VKFit fit, PetscInt r)
   EPS            eps;
   ST             st;
   KSP            ksp;
-  PC             pc;
   Vec            v;
   PetscLogDouble t0;
 
@@ -91,10 +90,7 @@ PetscErrorCode VKFitHarmonicSetUp(VKFit fit, PetscInt r)
   PetscCall(EPSGetST(eps, &st));
   PetscCall(STSetType(st, STSINVERT));
   PetscCall(STGetKSP(st, &ksp));
-  PetscCall(KSPSetType(ksp, KSPPREONLY));
-  PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, PCCHOLESKY));
-  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(VKKSPSetMUMPS(ksp, PCCHOLESKY));
   PetscCall(EPSSetFromOptions(eps));
   PetscCall(EPSSolve(eps));
   PetscCall(EPSGetConverged(eps, &nconv));

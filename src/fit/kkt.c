@@ -184,21 +184,15 @@ PetscErrorCode VKFitCreateKKTSolver(VKFit fit)
   PetscFunctionBegin;
   PetscCall(KSPCreate(fit->comm, &fit->kkkt));
   PetscCall(KSPSetOptionsPrefix(fit->kkkt, "fit_kkt_"));
-  PetscCall(KSPSetType(fit->kkkt, KSPPREONLY));
-  PetscCall(KSPGetPC(fit->kkkt, &pc));
   PetscCallMPI(MPI_Comm_size(fit->comm, &size));
-  if (size == 1) {
-    PetscCall(PCSetType(pc, PCCHOLESKY));
-    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-  } else { /* distributed MUMPS LDL^T fails on the KKT matrix (above) */
+  if (size == 1) PetscCall(VKKSPSetMUMPS(fit->kkkt, PCCHOLESKY));
+  else { /* distributed MUMPS LDL^T fails on the KKT matrix (above) */
     KSP inner;
-    PC  ipc;
+    PetscCall(KSPSetType(fit->kkkt, KSPPREONLY));
+    PetscCall(KSPGetPC(fit->kkkt, &pc));
     PetscCall(PCSetType(pc, PCREDUNDANT));
     PetscCall(PCRedundantGetKSP(pc, &inner));
-    PetscCall(KSPSetType(inner, KSPPREONLY));
-    PetscCall(KSPGetPC(inner, &ipc));
-    PetscCall(PCSetType(ipc, PCCHOLESKY));
-    PetscCall(PCFactorSetMatSolverType(ipc, MATSOLVERMUMPS));
+    PetscCall(VKKSPSetMUMPS(inner, PCCHOLESKY));
   }
   PetscFunctionReturn(0);
 }
@@ -260,11 +254,15 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   JT      = fit->JT;
   reduced = fit->kkt_reduced && kappa > 0 ? PETSC_TRUE : PETSC_FALSE;
   if (reduced) PetscCall(MatMatMult(fit->J, JT, fit->JJT ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, PETSC_DEFAULT, &fit->JJT));
-  if (fit->kkt && fit->kkt_is_reduced != reduced) { /* another form: another matrix, another factorization */
-    PetscCall(MatDestroy(&fit->kkt));
-    PetscCall(RenewKKTSolver(fit));
-  }
   PetscCall(KKTLayoutCreate(fit, reduced, &K));
+  if (fit->kkt) { /* kept from a call in the other form (another size): another matrix, another factorization */
+    PetscInt N;
+    PetscCall(MatGetSize(fit->kkt, &N, NULL));
+    if (N != K.start[K.size]) {
+      PetscCall(MatDestroy(&fit->kkt));
+      PetscCall(RenewKKTSolver(fit));
+    }
+  }
   nloc = 2 * nn + (reduced ? 0 : ng);
   PetscCall(PetscCalloc2(nloc + 1, &d_nnz, nloc + 1, &o_nnz));
   PetscCall(PetscMalloc1(ng + 1, &kdiag));
@@ -275,7 +273,6 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(MatCreate(fit->comm, &fit->kkt));
     PetscCall(MatSetSizes(fit->kkt, nloc, nloc, PETSC_DETERMINE, PETSC_DETERMINE));
     PetscCall(MatSetType(fit->kkt, MATAIJ));
-    fit->kkt_is_reduced = reduced;
   }
   kkt = fit->kkt;
   for (int pass = fresh ? 0 : 1; pass < 2; pass++) {

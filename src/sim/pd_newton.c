@@ -57,7 +57,6 @@ static PetscErrorCode NewtonJacobian(SNES snes, Vec x, Mat J, Mat P, void *ctx)
 static PetscErrorCode NewtonCreate(VKPD pd)
 {
   KSP            ksp;
-  PC             pc;
   SNESLineSearch ls;
 
   PetscFunctionBegin;
@@ -67,10 +66,7 @@ static PetscErrorCode NewtonCreate(VKPD pd)
   PetscCall(SNESGetLineSearch(pd->snes, &ls));
   PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
   PetscCall(SNESGetKSP(pd->snes, &ksp));
-  PetscCall(KSPSetType(ksp, KSPPREONLY));
-  PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, PCLU));
-  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(VKKSPSetMUMPS(ksp, PCLU));
   PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
   PetscCall(SNESSetFunction(pd->snes, NULL, NewtonFunction, pd));
   PetscCall(SNESSetJacobian(pd->snes, pd->H, pd->H, NewtonJacobian, pd));

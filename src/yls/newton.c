@@ -216,7 +216,6 @@ PetscErrorCode VKYLSCreateSNES(VKYLS y)
 {
   SNESLineSearch ls;
   KSP            ksp;
-  PC             pc;
   Vec            r;
 
   PetscFunctionBegin;
@@ -230,10 +229,7 @@ PetscErrorCode VKYLSCreateSNES(VKYLS y)
   PetscCall(SNESSetUpdate(y->snes, Update));
   PetscCall(SNESSetTolerances(y->snes, 1e-10 * PetscMax(y->par.ks, PETSC_SMALL), 1e-6, 1e-10, 50, PETSC_MAX_INT));
   PetscCall(SNESGetKSP(y->snes, &ksp));
-  PetscCall(KSPSetType(ksp, KSPPREONLY));
-  PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, PCCHOLESKY));
-  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(VKKSPSetMUMPS(ksp, PCCHOLESKY));
   PetscCall(SNESGetLineSearch(y->snes, &ls));
   PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
   PetscCall(SNESSetFromOptions(y->snes));
