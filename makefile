@@ -67,6 +67,12 @@ $(LIB): $(LIB_OBJ)
 	@mkdir -p $(@D)
 	ar rcs $@ $^
 
+# The PD local step's 3x3 kernels work on VK_SVD3_BATCH tets in SIMD lanes;
+# GCC vectorizes their square roots and selects only without errno and
+# floating-point trap semantics (neither is used by volknit).
+VEC_FLAGS := -fno-math-errno -fno-trapping-math -fopenmp-simd
+build/material/svd3.o: CFLAGS += $(VEC_FLAGS)
+
 build/%.o: src/%.c $(wildcard include/*.h src/*/*.h)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) -Isrc -c $< -o $@

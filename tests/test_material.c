@@ -8,7 +8,8 @@
  * order remainders) of psi -> P and P -> H on random, near-degenerate,
  * exactly degenerate, inverted, clamped and strongly inflated F; H
  * symmetric; the PSD projection leaves a PSD H alone and makes any H PSD;
- * P is linear in (g_s, g_v). */
+ * P is linear in (g_s, g_v); the batched kernel of the PD local step
+ * equals the one-tet path lane by lane. */
 #include <vkmaterial.h>
 #include "vktest.h"
 
@@ -235,6 +236,53 @@ static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal
   PetscFunctionReturn(0);
 }
 
+/* The PD local step's batched kernel (VKPsiProjectBatch: the SVDs of up
+ * to VK_SVD3_BATCH tets in SIMD lanes, warm-started, then the projections)
+ * against one tet at a time (VKPsiEvaluate, cold), with every kind of F
+ * mixed in one batch, and a non-finite F, which must come out NaN without
+ * touching the other lanes. */
+static PetscErrorCode TestBatch(void)
+{
+  PetscReal diff = 0, nan_lanes = 0, nan_expected = 0;
+
+  PetscFunctionBegin;
+  for (int t = 0; t < 500; t++) {
+    PetscInt   n = 1 + t % VK_SVD3_BATCH;
+    PetscReal  F[9 * VK_SVD3_BATCH], W0[9 * VK_SVD3_BATCH];
+    VKPsiState st[VK_SVD3_BATCH];
+    for (PetscInt l = 0; l < n; l++) {
+      PetscReal *f = F + 9 * l;
+      int        kind = (t + (int)l) % 6;
+      if (kind == 0) WithSingularValues(1 + 0.01 * Rand(), 1 + 0.01 * Rand(), 1 + 0.01 * Rand(), f); /* near rest */
+      else if (kind == 1) WithSingularValues(1.1, 0.9, -0.4 + 0.1 * Rand(), f);                      /* inverted */
+      else if (kind == 2) WithSingularValues(30, 20, 0.002 * (1.5 + Rand()), f);                     /* clamped */
+      else if (kind == 3) WithSingularValues(2.5, 2.0, 1.8 + 0.1 * Rand(), f);                        /* inflated */
+      else if (kind == 4) WithSingularValues(1.2, 1.2, 1.2, f);                                       /* degenerate */
+      else
+        for (int i = 0; i < 9; i++) f[i] = (i % 4 == 0) + 0.3 * Rand();
+      if (t % 50 == 7 && l == n - 1) f[4] = (t % 100 == 7) ? PETSC_INFINITY : (PetscReal)NAN;
+      RandomRotation(W0 + 9 * l);
+    }
+    PetscCall(VKPsiProjectBatch(n, F, t % 2 ? W0 : NULL, st));
+    for (PetscInt l = 0; l < n; l++) {
+      VKPsiState one;
+      PetscReal  scale = 1;
+      if (PetscIsInfOrNanReal(F[9 * l + 4])) {
+        nan_expected++;
+        nan_lanes += PetscIsNanReal(st[l].psi_v) && PetscIsNanReal(st[l].R[0]) && PetscIsNanReal(st[l].V[8]);
+        continue;
+      }
+      PetscCall(VKPsiEvaluate(F + 9 * l, &one));
+      for (int i = 0; i < 9; i++) scale = PetscMax(scale, PetscAbsReal(F[9 * l + i]));
+      for (int i = 0; i < 9; i++) diff = PetscMax(diff, (PetscAbsReal(st[l].R[i] - one.R[i]) + PetscAbsReal(st[l].V[i] - one.V[i])) / scale);
+      diff = PetscMax(diff, PetscAbsReal(st[l].psi_s - one.psi_s) / (scale * scale) + PetscAbsReal(st[l].psi_v - one.psi_v) / (scale * scale));
+    }
+  }
+  PetscCall(VKTestClose(diff, 0, 1e-12, "batched SVD + projection (warm and cold, 1-4 lanes, mixed kinds) equal one tet at a time"));
+  PetscCall(VKTestCheck((PetscBool)(nan_expected > 0 && nan_lanes == nan_expected), NULL, "batched kernel: a non-finite F gives NaN in its lane only (%d of %d)", (int)nan_lanes, (int)nan_expected));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode TestDerivatives(void)
 {
   PetscReal F[9], gs = 1.3e3, gv = 0.7e3;
@@ -291,6 +339,7 @@ int main(int argc, char **argv)
   PetscCall(PetscRandomSeed(rnd));
   PetscCall(TestSVD());
   PetscCall(TestProjection());
+  PetscCall(TestBatch());
   PetscCall(TestDerivatives());
   PetscCall(PetscRandomDestroy(&rnd));
   {

@@ -21,45 +21,50 @@
  * confirming sweep is cheap. */
 #define ORTHO_TOL 1e-15
 
-/* Cyclic one-sided Jacobi on n independent matrices at once: A[l] <- A[l] J,
- * W[l] <- W[l] J until the columns of every A[l] are orthogonal.  Each
- * rotation is a chain of two square roots and a division; interleaving
- * the matrices lets those chains overlap instead of waiting on each other.
- * A matrix that has converged gets identity rotations until the others do.
- * The rotation zeroing a_p . a_q (alpha = |a_p|^2, beta = |a_q|^2, gamma =
+/* Cyclic one-sided Jacobi on VK_SVD3_BATCH independent matrices at once,
+ * stored lane by lane (A[k][l]: entry k of matrix l): A <- A J, W <- W J
+ * until the columns of every A are orthogonal.  Each rotation is a chain
+ * of two square roots and a division; with the matrices in lanes the
+ * compiler runs the chains of all of them in one vector instruction
+ * each (this file is compiled with -fno-math-errno -fno-trapping-math,
+ * without which GCC keeps square roots and selects scalar).  A matrix that
+ * has converged gets identity rotations until the others do.  The
+ * rotation zeroing a_p . a_q (alpha = |a_p|^2, beta = |a_q|^2, gamma =
  * a_p . a_q, d = beta - alpha, h = sqrt(d^2 + 4 gamma^2), m = |d| + h) is
  *   c = m / sqrt(2 h m),   s = sign(d) 2 gamma / sqrt(2 h m),
  * the usual t = sign(zeta) / (|zeta| + sqrt(1 + zeta^2)), c = 1/sqrt(1 + t^2)
  * with zeta = d / (2 gamma) multiplied out. */
-static void OrthogonalizeColumns(PetscInt n, PetscReal A[][9], PetscReal W[][9])
+static void OrthogonalizeColumns(PetscReal A[9][VK_SVD3_BATCH], PetscReal W[9][VK_SVD3_BATCH])
 {
   for (int sweep = 0; sweep < 30; sweep++) {
-    PetscBool rotated = PETSC_FALSE;
+    PetscReal rotated = 0;
     for (int p = 0; p < 2; p++)
       for (int q = p + 1; q < 3; q++) {
-        PetscReal c[VK_SVD3_BATCH], s[VK_SVD3_BATCH];
-        for (PetscInt l = 0; l < n; l++) {
-          const PetscReal *a     = A[l];
-          PetscReal        alpha = a[p] * a[p] + a[3 + p] * a[3 + p] + a[6 + p] * a[6 + p];
-          PetscReal        beta  = a[q] * a[q] + a[3 + q] * a[3 + q] + a[6 + q] * a[6 + q];
-          PetscReal        gamma = a[p] * a[q] + a[3 + p] * a[3 + q] + a[6 + p] * a[6 + q];
-          PetscBool        skip  = (PetscBool)(gamma * gamma <= ORTHO_TOL * ORTHO_TOL * alpha * beta);
-          PetscReal        d = beta - alpha, h = PetscSqrtReal(d * d + 4 * gamma * gamma), m = PetscAbsReal(d) + h;
-          PetscReal        r = skip ? 0 : 1 / PetscSqrtReal(skip ? 1 : 2 * h * m);
-          c[l] = skip ? 1 : m * r;
-          s[l] = (d >= 0 ? 2 * gamma : -2 * gamma) * r;
-          rotated |= !skip;
+        PetscReal c[VK_SVD3_BATCH], s[VK_SVD3_BATCH], keep[VK_SVD3_BATCH];
+#pragma omp simd
+        for (int l = 0; l < VK_SVD3_BATCH; l++) {
+          PetscReal alpha = A[p][l] * A[p][l] + A[3 + p][l] * A[3 + p][l] + A[6 + p][l] * A[6 + p][l];
+          PetscReal beta  = A[q][l] * A[q][l] + A[3 + q][l] * A[3 + q][l] + A[6 + q][l] * A[6 + q][l];
+          PetscReal gamma = A[p][l] * A[q][l] + A[3 + p][l] * A[3 + q][l] + A[6 + p][l] * A[6 + q][l];
+          PetscReal k     = gamma * gamma > ORTHO_TOL * ORTHO_TOL * alpha * beta ? 1 : 0; /* 0: no rotation */
+          PetscReal d = beta - alpha, h = sqrt(d * d + 4 * gamma * gamma), m = fabs(d) + h;
+          PetscReal r = k / sqrt(k * 2 * h * m + (1 - k));
+          c[l]    = m * r + (1 - k);
+          s[l]    = (d >= 0 ? 2 * gamma : -2 * gamma) * r;
+          keep[l] = k;
         }
-        for (PetscInt l = 0; l < n; l++)
-          for (int i = 0; i < 3; i++) {
-            PetscReal ap = A[l][3 * i + p], aq = A[l][3 * i + q], wp = W[l][3 * i + p], wq = W[l][3 * i + q];
-            A[l][3 * i + p] = c[l] * ap - s[l] * aq;
-            A[l][3 * i + q] = s[l] * ap + c[l] * aq;
-            W[l][3 * i + p] = c[l] * wp - s[l] * wq;
-            W[l][3 * i + q] = s[l] * wp + c[l] * wq;
+        for (int l = 0; l < VK_SVD3_BATCH; l++) rotated += keep[l];
+        for (int i = 0; i < 3; i++)
+#pragma omp simd
+          for (int l = 0; l < VK_SVD3_BATCH; l++) {
+            PetscReal ap = A[3 * i + p][l], aq = A[3 * i + q][l], wp = W[3 * i + p][l], wq = W[3 * i + q][l];
+            A[3 * i + p][l] = c[l] * ap - s[l] * aq;
+            A[3 * i + q][l] = s[l] * ap + c[l] * aq;
+            W[3 * i + p][l] = c[l] * wp - s[l] * wq;
+            W[3 * i + q][l] = s[l] * wp + c[l] * wq;
           }
       }
-    if (!rotated) break;
+    if (rotated == 0) break;
   }
 }
 
@@ -130,27 +135,37 @@ static void FinishSVD(const PetscReal F[], const PetscReal A[], const PetscReal 
 
 void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKSVD3 svd[])
 {
-  PetscReal A[VK_SVD3_BATCH][9], W[VK_SVD3_BATCH][9];
+  PetscReal A[9][VK_SVD3_BATCH], W[9][VK_SVD3_BATCH];
 
-  for (PetscInt l = 0; l < n; l++) {
+  for (PetscInt l = 0; l < VK_SVD3_BATCH; l++) {
     const PetscReal *f = F + 9 * l, *w0 = W0 ? W0 + 9 * l : NULL;
-    if (w0) { /* A = F W0: nearly orthogonal columns when W0 is last step's W */
-      for (int i = 0; i < 9; i++) W[l][i] = w0[i];
+    if (l >= n) /* unused lane: already orthogonal */
+      for (int i = 0; i < 9; i++) A[i][l] = W[i][l] = (i % 4 == 0) ? 1 : 0;
+    else if (w0) /* A = F W0: nearly orthogonal columns when W0 is last step's W */
       for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) A[l][3 * i + j] = f[3 * i] * w0[j] + f[3 * i + 1] * w0[3 + j] + f[3 * i + 2] * w0[6 + j];
-    } else
+        for (int j = 0; j < 3; j++) {
+          W[3 * i + j][l] = w0[3 * i + j];
+          A[3 * i + j][l] = f[3 * i] * w0[j] + f[3 * i + 1] * w0[3 + j] + f[3 * i + 2] * w0[6 + j];
+        }
+    else
       for (int i = 0; i < 9; i++) {
-        A[l][i] = f[i];
-        W[l][i] = (i % 4 == 0) ? 1 : 0;
+        A[i][l] = f[i];
+        W[i][l] = (i % 4 == 0) ? 1 : 0;
       }
   }
-  OrthogonalizeColumns(n, A, W);
+  OrthogonalizeColumns(A, W);
   for (PetscInt l = 0; l < n; l++) {
-    PetscReal z = 0;
+    PetscReal z = 0, a[9], w[9];
     for (int i = 0; i < 9; i++) z += 0 * F[9 * l + i]; /* NaN exactly when an entry is Inf or NaN */
-    if (PetscIsNanReal(z)) /* F not finite: NaN out, for the callers' checks */
+    if (PetscIsNanReal(z)) { /* F not finite: NaN out, for the callers' checks */
       for (int i = 0; i < 9; i++) svd[l].U[i] = svd[l].W[i] = svd[l].s[i % 3] = z;
-    else FinishSVD(F + 9 * l, A[l], W[l], svd + l);
+      continue;
+    }
+    for (int i = 0; i < 9; i++) {
+      a[i] = A[i][l];
+      w[i] = W[i][l];
+    }
+    FinishSVD(F + 9 * l, a, w, svd + l);
   }
 }
 
