@@ -9,8 +9,8 @@
  * iteration's W the columns are nearly orthogonal already.  Near the rest
  * state the singular values nearly coincide, so rotations stay large and
  * two or three sweeps (then a cheap confirming one) are typical; the PD
- * local step therefore runs VK_SVD3_BATCH tets' sweeps interleaved
- * (VKSVD3ComputeBatch), which is what makes it cheap. */
+ * local step therefore runs the sweeps of VK_SVD3_BATCH tets together, one
+ * tet per SIMD lane (VKSVD3ComputeBatch), which is what makes it cheap. */
 #include <vkmaterial.h>
 #include <vkutil.h>
 
