@@ -49,6 +49,7 @@ struct _n_VKYLS {
   VKRodParams par;
   PetscReal   density, cv, cs, kw, friction_eps, cap, dt;
   PetscInt    ls_max_it;
+  PetscReal   pattern_margin; /* contact pairs in the Hessian's pattern: closer than 2r + this x r */
   PetscBool   relax;                         /* relax the rest state before the run */
   PetscBool   predict;                       /* Newton starts from x_n + dt v_n (capped) */
   PetscReal   relax_tau, relax_radius_start; /* pseudo time step; first contact radius / r */

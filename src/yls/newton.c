@@ -11,8 +11,10 @@
  * with a margin of 2 cap: within one line search no segment pair can come
  * closer than 2r unseen, so Phi is evaluated exactly and the barrier of
  * every pair that could touch is in it, which is what keeps yarns from
- * passing through each other.  The Hessian is preallocated for a wider
- * set of pairs and rebuilt only when a pair outside it appears. */
+ * passing through each other.  The Hessian's pattern holds only the pairs
+ * closer than 2r (+ -yls_pattern_margin): only they have a nonzero
+ * Hessian, and every structural zero would be fill for the factorization;
+ * it is rebuilt when such a pair falls outside it. */
 #include "ylsimpl.h"
 
 static PetscErrorCode FormFunction(SNES snes, Vec X, Vec F, void *ctx)
@@ -70,9 +72,27 @@ static PetscBool Subset(PetscInt na, const PetscInt a[], PetscInt nb, const Pets
   return PETSC_TRUE;
 }
 
+/* The pairs of the sorted list y->pairs whose axes are closer than reach
+ * at x, in order, into out (room for y->npairs). */
+static PetscInt PairsWithin(VKYLS y, const PetscReal x[], PetscReal reach, PetscInt out[])
+{
+  const PetscInt *seg = y->model.seg;
+  PetscInt        n   = 0;
+
+  for (PetscInt k = 0; k < y->npairs; k++) {
+    PetscInt a = y->pairs[2 * k], b = y->pairs[2 * k + 1];
+    if (VKRodSegmentDistance(x + 3 * seg[2 * a], x + 3 * seg[2 * a + 1], x + 3 * seg[2 * b], x + 3 * seg[2 * b + 1]) >= reach) continue;
+    out[2 * n]     = a;
+    out[2 * n + 1] = b;
+    n++;
+  }
+  return n;
+}
+
 PetscErrorCode VKYLSFindPairs(VKYLS y, const PetscReal x[])
 {
-  PetscReal      cap = y->cap * y->par.radius;
+  PetscReal      cap = y->cap * y->par.radius, touch = 2 * y->model.par.radius;
+  PetscInt      *near, nnear;
   PetscMPIInt    rebuild, any;
   PetscLogDouble t0 = VKWallTime();
 
@@ -81,19 +101,26 @@ PetscErrorCode VKYLSFindPairs(VKYLS y, const PetscReal x[])
   PetscCall(PetscFree(y->pairs));
   PetscCall(VKRodModelFindPairs(&y->model, x, 2 * cap, y->sbeg, y->send, &y->npairs, &y->pairs));
   PetscCall(SortPairs(y, y->npairs, y->pairs));
-  rebuild = !y->J || !Subset(y->npairs, y->pairs, y->npattern, y->pattern);
+  /* Only pairs closer than 2r at x have a nonzero Hessian here; the pattern
+   * holds them and those within a margin more, and nothing else: the
+   * candidates of the line search (within 2r + 2 cap) outnumber them by
+   * hundreds, and every pattern entry is fill for the factorization. */
+  PetscCall(PetscMalloc1(2 * y->npairs + 1, &near));
+  nnear   = PairsWithin(y, x, touch, near);
+  rebuild = !y->J || !Subset(nnear, near, y->npattern, y->pattern);
   PetscCallMPI(MPI_Allreduce(&rebuild, &any, 1, MPI_INT, MPI_MAX, y->comm));
-  if (any) { /* a wider pattern, so the next few iterations and steps fit in it */
+  if (any) {
     Mat J;
     PetscCall(PetscFree(y->pattern));
-    PetscCall(VKRodModelFindPairs(&y->model, x, 2 * cap + 0.5 * y->par.radius, y->sbeg, y->send, &y->npattern, &y->pattern));
-    PetscCall(SortPairs(y, y->npattern, y->pattern));
+    PetscCall(PetscMalloc1(2 * y->npairs + 1, &y->pattern));
+    y->npattern = PairsWithin(y, x, touch + PetscMin(y->pattern_margin * y->par.radius, 2 * cap), y->pattern);
     PetscCall(VKYLSCreateHessian(y, &J));
     PetscCall(SNESSetJacobian(y->snes, J, J, FormJacobian, y));
     PetscCall(MatDestroy(&y->J));
     y->J = J;
     y->stats.pattern_rebuilds++;
   }
+  PetscCall(PetscFree(near));
   PetscCall(PetscLogEventEnd(VK_EVENT_YLSPairs, 0, 0, 0, 0));
   y->stats.time_pairs += VKWallTime() - t0;
   PetscFunctionReturn(0);

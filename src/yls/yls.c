@@ -36,6 +36,7 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->friction_eps = 1e-3;
   y->cap          = YLS_CAP;
   y->ls_max_it    = 30;
+  y->pattern_margin = 0.1;
   y->dt           = 0; /* from the scene unless given */
   y->hessian      = VK_YLS_HESSIAN_AUTO;
   y->relax        = PETSC_TRUE;
@@ -62,6 +63,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsReal("-yls_friction_eps", "Sliding speed below which collider friction is smoothed, m/s", "VKYLSSetFromOptions", y->friction_eps, &y->friction_eps, NULL));
   PetscCall(PetscOptionsReal("-yls_cap", "Largest vertex motion per Newton iteration, in yarn radii", "VKYLSSetFromOptions", y->cap, &y->cap, NULL));
   PetscCall(PetscOptionsInt("-yls_line_search_max_it", "Halvings of a Newton step before the line search gives up", "VKYLSSetFromOptions", y->ls_max_it, &y->ls_max_it, NULL));
+  PetscCall(PetscOptionsReal("-yls_pattern_margin", "Contact pairs closer than 2r + this x r are in the Hessian's nonzero pattern (at most 2 cap); wider: fewer rebuilds, more fill", "VKYLSSetFromOptions", y->pattern_margin, &y->pattern_margin, NULL));
   PetscCall(PetscOptionsReal("-yls_dt", "Time step, s (default: 1 ms, less if a handle would move more than the cap per step)", "VKYLSSetFromOptions", y->dt, &y->dt, NULL));
   PetscCall(PetscOptionsEnum("-yls_hessian", "Newton Hessian: element-wise PSD projection, exact, or exact with a projected fallback when it is not a descent direction", "VKYLSSetFromOptions", VKYLSHessianTypes, (PetscEnum)y->hessian, (PetscEnum *)&y->hessian, NULL));
   PetscCall(PetscOptionsBool("-yls_predict", "Start Newton from x_n + dt v_n (capped) instead of x_n (2.5x fewer iterations on the 2K-vertex rib stretch, none saved at 22K, and Newton failures on a hanging patch full of contacts)", "VKYLSStep", y->predict, &y->predict, NULL));
@@ -77,6 +79,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCheck(y->par.nq >= 1 && y->par.nq <= 16, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_nq must be in 1..16, got %d", (int)y->par.nq);
   PetscCheck(y->cv >= 0 && y->cs >= 0 && y->kw > 0 && y->friction_eps > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_damping >= 0, -yls_dashpot >= 0, -yls_collider_stiffness > 0, -yls_friction_eps > 0");
   PetscCheck(y->cap > 0 && y->cap <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_cap must be in (0, 1] yarn radii, got %g", (double)y->cap);
+  PetscCheck(y->pattern_margin >= 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_pattern_margin must be >= 0 yarn radii, got %g", (double)y->pattern_margin);
   PetscCheck(y->ls_max_it >= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_line_search_max_it must be >= 1");
   PetscCheck(y->relax_tau > 0 && y->relax_stages >= 1 && y->relax_max_steps >= 1 && y->relax_radius_start > 0 && y->relax_radius_start <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_relax_tau > 0, -yls_relax_stages >= 1, -yls_relax_max_steps >= 1, 0 < -yls_relax_radius_start <= 1");
   PetscCheck(y->dt >= 0 && y->dt < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt must be positive, got %g", (double)y->dt);
