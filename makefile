@@ -72,6 +72,10 @@ $(LIB): $(LIB_OBJ)
 # floating-point trap semantics (neither is used by volknit).
 VEC_FLAGS := -fno-math-errno -fno-trapping-math -fopenmp-simd
 build/material/svd3.o: CFLAGS += $(VEC_FLAGS)
+# The bending Hessian is a complex-step derivative: without this GCC calls
+# __divdc3 (C99 Annex G Inf/NaN recovery) for every complex division, a
+# seventh of a yarn-level run.  Fortran rules keep the range reduction.
+build/rod/elements.o: CFLAGS += -fcx-fortran-rules
 
 build/%.o: src/%.c $(wildcard include/*.h src/*/*.h)
 	@mkdir -p $(@D)
