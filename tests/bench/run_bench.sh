@@ -93,10 +93,37 @@ yls_row 1 stretch 0.05
 yls_row 2 stretch 0.05
 yls_row 2 stretch 0.05 -yls_predict
 yls_row 2 hang 0.05
+yls_accuracy() { # label options...: a row of what dt and Newton tolerance cost in accuracy, 2K patch, stretch, 30 ms
+  label=$1; shift
+  a="$d/acc_$label"; mkdir -p "$a"; cp "$d/yarn.h5" "$a/"
+  run $MPIEXEC -n 2 bin/volknit yls -o "$a" -options_file options/stretch.opts -scene_duration 0.03 -yls_quiet "$@" > "$a/log" 2>&1
+  run bin/tests/tool_compare_yls "$d/acc_ref/yls.h5" "$a/yls.h5" > "$a/compare" 2>&1
+  its=$(sed -n 's/.*"newton_its_mean": \([0-9.]*\).*/\1/p' "$a/yls.json")
+  persec=$(sed -n 's/.*"wall_time_per_simulated_second": \([0-9.]*\).*/\1/p' "$a/yls.json")
+  err=$(awk '$2 == "0.030000" { print $3 " / " $4 }' "$a/compare")
+  printf '| %s | %s | %.1f | %.0f | %s |\n' "$label" "$*" "$its" "$persec" "${err:-failed: see $a}"
+}
+echo
+echo "What the time step and the Newton tolerance cost in accuracy (8x7 patch, stretch, t = 30 ms, 2 ranks): vertex"
+echo "distance to a reference run at dt 0.5 ms and rtol 1e-9, largest / root-mean-square over the vertices, in r."
+echo
+echo "| run | options | Newton its/step | s per simulated s | distance at 30 ms, max / rms (r) |"
+echo "|---|---|---|---|---|"
+mkdir -p "$d/acc_ref"; cp "$d/yarn.h5" "$d/acc_ref/"
+run $MPIEXEC -n 2 bin/volknit yls -o "$d/acc_ref" -options_file options/stretch.opts -scene_duration 0.03 -scene_output_interval 0.001 -yls_dt 0.0005 -yls_snes_rtol 1e-9 -yls_snes_atol 1e-12 -yls_quiet > "$d/acc_ref/log" 2>&1
+yls_accuracy default -scene_output_interval 0.001
+yls_accuracy rtol -scene_output_interval 0.001 -yls_snes_rtol 1e-4
+yls_accuracy dt2ms -scene_output_interval 0.002 -yls_dt 0.002 -yls_snes_max_it 200
+yls_accuracy dt5ms -scene_output_interval 0.005 -yls_dt 0.005 -yls_snes_max_it 200
+echo
+echo "| patch | vertices | DOFs | scene | ranks | dt s | steps | Newton its/step | contact pairs/step | min dist / 2r | s/step | s per simulated s | relaxation s (2 ranks) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 dims="24x25"; yls_relaxed 24 25
 yls_row 2 stretch 0.005
 yls_row 2 stretch 0.005 -yls_predict
 yls_row 2 hang 0.005
+yls_row 2 stretch 0.03
+yls_row 2 stretch 0.03 -yls_snes_rtol 1e-4
 echo
 echo "Rows produced by:"
 cat "$out/commands"
@@ -104,6 +131,6 @@ echo
 echo "Each run starts from the relaxed rest state (relaxation timed separately, last column) at rest; dt is the"
 echo "simulator's default for the scene (1 ms, less only if a handle would move more than half the contact cap per"
 echo "step).  Contact pairs: segment pairs closer than 2r, mean and max over the frames (one per step here).  The 22K"
-echo "rows cover only the first 5 steps.  Published yarn-level figures for comparison: HYLC's yarn-level reference,"
+echo "rows cover the first 5 steps, the last two 30.  Published yarn-level figures for comparison: HYLC's yarn-level reference,"
 echo "0.13-0.56 s per step at dt 5e-6 to 2e-5 s for 65K-158K vertices (Sperl's thesis, Table 4.2; 0.13 s per step at"
 echo "dt 2e-5 s is 6,500 s per simulated second); Leaf et al. 2018, 0.07 us per control point per explicit GPU step."
