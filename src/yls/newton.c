@@ -91,7 +91,7 @@ static PetscInt PairsWithin(VKYLS y, const PetscReal x[], PetscReal reach, Petsc
 
 PetscErrorCode VKYLSFindPairs(VKYLS y, const PetscReal x[])
 {
-  PetscReal      cap = y->cap * y->par.radius, touch = 2 * y->model.par.radius;
+  PetscReal      cap = y->cap * y->par.radius, touch = 2 * y->model.par.radius * (1 + 1e-9); /* slack: the closest-point distance in round-off */
   PetscInt      *near, nnear;
   PetscMPIInt    rebuild, any;
   PetscLogDouble t0 = VKWallTime();
