@@ -158,7 +158,10 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
   compare_material "$fd/ref/material.h5" "$fd/n1/material.h5" 1e-7 "volknit run -run_fit vs volknit fit"
   compare_material "$fd/n1/material.h5" "$fd/n2/material.h5" 1e-5 "1 vs 2 ranks"
   # stopped, then restarted: with the same rank count, and with the other
-  for case in "1 1 1e-7" "2 1 1e-5"; do
+  # (the restart re-converges its equilibria from the checkpoint, so even on
+  # the same ranks it agrees to solver tolerance, not bit for bit: 1.4e-7
+  # measured on the reference run of the tight yls Hessian pattern)
+  for case in "1 1 1e-6" "2 1 1e-5"; do
     set -- $case
     d="stop.n$1.n$2"; fit_dir "$d"
     fit_run "$d" "$1" -fit_max_iterations 9 -fit_checkpoint_every 4
