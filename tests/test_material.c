@@ -117,12 +117,15 @@ static PetscErrorCode TestProjection(void)
   for (int t = 0; t < 3000; t++) {
     PetscReal          s[3], scale;
     VKVolumeProjection p;
-    int                kind = t % 5;
+    int                kind = t % 8;
     if (kind == 0) { s[0] = 1 + 0.5 * Rand(); s[1] = 1 + 0.4 * Rand(); s[2] = 1 + 0.3 * Rand(); }           /* near identity */
     else if (kind == 1) { s[0] = 3 + 2 * Rand(); s[1] = 2 + Rand(); s[2] = 1.5 + Rand(); }                 /* inflated */
     else if (kind == 2) { s[0] = 1 + 0.5 * Rand(); s[1] = 0.7 + 0.3 * Rand(); s[2] = -0.5 + 0.4 * Rand(); } /* inverted */
     else if (kind == 3) { s[0] = 30 + 10 * Rand(); s[1] = 20 + 5 * Rand(); s[2] = 0.002 * (1 + Rand()); }   /* clamp */
-    else { s[0] = 0.3 + 0.2 * Rand(); s[1] = 0.2 + 0.1 * Rand(); s[2] = 0.1 * Rand(); }                    /* crushed */
+    else if (kind == 4) { s[0] = 0.3 + 0.2 * Rand(); s[1] = 0.2 + 0.1 * Rand(); s[2] = 0.1 * Rand(); }     /* crushed */
+    else if (kind == 5) { s[0] = s[1] = s[2] = 3.5 + 2.5 * Rand(); if (t % 16 < 8) s[2] *= 1 - 1e-9 * (1 + Rand()); } /* (near) ties */
+    else if (kind == 6) { s[0] = PetscPowReal(10, 3 + 2 * Rand()); s[1] = PetscPowReal(10, 2.5 + 2 * Rand()); s[2] = PetscPowReal(10, 2 + 2 * Rand()); } /* extreme stretch */
+    else { s[0] = PetscPowReal(10, 3 + Rand()); s[1] = PetscPowReal(10, -3 + Rand()); s[2] = PetscPowReal(10, -3 + Rand()); } /* needle */
     { /* sort like singular values */
       PetscReal a[3] = {PetscAbsReal(s[0]), PetscAbsReal(s[1]), PetscAbsReal(s[2])}, neg = s[2] < 0 ? -1 : 1;
       for (int i = 0; i < 2; i++)
@@ -143,7 +146,7 @@ static PetscErrorCode TestProjection(void)
       }
     }
     clamped += p.nfixed > 0;
-    if (t % 40 < 5) { /* global optimality, every kind of s */
+    if (t % 64 < 8) { /* global optimality, every kind of s */
       PetscReal d = PetscSqr(p.shat[0] - s[0]) + PetscSqr(p.shat[1] - s[1]) + PetscSqr(p.shat[2] - s[2]);
       worse       = PetscMax(worse, (d - BruteForce(s)) / (1 + d));
       brute++;
@@ -163,6 +166,30 @@ static PetscErrorCode TestProjection(void)
     PetscCall(VKPsiEvaluate(F, &st));
     for (int i = 0; i < 9; i++) rot = PetscMax(rot, PetscAbsReal(st.R[i] - F[i]) + PetscAbsReal(st.V[i] - F[i]));
     rot = PetscMax(rot, st.psi_s + st.psi_v);
+  }
+  { /* known answers (DESIGN §6): the closest point at an exact tie, and
+     * under extreme stretch, where the bound 0.01 holds two components */
+    static const PetscReal in[3][3] = {
+      {2, 2, 2},
+      {20000.00001, 0.001, 0.0009},
+      {945008., 129019., 48792.2}
+    };
+    const PetscReal g = 0.5 * (1 + PetscSqrtReal(5)), want[3][3] = {
+      {g, g, 1 / (g * g)},
+      {1e4, 0.01, 0.01},
+      {1e4, 0.01, 0.01}
+    };
+    for (int c = 0; c < 3; c++) {
+      VKVolumeProjection p;
+      PetscReal          err = 0, d = 0, dw = 0;
+      PetscCall(VKProjectVolume(in[c], &p)); /* with J: the KKT matrix of the closest point is regular */
+      for (int i = 0; i < 3; i++) {
+        err = PetscMax(err, PetscAbsReal(p.shat[i] - want[c][i]) / want[c][i]);
+        d += PetscSqr(p.shat[i] - in[c][i]);
+        dw += PetscSqr(want[c][i] - in[c][i]);
+      }
+      PetscCall(VKTestCheck((PetscBool)(err <= 1e-12), NULL, "volume projection of (%g, %g, %g): (%.6g, %.6g, %.6g), distance^2 %.6g (expected (%.6g, %.6g, %.6g), %.6g)", (double)in[c][0], (double)in[c][1], (double)in[c][2], (double)p.shat[0], (double)p.shat[1], (double)p.shat[2], (double)d, (double)want[c][0], (double)want[c][1], (double)want[c][2], (double)dw));
+    }
   }
   PetscCall(VKTestClose(repro, 0, 1e-12, "V reproduces a volume-preserving F"));
   PetscCall(VKTestClose(rot, 0, 1e-12, "R and V reproduce a rotation F, psi = 0 there"));

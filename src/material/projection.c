@@ -1,21 +1,25 @@
 /* projection.c: the closest volume-preserving singular values (paper
  * Eq. 26, DESIGN §6):
- *   shat = argmin |shat - s|^2  subject to  shat1 shat2 shat3 = 1, shat_i >= 0.01.
- * For a set of free components (the others held at the bound 0.01) with
- * product C, the KKT equations shat_i - s_i + lambda prod_{j != i} shat_j = 0
- * become, multiplied by shat_i, shat_i^2 - s_i shat_i + lambda C = 0:
- *   shat_i(lambda) = (s_i + eta_i sqrt(s_i^2 - 4 lambda C)) / 2,  eta_i = +-1,
- * and the constraint a single equation sum log shat_i(lambda) = log C, solved
- * by Newton kept inside a bracket.  The region {prod >= C} is convex: from
- * outside it (deflation, inversion) the all-plus branch has the unique
- * closest point.  From inside (inflation) a branch with one minus root (a
- * component shrunk below s_i / 2) can be closer; such branches are tried
- * whenever the free components lie inside (a branch without a root is
- * rejected after one evaluation) and the closest candidate is kept.  When
- * a closer candidate breaks the bound, the active sets holding one or two
- * components at 0.01 are tried too: the closest feasible KKT point over
- * all of them is the constrained minimum.  J = d shat / d s follows from
- * implicit differentiation of the KKT system of the chosen active set. */
+ *   shat = argmin |shat - s|^2  subject to  shat1 shat2 shat3 = 1, shat_i >= 0.01,
+ * for every finite s.  For a set of free components (the others held at
+ * the bound 0.01) with product C, the KKT equations
+ * shat_i - s_i + lambda prod_{j != i} shat_j = 0 become, multiplied by
+ * shat_i, shat_i^2 - s_i shat_i + lambda C = 0: each component sits on the
+ * plus root (at or above s_i / 2) or the minus root (below) of its
+ * quadratic.  The region {prod >= C} is convex: from outside it (deflation,
+ * inversion) the all-plus branch has the unique closest point, found by
+ * Newton on the monotone sum log shat_i(lambda) = log C inside a bracket.
+ * From inside (inflation) a branch with one component on its minus root
+ * can be closer; its constraint is not monotone (two roots, e.g. at
+ * s = (2,2,2)), so it is sampled and every root bisected.  One free
+ * component is C itself.  When the closest candidate breaks the bound, the
+ * active sets holding one or two components at 0.01 are tried too (two
+ * held always give a feasible point): the closest feasible KKT point over
+ * all of them is the constrained minimum.  Exact ties go to the branch
+ * found first (the last, smallest component shrinks), so shat stays
+ * ordered like s.  J = d shat / d s follows from implicit differentiation
+ * of the KKT system of the chosen active set.  The common case takes a
+ * few-flop fast path (FastPath). */
 #include <vkmaterial.h>
 
 /* Solves A x = b (n <= 4, b in column n) by Gaussian elimination with
@@ -45,20 +49,19 @@ static int Solve(int n, PetscReal A[4][5])
   return 1;
 }
 
-/* phi(lambda) = sum log shat_i(lambda) - log C and its derivative; -inf
- * if a component is zero. */
-static PetscReal Phi(int k, const PetscReal s[], const int eta[], PetscReal C, PetscReal lambda, PetscReal x[], PetscReal *dphi)
+/* phi(lambda) = sum log shat_i(lambda) - log C on the all-plus branch and
+ * its derivative; -inf if a component is zero. */
+static PetscReal Phi(int k, const PetscReal s[], PetscReal C, PetscReal lambda, PetscReal x[], PetscReal *dphi)
 {
   PetscReal phi = -PetscLogReal(C);
   *dphi         = 0;
   for (int i = 0; i < k; i++) {
     PetscReal D = PetscMax(s[i] * s[i] - 4 * lambda * C, 0), q = PetscSqrtReal(D);
-    if (eta[i] < 0) x[i] = 2 * lambda * C / (s[i] + q);      /* (s - q)/2 without cancellation */
-    else if (s[i] < 0) x[i] = 2 * lambda * C / (s[i] - q); /* (s + q)/2 without cancellation */
+    if (s[i] < 0) x[i] = 2 * lambda * C / (s[i] - q); /* (s + q)/2 without cancellation */
     else x[i] = 0.5 * (s[i] + q);
     if (x[i] <= 0) return PETSC_NINFINITY;
     phi += PetscLogReal(x[i]);
-    if (q > 0) *dphi += -eta[i] * C / q / x[i];
+    if (q > 0) *dphi += -C / q / x[i];
   }
   return phi;
 }
@@ -109,45 +112,35 @@ static PetscReal Polish(int k, const PetscReal s[], PetscReal C, PetscReal x[], 
   return PetscLogReal(prod / C);
 }
 
-/* The KKT point of one branch, or 0 if the branch has none. */
-static int SolveBranch(int k, const PetscReal s[], const int eta[], PetscReal C, PetscReal x[], PetscReal *lambda)
+/* The KKT point of the all-plus branch (every component at or above
+ * s_i / 2), or 0 if it has none: phi decreases from +inf (lambda -> -inf)
+ * to phi(cap), so there is at most one root. */
+static int PlusBranch(int k, const PetscReal s[], PetscReal C, PetscReal x[], PetscReal *lambda)
 {
   PetscReal cap = PETSC_MAX_REAL, lo, hi, l, dphi, phi, scale = 0;
-  int       minus = 0;
 
   for (int i = 0; i < k; i++) {
-    cap = PetscMin(cap, s[i] * s[i] / (4 * C));
+    cap   = PetscMin(cap, s[i] * s[i] / (4 * C));
     scale = PetscMax(scale, s[i] * s[i] / C);
-    if (eta[i] < 0) {
-      if (s[i] <= 0) return 0;
-      minus = 1;
-    }
   }
   scale = PetscMax(scale, 1 / C);
-  if (!minus) { /* phi decreases from +inf (lambda -> -inf) to phi(cap) */
-    hi = cap;
-    if (Phi(k, s, eta, C, hi, x, &dphi) > 0) return 0;
-    lo = -scale;
-    while (Phi(k, s, eta, C, lo, x, &dphi) <= 0) {
-      lo *= 4;
-      if (lo < -1e300) return 0;
-    }
-  } else { /* phi = -inf at 0+, a root below cap if phi(cap) > 0 */
-    lo = 0;
-    hi = cap;
-    if (!(Phi(k, s, eta, C, hi, x, &dphi) > 0)) return 0;
+  hi    = cap;
+  if (Phi(k, s, C, hi, x, &dphi) > 0) return 0;
+  lo = -scale;
+  while (Phi(k, s, C, lo, x, &dphi) <= 0) {
+    lo *= 4;
+    if (lo < -1e300) return 0;
   }
   l = 0.5 * (lo + hi);
   for (int it = 0; it < 200; it++) {
     PetscReal step;
-    phi = Phi(k, s, eta, C, l, x, &dphi);
+    phi = Phi(k, s, C, l, x, &dphi);
     if (phi == PETSC_NINFINITY) { /* outside the domain: bisect */
-      if (minus) lo = l;
-      else hi = l;
-      l = 0.5 * (lo + hi);
+      hi = l;
+      l  = 0.5 * (lo + hi);
       continue;
     }
-    if ((phi > 0) == !minus) lo = l;
+    if (phi > 0) lo = l;
     else hi = l;
     if (PetscAbsReal(phi) <= 2e-16 * k) break;
     step = (dphi != 0) ? -phi / dphi : 0;
@@ -155,19 +148,129 @@ static int SolveBranch(int k, const PetscReal s[], const int eta[], PetscReal C,
     else l += step;
     if (hi - lo <= 1e-17 * PetscMax(PetscAbsReal(lo), PetscAbsReal(hi))) break;
   }
-  phi     = Phi(k, s, eta, C, l, x, &dphi);
+  phi     = Phi(k, s, C, l, x, &dphi);
   *lambda = l;
   if (phi > PETSC_NINFINITY && PetscAbsReal(phi) > 1e-12) phi = Polish(k, s, C, x, lambda);
   return phi > PETSC_NINFINITY && PetscAbsReal(phi) <= 1e-12;
 }
 
-/* Best feasible KKT point with the components in `held` at the bound; the
- * closest infeasible one (a free component below the bound) is reported
- * in *closer if it beats every feasible point found so far. */
+/* phi of the minus branch on component m, parametrized by t = x_m in
+ * (0, tmax]: lambda C = t (s_m - t) and every other component on its plus
+ * root x_i = s_i (1 + sqrt(1 - 4 t (s_m - t) / s_i^2)) / 2, written so that
+ * no square of an s_i can overflow.  x[] receives the components. */
+static PetscReal MinusPhi(int k, const PetscReal s[], int m, PetscReal C, PetscReal t, PetscReal x[])
+{
+  PetscReal phi = PetscLogReal(t) - PetscLogReal(C);
+
+  x[m] = t;
+  for (int i = 0; i < k; i++) {
+    PetscReal a;
+    if (i == m) continue;
+    a = 4 * (t / s[i]) * ((s[m] - t) / s[i]);
+    if (a > 1) a = 1;
+    x[i] = 0.5 * s[i] * (1 + PetscSqrtReal(1 - a));
+    phi += PetscLogReal(x[i]);
+  }
+  return phi;
+}
+
+/* The KKT points with component m on its minus root (shrunk below s_m/2,
+ * possible only when every free s_i > 0).  phi(t) runs from -inf at t = 0
+ * and need not be monotone, so it is sampled on (0, tmax] (geometrically
+ * near 0, where the root of a strong inflation sits, and at Chebyshev
+ * points elsewhere) and every sign change is bisected to round-off: up to
+ * two roots, the closer of which a single bracket could miss (s = (2,2,2):
+ * phi(tmax) = 0 with a root inside).  Returns the number of roots (<= 2),
+ * their components in x[2][3] and multipliers in lambda[2]. */
+static int MinusRoots(int k, const PetscReal s[], int m, PetscReal C, PetscReal x[][3], PetscReal lambda[])
+{
+  enum { NGEO = 28, NCHEB = 32 };
+  PetscReal u[NGEO + NCHEB], tmax = 0.5 * s[m], tprev = 0, hprev = PETSC_NINFINITY, y[3];
+  int       nu = 0, nroot = 0;
+
+  for (int i = 0; i < k; i++) {
+    PetscReal r;
+    if (!(s[i] > 0)) return 0;
+    if (i == m || s[i] >= s[m]) continue;
+    r    = s[i] / s[m]; /* 4 t (s_m - t) = s_i^2 at t = s_i r / (2 (1 + sqrt(1 - r^2))) */
+    tmax = PetscMin(tmax, s[i] * r / (2 * (1 + PetscSqrtReal(1 - r * r))));
+  }
+  if (!(tmax > 0)) return 0;
+  for (int j = 0; j < NGEO; j++) u[nu++] = PetscPowReal(2, -60 + 2 * j);
+  for (int j = 1; j <= NCHEB; j++) u[nu++] = 0.5 * (1 - PetscCosReal(PETSC_PI * j / NCHEB));
+  for (int a = 1; a < nu; a++) /* insertion sort: the two sequences interleave */
+    for (int b = a; b > 0 && u[b] < u[b - 1]; b--) {
+      PetscReal w = u[b];
+      u[b]        = u[b - 1];
+      u[b - 1]    = w;
+    }
+  for (int j = 0; j < nu && nroot < 2; j++) {
+    PetscReal t = tmax * u[j], h = MinusPhi(k, s, m, C, t, y);
+    if ((hprev < 0) != (h < 0)) {
+      PetscReal lo = tprev, hi = t, hlo = hprev; /* bisect: geometric while the bracket spans decades */
+      for (int it = 0; it < 2000; it++) {
+        PetscReal mid = lo == 0 ? hi / 1024 : (hi > 4 * lo ? PetscSqrtReal(lo * hi) : 0.5 * (lo + hi)), hm;
+        if (!(mid > lo && mid < hi)) break;
+        hm = MinusPhi(k, s, m, C, mid, y);
+        if ((hm < 0) == (hlo < 0)) {
+          lo  = mid;
+          hlo = hm;
+        } else hi = mid;
+      }
+      { /* the end of the bracket with the smaller |phi| */
+        PetscReal ylo[3], yhi[3], a = PetscAbsReal(MinusPhi(k, s, m, C, lo > 0 ? lo : hi, ylo)), b = PetscAbsReal(MinusPhi(k, s, m, C, hi, yhi));
+        PetscReal tr = a < b ? (lo > 0 ? lo : hi) : hi;
+        (void)MinusPhi(k, s, m, C, tr, x[nroot]);
+        lambda[nroot] = tr * (s[m] - tr) / C;
+        if (PetscMin(a, b) > 1e-14) a = b = PetscAbsReal(Polish(k, s, C, x[nroot], &lambda[nroot])); /* near a branch point */
+        if (PetscMin(a, b) <= 1e-12) nroot++;
+      }
+    }
+    tprev = t;
+    hprev = h;
+  }
+  return nroot;
+}
+
+/* Record the candidate `free_x` (k free components, the held ones at the
+ * bound): the best feasible one in proj, the closest infeasible distance
+ * in *closer. */
+static void Consider(const PetscReal s[], const PetscBool held[], const PetscReal free_x[], PetscReal lambda, PetscReal *best, PetscReal *closer, VKVolumeProjection *proj)
+{
+  PetscReal full[3], d = 0;
+  PetscBool feasible = PETSC_TRUE;
+
+  for (int i = 0, j = 0; i < 3; i++) full[i] = held[i] ? VK_SHAT_MIN : free_x[j++];
+  for (int i = 0; i < 3; i++) {
+    if (!(full[i] >= VK_SHAT_MIN * (1 - 1e-12))) feasible = PETSC_FALSE;
+    d += PetscSqr(full[i] - s[i]);
+  }
+  if (!feasible) {
+    *closer = PetscMin(*closer, d);
+    return;
+  }
+  /* nfixed < 0: nothing recorded yet (d may overflow); a tie to round-off
+   * keeps the candidate found first */
+  if (proj->nfixed < 0 || d < *best * (1 - 1e-13)) {
+    *best = d;
+    for (int i = 0; i < 3; i++) {
+      proj->shat[i]  = PetscMax(full[i], VK_SHAT_MIN);
+      proj->fixed[i] = held[i];
+    }
+    proj->lambda = lambda;
+    proj->nfixed = 0;
+  }
+}
+
+/* Every KKT point with the components in `held` at the bound: one free
+ * component is the bound's complement C itself; with two or three, the
+ * all-plus branch and the minus branches.  Minus branches run from the
+ * last component down and replace the best only when strictly closer, so
+ * an exact tie (s = (2,2,2)) shrinks the last, smallest singular value. */
 static void TryActiveSet(const PetscReal s[], const PetscBool held[], PetscReal *best, PetscReal *closer, VKVolumeProjection *proj)
 {
   int       k = 0;
-  PetscReal C = 1, sf[3], prod = 1;
+  PetscReal C = 1, sf[3], prod = 1, x[3], lambda;
   PetscBool inside = PETSC_TRUE;
 
   for (int i = 0; i < 3; i++) {
@@ -179,33 +282,17 @@ static void TryActiveSet(const PetscReal s[], const PetscBool held[], PetscReal 
       k++;
     }
   }
-  inside = (PetscBool)(inside && prod > C); /* minus branches exist only inside */
-  for (int branch = -1; branch < k; branch++) { /* -1: all plus; m: minus on component m */
-    int       eta[3] = {1, 1, 1};
-    PetscReal x[3], lambda, full[3], d = 0;
-    PetscBool feasible = PETSC_TRUE;
-    if (branch >= 0) {
-      if (!inside || k < 2) break;
-      eta[branch] = -1;
-    }
-    if (!SolveBranch(k, sf, eta, C, x, &lambda)) continue;
-    for (int i = 0, j = 0; i < 3; i++) full[i] = held[i] ? VK_SHAT_MIN : x[j++];
-    for (int i = 0; i < 3; i++) {
-      if (full[i] < VK_SHAT_MIN * (1 - 1e-12)) feasible = PETSC_FALSE;
-      d += PetscSqr(full[i] - s[i]);
-    }
-    if (!feasible) {
-      *closer = PetscMin(*closer, d);
-      continue;
-    }
-    if (d < *best) {
-      *best = d;
-      for (int i = 0; i < 3; i++) {
-        proj->shat[i]  = PetscMax(full[i], VK_SHAT_MIN);
-        proj->fixed[i] = held[i];
-      }
-      proj->lambda = lambda;
-    }
+  if (k == 1) { /* x = C; KKT x - s + lambda = 0 */
+    x[0] = C;
+    Consider(s, held, x, sf[0] - C, best, closer, proj);
+    return;
+  }
+  if (PlusBranch(k, sf, C, x, &lambda)) Consider(s, held, x, lambda, best, closer, proj);
+  if (!(inside && prod > C)) return; /* from outside the convex {prod >= C} the all-plus point is the closest */
+  for (int m = k - 1; m >= 0; m--) {
+    PetscReal xr[2][3], lr[2];
+    int       n = MinusRoots(k, sf, m, C, xr, lr);
+    for (int r = 0; r < n; r++) Consider(s, held, xr[r], lr[r], best, closer, proj);
   }
 }
 
@@ -270,15 +357,17 @@ static PetscErrorCode ProjectValue(const PetscReal s[], VKVolumeProjection *proj
     {1, 0, 1},
     {1, 1, 0}
   };
-  PetscReal best = PETSC_MAX_REAL, closer = PETSC_MAX_REAL;
+  PetscReal best = PETSC_INFINITY, closer = PETSC_INFINITY;
 
   PetscFunctionBegin;
   proj->nfixed = 0;
   if (FastPath(s, proj)) PetscFunctionReturn(0);
+  proj->nfixed = -1; /* nothing found yet */
   TryActiveSet(s, sets[0], &best, &closer, proj);
-  if (closer < best) /* the unconstrained minimum breaks the bound: try holding components there */
+  if (closer < best || proj->nfixed < 0) /* the unconstrained minimum breaks the bound: try holding components there */
     for (int a = 1; a < 7; a++) TryActiveSet(s, sets[a], &best, &closer, proj);
-  PetscCheck(best < PETSC_MAX_REAL, PETSC_COMM_SELF, PETSC_ERR_CONV_FAILED, "Volume projection found no solution for singular values (%g, %g, %g)", (double)s[0], (double)s[1], (double)s[2]);
+  /* the corners (two components held) are always feasible: only a bug gets here */
+  PetscCheck(proj->nfixed == 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Volume projection found no solution for singular values (%g, %g, %g)", (double)s[0], (double)s[1], (double)s[2]);
   for (int i = 0; i < 3; i++)
     if (proj->fixed[i]) proj->nfixed++;
   PetscFunctionReturn(0);
