@@ -226,6 +226,19 @@ int main(int argc, char **argv)
     PetscCall(Load(name[f], path, &ierr));
     PetscCall(VKTestCheck((PetscBool)(ierr == 0), NULL, "the valid %s loads", name[f]));
   }
+  { /* a mass of -2e-37 (round-off of older volknit's lumping) reads as zero */
+    const Case     c = {"mesh.h5", "/mesh/node_mass", NULL, SET_REAL, 2, -2.1e-37, NULL};
+    PetscErrorCode ierr, apply = 0;
+    PetscCall(VKPathJoin(dir, "mesh.h5", src, sizeof(src)));
+    PetscCall(PetscSNPrintf(path, sizeof(path), "%s/roundoff.mesh.h5", dir));
+    if (rank == 0) {
+      apply = CopyFile(src, path);
+      if (!apply) apply = Apply(path, &c);
+    }
+    PetscCall(VKCollective(PETSC_COMM_WORLD, apply, path));
+    PetscCall(Load("mesh.h5", path, &ierr));
+    PetscCall(VKTestCheck((PetscBool)(ierr == 0), NULL, "a node mass of -2.1e-37 (round-off) loads as zero"));
+  }
   {
     int rc = VKTestFinish();
     PetscCall(PetscFinalize());

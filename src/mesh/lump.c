@@ -6,8 +6,23 @@
  *   m_i += rho L_piece (N_i(a) + N_i(b)) / 2
  * is exact.  The weights sum to one at both ends, so the mesh mass equals
  * the yarn mass rho L to round-off.  Nodes that no yarn passes near keep
- * zero mass: nothing may divide by a nodal mass without a guard. */
+ * zero mass: nothing may divide by a nodal mass without a guard.  No
+ * node gets a negative mass (ClampWeights). */
 #include "meshimpl.h"
+
+/* Barycentric weights of a point on a tet's boundary may come out as
+ * -1e-17 where a cut lands on a Kuhn plane or a voxel face: clamped at
+ * zero and renormalized, so no node gets a negative mass and the weights
+ * still sum to one (the mass stays conserved). */
+static void ClampWeights(PetscReal w[4])
+{
+  PetscReal sum = 0;
+  for (int a = 0; a < 4; a++) {
+    w[a] = PetscMax(w[a], 0);
+    sum += w[a];
+  }
+  for (int a = 0; a < 4; a++) w[a] /= sum;
+}
 
 static PetscErrorCode LumpPiece(VKMesh m, PetscInt vi, const PetscReal A[], const PetscReal D[], PetscReal t0, PetscReal t1, PetscReal seglen, PetscReal rho)
 {
@@ -52,6 +67,8 @@ static PetscErrorCode LumpPiece(VKMesh m, PetscInt vi, const PetscReal A[], cons
     p = VKKuhnLocate(um);
     VKKuhnWeights(p, u0, w0);
     VKKuhnWeights(p, u1, w1);
+    ClampWeights(w0);
+    ClampWeights(w1);
     tet = m->tet_of_kuhn[6 * vi + p];
     for (int a = 0; a < 4; a++) m->mass[m->tet[4 * tet + a]] += rho * L * 0.5 * (w0[a] + w1[a]);
   }

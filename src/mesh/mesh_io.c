@@ -301,6 +301,19 @@ static PetscErrorCode CheckMesh(VKMesh m, VKYarn y, const char path[])
   PetscCall(CheckRange(path, "/mesh/node_domain", m->nv, m->node_domain, 0, m->ndomains));
   PetscCall(CheckRange(path, "/mesh/node_interface", m->nv, m->node_interface, 0, 2));
   PetscCall(CheckRange(path, "/embedding/tet", m->ny, m->emb_tet, 0, m->ne));
+  { /* files of volknit before its lumping clamped the weights hold masses
+     * like -2e-37: round-off of sums of pieces, each exact to a relative
+     * eps times the grid size.  Those read as zero; anything below is
+     * an error. */
+    PetscReal mmax = 0, tiny;
+    PetscInt  dmax = 1;
+    for (PetscInt i = 0; i < m->nv; i++)
+      if (isfinite(m->mass[i])) mmax = PetscMax(mmax, m->mass[i]);
+    for (int a = 0; a < 3; a++) dmax = PetscMax(dmax, m->grid.dims[a]);
+    tiny = 64 * PETSC_MACHINE_EPSILON * (1 + dmax) * mmax;
+    for (PetscInt i = 0; i < m->nv; i++)
+      if (m->mass[i] < 0 && m->mass[i] >= -tiny) m->mass[i] = 0;
+  }
   for (PetscInt i = 0; i < m->nv; i++) {
     PetscCheck(isfinite(m->mass[i]) && m->mass[i] >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: node %d has mass %g", path, (int)i, (double)m->mass[i]);
     for (int a = 0; a < 3; a++) {
