@@ -14,9 +14,21 @@
  * Colliders are PD constraints (projection out of the collider, Coulomb
  * friction) whose weights sit in K for every free node, so a scene with
  * colliders still factors K once (-pd_contact_weight).
- * Options: -pd_rtol, -pd_atol, -pd_max_it, -pd_monitor, Chebyshev
- * acceleration (-pd_chebyshev_rho), Newton polishing through SNES with the
- * exact Hessian (-pd_newton_its, prefix -pd_newton_). */
+ * Stopping (DESIGN §7, "Stopping and status"): a solve has converged when
+ *   |grad Phi| <= max(ftol f_scale, atol, rtol |grad Phi(x0)|),
+ * f_scale = |M g| + |f_const| + the reactions of the handles and colliders
+ * (N, norms over the nodes; the elastic force of a unit strain when all of
+ * them vanish), a scale that depends neither on the inertial predictor
+ * nor on the stiffness.  A solve that stops at -pd_max_it, or whose Newton
+ * polish ends above its target, is accepted but reported unconverged.
+ * -pd_type pd: the local/global iterations, optionally Chebyshev
+ * accelerated (-pd_chebyshev_rho); -pd_type lbfgs: L-BFGS on Phi with K^-1
+ * as the initial inverse Hessian (Liu, Bouaziz, Kavan 2017), one local and
+ * one global step per iteration like PD, with a backtracking line search
+ * on Phi, which converges where PD stalls (volume-dominated or
+ * heterogeneous gamma).  -pd_fixed_its runs exactly -pd_max_it iterations
+ * and measures no residual (KSP's -ksp_norm_type none).  Newton polishing
+ * through SNES with the exact Hessian (-pd_newton_its, prefix -pd_newton_). */
 #pragma once
 #include <vkmaterial.h>
 #include <vkscene.h>
@@ -41,15 +53,29 @@ typedef enum {
   VK_PD_DIVERGED_NAN   = -1, /* Phi or the residual is not finite */
   VK_PD_ITERATING      = 0,
   VK_PD_CONVERGED_RTOL = 1,
-  VK_PD_CONVERGED_ATOL = 2,
-  VK_PD_MAX_IT         = 3  /* stopped at -pd_max_it (accepted) */
+  VK_PD_CONVERGED_ATOL = 2,  /* atol, or the round-off floor of |grad Phi| */
+  VK_PD_MAX_IT         = 3,  /* stopped at -pd_max_it above the tolerance (accepted, unconverged) */
+  VK_PD_CONVERGED_FTOL = 4,  /* |grad Phi| <= ftol f_scale */
+  VK_PD_CONVERGED_ITS  = 5,  /* -pd_fixed_its: the iterations asked for, residual not measured */
+  VK_PD_NEWTON_FAILED  = 6   /* the Newton polish ended above its target (accepted, unconverged) */
 } VKPDReason;
 PETSC_EXTERN const char *VKPDReasonName(VKPDReason);
+/* A reason that ends a solve with a result that met its tolerance. */
+#define VKPDReasonConverged(r) ((r) == VK_PD_CONVERGED_RTOL || (r) == VK_PD_CONVERGED_ATOL || (r) == VK_PD_CONVERGED_FTOL)
+
+typedef enum {
+  VK_PD_TYPE_PD,   /* local/global iterations (optionally Chebyshev-accelerated) */
+  VK_PD_TYPE_LBFGS /* L-BFGS with K^-1 as initial inverse Hessian */
+} VKPDType;
+PETSC_EXTERN const char *const VKPDTypes[];
 
 typedef struct {
   VKPDReason     reason;
   PetscInt       iterations, newton_its, fail_iteration;
   PetscReal      residual0, residual; /* |grad Phi| at the start and the end */
+  PetscReal      force_scale, tolerance; /* f_scale and the tolerance on |grad Phi| at the end (N) */
+  PetscInt       line_search_restarts;  /* L-BFGS: directions rejected, PD step taken instead */
+  PetscInt       newton_reason;         /* SNESConvergedReason of the Newton polish (0: none) */
   PetscReal      phi, energy;         /* Phi and the elastic energy at the end */
   PetscInt       inverted, contacts;  /* tets with det F <= 0, nodes inside colliders */
   PetscReal      depth;               /* deepest penetration into a collider (m) */
@@ -69,9 +95,15 @@ struct _n_VKPD {
   PetscReal  inertia;
   Vec        fconst;
   /* options */
-  PetscReal rtol, atol;
+  VKPDType  type;
+  PetscReal ftol, rtol, atol;
   PetscInt  max_it;
+  PetscBool fixed_its;
   PetscBool monitor;
+  PetscInt  lbfgs_m;     /* L-BFGS history */
+  Vec      *lbfgs_s, *lbfgs_y, lbfgs_work[3]; /* history pairs; direction, previous gradient, two-loop vector */
+  PetscReal *lbfgs_rho, *lbfgs_alpha;
+  PetscReal  fconst_norm; /* |f_const| over the free nodes, for f_scale */
   PetscReal cheb_rho, cheb_gamma;
   PetscInt  cheb_delay;
   PetscInt  newton_its;
@@ -97,11 +129,15 @@ struct _n_VKPD {
   Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
   PetscReal kdiag;  /* diagonal put on eliminated rows */
   PetscReal res_floor; /* round-off level of |grad Phi|: 1e-12 kdiag L (N) */
+  PetscReal f_gravity, f_unit; /* |M g| over the free nodes; elastic force of a unit strain (N) */
+  PetscReal f_reaction;        /* handle and collider reactions at the last evaluation (N) */
   KSP       ksp;
   Vec       xc, bc, rc, xd[3];   /* scalar work; handle values per coordinate */
   Mat       B, X;                /* dense n x 3: right-hand sides and solutions of the global step */
   Vec       b, My, xold, xhat, r; /* block-3 ghosted work */
-  /* Newton */
+  /* Newton: polish (SNES) and the projected Newton L-BFGS hands over to */
+  PetscInt  lbfgs_switch; /* L-BFGS iterations before projected Newton takes over (0: never) */
+  KSP       pksp;
   SNES      snes;
   Mat       H;
   Vec       hdiag; /* diagonal added to the material Hessian: inertia M/dt^2 + contact weights */
@@ -119,6 +155,11 @@ PETSC_EXTERN PetscErrorCode VKPDSetFromOptions(VKPD);
 PETSC_EXTERN PetscErrorCode VKPDSetUp(VKPD);
 PETSC_EXTERN PetscErrorCode VKPDView(VKPD, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKPDDestroy(VKPD *);
+/* The stopping rule (PETSC_DEFAULT keeps a value): force tolerance
+ * relative to f_scale, absolute tolerance (N), tolerance relative to the
+ * initial residual, iteration limit. */
+PETSC_EXTERN PetscErrorCode VKPDSetTolerances(VKPD, PetscReal ftol, PetscReal atol, PetscReal rtol, PetscInt max_it);
+PETSC_EXTERN PetscErrorCode VKPDSetType(VKPD, VKPDType);
 /* Static (no M/dt^2 term; K reassembled) or inertial (the default). */
 PETSC_EXTERN PetscErrorCode VKPDSetStatic(VKPD, PetscBool);
 /* A constant force f (node vector, NULL: none): Phi gains -f . x.  The Vec

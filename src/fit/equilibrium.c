@@ -113,7 +113,10 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
   PetscCall(PetscLogEventBegin(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));
   PetscCall(ForceScale(fit, f, &f->scale));
   tol             = fit->eq_rtol * f->scale;
-  pd->atol        = tol;
+  /* the fit's own force scale, not PD's: PD to 1e-2 of its initial
+   * residual or to tol, then Newton, whose quadratic last step usually
+   * lands far below tol (the adjoint and finite differences need that) */
+  PetscCall(VKPDSetTolerances(pd, 0, tol, 1e-2, PETSC_DEFAULT));
   pd->newton_its  = fit->eq_newton_its;
   pd->newton_rtol = 0;
   pd->step        = f->index;

@@ -45,6 +45,9 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->wall0         = VKWallTime();
   PetscCall(VKShapeFitCreate(fit->mesh, &fit->sf));
   PetscCall(VKPDCreate(mat, scene, &fit->pd));
+  /* the equilibria end in Newton with the exact Hessian to 1e-5 of the fit's
+   * force scale and below: plain PD takes them there (-pd_type still applies) */
+  PetscCall(VKPDSetType(fit->pd, VK_PD_TYPE_PD));
   PetscCall(KSPCreate(fit->comm, &fit->kadj));
   PetscCall(KSPSetOptionsPrefix(fit->kadj, "fit_adjoint_"));
   PetscCall(VKKSPSetMUMPS(fit->kadj, PCLU));

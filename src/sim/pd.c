@@ -16,9 +16,11 @@
 
 const char *VKPDReasonName(VKPDReason r)
 {
-  static const char *const names[] = {"DIVERGED_GLOBAL", "DIVERGED_NAN", "ITERATING", "CONVERGED_RTOL", "CONVERGED_ATOL", "MAX_IT"};
-  return r >= VK_PD_DIVERGED_GLOBAL && r <= VK_PD_MAX_IT ? names[r - VK_PD_DIVERGED_GLOBAL] : "UNKNOWN";
+  static const char *const names[] = {"DIVERGED_GLOBAL", "DIVERGED_NAN", "ITERATING", "CONVERGED_RTOL", "CONVERGED_ATOL", "MAX_IT", "CONVERGED_FTOL", "CONVERGED_ITS", "NEWTON_FAILED"};
+  return r >= VK_PD_DIVERGED_GLOBAL && r <= VK_PD_NEWTON_FAILED ? names[r - VK_PD_DIVERGED_GLOBAL] : "UNKNOWN";
 }
+
+const char *const VKPDTypes[] = {"pd", "lbfgs", "VKPDType", "VK_PD_TYPE_", NULL};
 
 PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
 {
@@ -34,9 +36,13 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   pd->scene       = scene;
   pd->dt          = 1.0 / 150;
   pd->inertia     = 1;
-  pd->rtol        = 1e-2;
+  pd->type        = VK_PD_TYPE_LBFGS;
+  pd->ftol        = 1e-3;
+  pd->rtol        = 0;
   pd->atol        = 0;
-  pd->max_it      = 100;
+  pd->max_it      = 200;
+  pd->lbfgs_m     = 5;
+  pd->lbfgs_switch = 50;
   pd->cheb_rho    = 0;
   pd->cheb_gamma  = 0.9;
   pd->cheb_delay  = 10;
@@ -61,6 +67,10 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(PetscFree2(pd->contact, pd->contact_w));
   PetscCall(PetscFree(pd->tetW));
   PetscCall(PetscFree2(pd->hist_phi, pd->hist_res));
+  if (pd->lbfgs_s) PetscCall(VecDestroyVecs(pd->lbfgs_m, &pd->lbfgs_s));
+  if (pd->lbfgs_y) PetscCall(VecDestroyVecs(pd->lbfgs_m, &pd->lbfgs_y));
+  PetscCall(PetscFree2(pd->lbfgs_rho, pd->lbfgs_alpha));
+  for (int k = 0; k < 3; k++) PetscCall(VecDestroy(&pd->lbfgs_work[k]));
   PetscCall(MatDestroy(&pd->K));
   PetscCall(MatDestroy(&pd->Kel));
   PetscCall(MatDestroy(&pd->B));
@@ -68,6 +78,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(MatDestroy(&pd->H));
   PetscCall(KSPDestroy(&pd->ksp));
   PetscCall(SNESDestroy(&pd->snes));
+  PetscCall(KSPDestroy(&pd->pksp));
   PetscCall(VecDestroy(&pd->xc));
   PetscCall(VecDestroy(&pd->bc));
   PetscCall(VecDestroy(&pd->rc));
@@ -88,6 +99,24 @@ PetscErrorCode VKPDSetTimeStep(VKPD pd, PetscReal dt)
   PetscCheck(dt > 0 && dt < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "The time step must be positive and finite, got %g", (double)dt);
   if (dt != pd->dt) pd->kset = PETSC_FALSE;
   pd->dt = dt;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetTolerances(VKPD pd, PetscReal ftol, PetscReal atol, PetscReal rtol, PetscInt max_it)
+{
+  PetscFunctionBegin;
+  if (ftol != (PetscReal)PETSC_DEFAULT) pd->ftol = ftol;
+  if (atol != (PetscReal)PETSC_DEFAULT) pd->atol = atol;
+  if (rtol != (PetscReal)PETSC_DEFAULT) pd->rtol = rtol;
+  if (max_it != PETSC_DEFAULT) pd->max_it = max_it;
+  PetscCheck(pd->ftol >= 0 && pd->atol >= 0 && pd->rtol >= 0 && pd->rtol < 1 && pd->max_it >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "PD tolerances: ftol %g, atol %g (>= 0), rtol %g (in [0, 1)), max_it %d (>= 1)", (double)pd->ftol, (double)pd->atol, (double)pd->rtol, (int)pd->max_it);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetType(VKPD pd, VKPDType type)
+{
+  PetscFunctionBegin;
+  pd->type = type;
   PetscFunctionReturn(0);
 }
 
@@ -117,9 +146,14 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
 {
   PetscFunctionBegin;
   PetscOptionsBegin(pd->comm, NULL, "Projective dynamics (DESIGN section 7)", "VKPD");
-  PetscCall(PetscOptionsReal("-pd_rtol", "Stop when |grad Phi| <= rtol |grad Phi(x0)|", "VKPDSolve", pd->rtol, &pd->rtol, NULL));
-  PetscCall(PetscOptionsReal("-pd_atol", "Stop when |grad Phi| <= atol (N)", "VKPDSolve", pd->atol, &pd->atol, NULL));
-  PetscCall(PetscOptionsInt("-pd_max_it", "Maximum PD iterations per solve", "VKPDSolve", pd->max_it, &pd->max_it, NULL));
+  PetscCall(PetscOptionsEnum("-pd_type", "Solver of each step: pd (local/global iterations) or lbfgs (L-BFGS with K^-1 as initial inverse Hessian, Liu et al. 2017)", "VKPDSolve", VKPDTypes, (PetscEnum)pd->type, (PetscEnum *)&pd->type, NULL));
+  PetscCall(PetscOptionsReal("-pd_ftol", "Stop when |grad Phi| <= ftol f_scale, f_scale = |M g| + |f_const| + handle and collider reactions (N)", "VKPDSolve", pd->ftol, &pd->ftol, NULL));
+  PetscCall(PetscOptionsReal("-pd_rtol", "Also stop when |grad Phi| <= rtol |grad Phi(x0)| (0: off; the initial residual depends on the inertial predictor)", "VKPDSolve", pd->rtol, &pd->rtol, NULL));
+  PetscCall(PetscOptionsReal("-pd_atol", "Also stop when |grad Phi| <= atol (N)", "VKPDSolve", pd->atol, &pd->atol, NULL));
+  PetscCall(PetscOptionsInt("-pd_max_it", "Maximum iterations per solve (a solve stopped there is reported unconverged)", "VKPDSolve", pd->max_it, &pd->max_it, NULL));
+  PetscCall(PetscOptionsBool("-pd_fixed_its", "Run exactly -pd_max_it iterations and measure no residual (status 'unmeasured')", "VKPDSolve", pd->fixed_its, &pd->fixed_its, NULL));
+  PetscCall(PetscOptionsInt("-pd_lbfgs_m", "L-BFGS history length (-pd_type lbfgs)", "VKPDSolve", pd->lbfgs_m, &pd->lbfgs_m, NULL));
+  PetscCall(PetscOptionsInt("-pd_lbfgs_switch", "L-BFGS iterations after which projected Newton (PSD-projected exact Hessian, KSP prefix -pd_pnewton_) finishes the solve (0: never)", "VKPDSolve", pd->lbfgs_switch, &pd->lbfgs_switch, NULL));
   PetscCall(PetscOptionsBool("-pd_monitor", "Print Phi and |grad Phi| at every PD iteration", "VKPDSolve", pd->monitor, &pd->monitor, NULL));
   PetscCall(PetscOptionsReal("-pd_chebyshev_rho", "Spectral radius estimate for Chebyshev acceleration of the PD iterations (0: off; Wang 2015)", "VKPDSolve", pd->cheb_rho, &pd->cheb_rho, NULL));
   PetscCall(PetscOptionsReal("-pd_chebyshev_gamma", "Under-relaxation of the accelerated iterations", "VKPDSolve", pd->cheb_gamma, &pd->cheb_gamma, NULL));
@@ -131,10 +165,15 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCheck(pd->contact_weight > 0 && pd->contact_weight < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_contact_weight must be positive and finite, got %g", (double)pd->contact_weight);
   PetscCheck(pd->rtol >= 0 && pd->rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_rtol must be in [0, 1), got %g", (double)pd->rtol);
   PetscCheck(pd->atol >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_atol must be >= 0, got %g", (double)pd->atol);
+  PetscCheck(pd->ftol >= 0 && pd->ftol < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_ftol must be >= 0 and finite, got %g", (double)pd->ftol);
+  PetscCheck(pd->fixed_its || pd->ftol > 0 || pd->atol > 0 || pd->rtol > 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_ftol, -pd_atol and -pd_rtol are all 0: no solve could converge (for a fixed iteration count use -pd_fixed_its)");
+  PetscCheck(pd->lbfgs_switch >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_lbfgs_switch must be >= 0, got %d", (int)pd->lbfgs_switch);
+  PetscCheck(pd->lbfgs_m >= 1 && pd->lbfgs_m <= 100, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_lbfgs_m must be in [1, 100], got %d", (int)pd->lbfgs_m);
   PetscCheck(pd->max_it >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_max_it must be >= 1, got %d", (int)pd->max_it);
   PetscCheck(pd->cheb_rho >= 0 && pd->cheb_rho < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_rho must be in [0, 1), got %g", (double)pd->cheb_rho);
   PetscCheck(pd->cheb_gamma > 0 && pd->cheb_gamma <= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_gamma must be in (0, 1], got %g", (double)pd->cheb_gamma);
   PetscCheck(pd->cheb_delay >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_delay must be >= 1, got %d", (int)pd->cheb_delay);
+  PetscCheck(pd->type == VK_PD_TYPE_PD || pd->cheb_rho == 0, pd->comm, PETSC_ERR_ARG_INCOMP, "-pd_chebyshev_rho accelerates -pd_type pd, not -pd_type %s", VKPDTypes[pd->type]);
   PetscCheck(pd->newton_its >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_newton_its must be >= 0, got %d", (int)pd->newton_its);
   PetscCheck(pd->newton_rtol >= 0 && pd->newton_rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_newton_rtol must be in [0, 1), got %g", (double)pd->newton_rtol);
   PetscCall(KSPSetFromOptions(pd->ksp));
@@ -178,6 +217,47 @@ static PetscErrorCode FindHandles(VKPD pd)
   pd->nscene   = n;
   PetscCallMPI(MPI_Allreduce(count, total, VK_SCENE_MAX, MPIU_INT, MPI_SUM, pd->comm));
   for (PetscInt h = 0; h < pd->scene->nhandles; h++) PetscCheck(total[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node", (int)h, (int)h);
+  PetscFunctionReturn(0);
+}
+
+/* The parts of f_scale that K fixes: |M g| over the free nodes (in a
+ * static solve gravity comes as the constant force), and the elastic force
+ * of a unit strain, |K_E x_rest| over the free nodes with K_E = K minus
+ * its inertia and collider diagonal: the scale of last resort, for a scene
+ * without gravity, handles or colliders. */
+static PetscErrorCode ForceScales(VKPD pd)
+{
+  const VKLayout *L = &pd->mesh->layout;
+  PetscReal       g2 = 0, sums[2], all[2], dt2 = pd->dt * pd->dt;
+  Vec             xr, kx;
+
+  PetscFunctionBegin;
+  for (int c = 0; c < 3; c++) g2 += PetscSqr(pd->scene->gravity[c]);
+  sums[0] = sums[1] = 0;
+  PetscCall(MatCreateVecs(pd->K, &xr, &kx));
+  for (int c = 0; c < 3; c++) {
+    const PetscScalar *ka;
+    PetscScalar       *xa;
+    PetscCall(VecGetArray(xr, &xa));
+    for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) xa[i] = pd->mesh->x[3 * (L->nStart + i) + c];
+    PetscCall(VecRestoreArray(xr, &xa));
+    PetscCall(MatMult(pd->K, xr, kx));
+    PetscCall(VecGetArrayRead(kx, &ka));
+    PetscCall(VecGetArrayRead(xr, (const PetscScalar **)&xa));
+    for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+      PetscReal m = pd->mesh->mass[L->nStart + i];
+      if (pd->node_handle[i] >= 0) continue;
+      if (c == 0) sums[0] += m * m * g2;
+      sums[1] += PetscSqr(ka[i] - (pd->inertia * m / dt2 + pd->contact_w[i]) * xa[i]);
+    }
+    PetscCall(VecRestoreArrayRead(xr, (const PetscScalar **)&xa));
+    PetscCall(VecRestoreArrayRead(kx, &ka));
+  }
+  PetscCall(VecDestroy(&xr));
+  PetscCall(VecDestroy(&kx));
+  PetscCallMPI(MPI_Allreduce(sums, all, 2, MPIU_REAL, MPIU_SUM, pd->comm));
+  pd->f_gravity = pd->inertia > 0 ? PetscSqrtReal(all[0]) : 0;
+  pd->f_unit    = PetscSqrtReal(all[1]);
   PetscFunctionReturn(0);
 }
 
@@ -249,6 +329,7 @@ static PetscErrorCode AssembleK(VKPD pd)
     for (int a = 0; a < 3; a++) L = PetscMax(L, mesh->grid.h * mesh->grid.dims[a]);
     pd->res_floor = 1e-12 * pd->kdiag * L;
   }
+  PetscCall(ForceScales(pd));
   PetscCall(MatDestroy(&pd->Kel));
   PetscCall(MatDuplicate(pd->K, MAT_COPY_VALUES, &pd->Kel));
   PetscCallMPI(MPI_Allreduce(&pd->nhandle, &pd->nhandle_total, 1, MPIU_INT, MPI_SUM, pd->comm));
@@ -307,11 +388,16 @@ PetscErrorCode VKPDView(VKPD pd, PetscViewer viewer)
 {
   PetscFunctionBegin;
   {
-    char cheb[128] = "", newton[128] = "", contact[96] = "";
+    char cheb[128] = "", newton[128] = "", contact[96] = "", type[64] = "", stop[160];
     if (pd->scene->ncolliders) PetscCall(PetscSNPrintf(contact, sizeof(contact), ", collider constraints of weight %g K_ii", (double)pd->contact_weight));
     if (pd->cheb_rho > 0) PetscCall(PetscSNPrintf(cheb, sizeof(cheb), ", Chebyshev rho %g gamma %g after %d", (double)pd->cheb_rho, (double)pd->cheb_gamma, (int)pd->cheb_delay));
     if (pd->newton_its) PetscCall(PetscSNPrintf(newton, sizeof(newton), ", then up to %d Newton iterations to rtol %g", (int)pd->newton_its, (double)pd->newton_rtol));
-    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics: dt %g s, rtol %g, atol %g, max_it %d, %d eliminated nodes%s%s%s\n", (double)pd->dt, (double)pd->rtol, (double)pd->atol, (int)pd->max_it, (int)pd->nhandle_total, cheb, newton, contact));
+    if (pd->type == VK_PD_TYPE_LBFGS) PetscCall(PetscSNPrintf(type, sizeof(type), "L-BFGS (history %d, K^-1 initial Hessian)", (int)pd->lbfgs_m));
+    else PetscCall(PetscSNPrintf(type, sizeof(type), "local/global iterations"));
+    if (pd->fixed_its) PetscCall(PetscSNPrintf(stop, sizeof(stop), "exactly %d iterations, residual not measured", (int)pd->max_it));
+    else PetscCall(PetscSNPrintf(stop, sizeof(stop), "|grad Phi| <= max(ftol %g f_scale, atol %g N, rtol %g |grad Phi(x0)|) within %d iterations", (double)pd->ftol, (double)pd->atol, (double)pd->rtol, (int)pd->max_it));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics by %s: dt %g s, %s, %d eliminated nodes%s%s%s\n", type, (double)pd->dt, stop, (int)pd->nhandle_total, cheb, newton, contact));
+    if (pd->kset) PetscCall(PetscViewerASCIIPrintf(viewer, "  f_scale parts: |M g| %g N, unit-strain force %g N (used only when gravity, constant force and reactions vanish)\n", (double)pd->f_gravity, (double)pd->f_unit));
   }
   PetscCall(PetscViewerASCIIPushTab(viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "global step (prefix -pd_global_):\n"));

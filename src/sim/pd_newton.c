@@ -13,6 +13,7 @@
 #include <vkpd.h>
 #include <vklog.h>
 #include <vkutil.h>
+#include "pdimpl.h"
 
 static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
 {
@@ -24,7 +25,9 @@ static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
+/* M/dt^2 + d2E/dx2 (PSD-projected per tet with psd) + active collider
+ * weights, eliminated rows and columns replaced by kdiag I. */
+static PetscErrorCode Hessian(VKPD pd, Vec x, PetscBool psd, Mat H)
 {
   const VKLayout *L    = &pd->mesh->layout;
   PetscInt        nown = L->nEnd - L->nStart, n, *rows;
@@ -33,7 +36,7 @@ PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
   PetscFunctionBegin;
   PetscCall(VKPDSetUp(pd));
   if (!pd->hdiag) PetscCall(VecDuplicate(pd->b, &pd->hdiag));
-  PetscCall(VKMaterialHessian(pd->mat, x, PETSC_FALSE, H));
+  PetscCall(VKMaterialHessian(pd->mat, x, psd, H));
   PetscCall(VecGetArray(pd->hdiag, &ma));
   for (PetscInt i = 0; i < nown; i++)
     for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
@@ -42,6 +45,13 @@ PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
   PetscCall(VKPDGetEliminatedRows(pd, &n, &rows));
   PetscCall(MatZeroRowsColumns(H, n, rows, pd->kdiag, NULL, NULL));
   PetscCall(PetscFree(rows));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDHessian(VKPD pd, Vec x, Mat H)
+{
+  PetscFunctionBegin;
+  PetscCall(Hessian(pd, x, PETSC_FALSE, H));
   PetscFunctionReturn(0);
 }
 
@@ -74,13 +84,16 @@ static PetscErrorCode NewtonCreate(VKPD pd)
   PetscFunctionReturn(0);
 }
 
-PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal, Vec, Vec, VKPDStats *);
-
+/* Newton from the PD result to max(newton_rtol |grad Phi(x0)|, the PD
+ * tolerance's atol part, the round-off floor); ending above that target
+ * (line search or factorization failures, too few iterations) makes the
+ * solve VK_PD_NEWTON_FAILED: accepted, but unconverged. */
 PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
 {
-  PetscReal      target = PetscMax(PetscMax(pd->newton_rtol * st->residual0, pd->atol), pd->res_floor);
-  PetscInt       its;
-  PetscLogDouble t0;
+  PetscReal           target = PetscMax(PetscMax(pd->newton_rtol * st->residual0, pd->atol), pd->res_floor);
+  PetscInt            its;
+  SNESConvergedReason reason;
+  PetscLogDouble      t0;
 
   PetscFunctionBegin;
   (void)t;
@@ -93,15 +106,91 @@ PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
   PetscCall(SNESSolve(pd->snes, NULL, x));
   pd->ysnes = NULL;
   PetscCall(SNESGetIterationNumber(pd->snes, &its));
-  st->newton_its = its;
+  PetscCall(SNESGetConvergedReason(pd->snes, &reason));
+  st->newton_its    = its;
+  st->newton_reason = (PetscInt)reason;
   PetscCall(VKPDEvaluate(pd, y, x, &st->phi, pd->r, &st->energy, &st->inverted));
   PetscCall(VecNorm(pd->r, NORM_2, &st->residual));
+  st->tolerance = target;
   if (PetscIsInfOrNanReal(st->phi) || PetscIsInfOrNanReal(st->residual)) {
     st->reason         = VK_PD_DIVERGED_NAN;
     st->fail_iteration = st->iterations + its;
   } else if (st->residual <= target) st->reason = target > pd->newton_rtol * st->residual0 ? VK_PD_CONVERGED_ATOL : VK_PD_CONVERGED_RTOL;
-  if (pd->monitor) PetscCall(PetscPrintf(pd->comm, "  Newton %d its: Phi %.15e |grad Phi| %.6e (rel %.3e)\n", (int)its, (double)st->phi, (double)st->residual, (double)(st->residual / st->residual0)));
+  else st->reason = VK_PD_NEWTON_FAILED;
+  if (pd->monitor) PetscCall(PetscPrintf(pd->comm, "  Newton %d its (%s): Phi %.15e |grad Phi| %.6e (rel %.3e, target %.3e)\n", (int)its, SNESConvergedReasons[reason], (double)st->phi, (double)st->residual, (double)(st->residual / st->residual0), (double)target));
   st->time_global += VKWallTime() - t0;
   PetscCall(PetscLogEventEnd(VK_EVENT_PDNewton, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* Projected Newton (Teran et al. 2005): where L-BFGS stalls, the step
+ * solves (M/dt^2 + the per-tet PSD projection of d2E/dx2) d = -grad Phi
+ * (MUMPS LU, KSP prefix -pd_pnewton_), a descent direction however stiff
+ * or heterogeneous gamma is, then backtracks on Phi (Armijo, or a smaller
+ * |grad Phi| where Phi's decrease is below its round-off).  Iterations
+ * are counted on from `it0` against -pd_max_it. */
+PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, VKPDStats *st)
+{
+  Vec d = pd->xhat, g = pd->r, xold = pd->xold;
+
+  PetscFunctionBegin;
+  if (!pd->pksp) {
+    PetscCall(KSPCreate(pd->comm, &pd->pksp));
+    PetscCall(KSPSetOptionsPrefix(pd->pksp, "pd_pnewton_"));
+    PetscCall(VKKSPSetMUMPS(pd->pksp, PCLU));
+    PetscCall(KSPSetFromOptions(pd->pksp));
+  }
+  if (!pd->H) PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
+  for (PetscInt it = it0;; it++) {
+    KSPConvergedReason kr;
+    PetscScalar        slope;
+    PetscReal          alpha = 1, phiold = st->phi, resold = st->residual;
+    PetscBool          accepted = PETSC_FALSE;
+    PetscLogDouble     t1;
+
+    if (it > it0) {
+      PetscCall(VKPDTest(pd, it, st));
+      if (st->reason) {
+        if (st->reason == VK_PD_DIVERGED_NAN) PetscCall(VecCopy(xold, x));
+        break;
+      }
+    }
+    t1 = VKWallTime();
+    PetscCall(Hessian(pd, x, PETSC_TRUE, pd->H));
+    PetscCall(KSPSetOperators(pd->pksp, pd->H, pd->H));
+    PetscCall(KSPSolve(pd->pksp, g, d));
+    PetscCall(KSPGetConvergedReason(pd->pksp, &kr));
+    st->time_global += VKWallTime() - t1;
+    st->newton_its++;
+    PetscCall(VecScale(d, -1));
+    PetscCall(VecDot(g, d, &slope));
+    if (kr < 0 || !(PetscRealPart(slope) < 0)) {
+      st->reason         = VK_PD_DIVERGED_GLOBAL;
+      st->fail_iteration = it;
+      break;
+    }
+    PetscCall(VecCopy(x, xold));
+    for (PetscInt ls = 0; ls < 30; ls++) {
+      PetscCall(VecWAXPY(x, alpha, d, xold));
+      PetscCall(VKPDEvaluateAt(pd, y, x, st));
+      if (!PetscIsInfOrNanReal(st->phi) && !PetscIsInfOrNanReal(st->residual)) {
+        PetscReal dec = st->phi - phiold, noise = 64 * PETSC_MACHINE_EPSILON * PetscAbsReal(phiold);
+        if (dec <= 1e-4 * alpha * PetscRealPart(slope) || (PetscAbsReal(dec) <= noise && st->residual < resold)) {
+          accepted = PETSC_TRUE;
+          break;
+        }
+      }
+      alpha *= 0.5;
+    }
+    if (!accepted) { /* no decrease along a descent direction: Phi's round-off; stay */
+      PetscCall(VecCopy(xold, x));
+      PetscCall(VKPDEvaluateAt(pd, y, x, st));
+      st->iterations = it;
+      st->tolerance  = st->tolerance > 0 ? st->tolerance : pd->res_floor;
+      if (st->residual > st->tolerance) st->reason = VK_PD_MAX_IT;
+      else st->reason = VK_PD_CONVERGED_ATOL;
+      break;
+    }
+  }
   PetscFunctionReturn(0);
 }

@@ -1,20 +1,28 @@
-/* pd_solve.c: the PD iterations of one implicit step (DESIGN §7, paper
+/* pd_solve.c: one implicit step by projective dynamics (DESIGN §7, paper
  * §7.1).  Local step: R_e and V_e of every owned tet (VKTetProject) and
  * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e)
  * (+ the constant force of VKPDSetConstantForce; no M y/dt^2 when static).
  * Colliders (DESIGN §7) are PD constraints w_i/2 |x_i - P(x_i)|^2 with
  * P the projection out of the colliders (VKSceneCollide, with friction);
  * their local step adds w_i P(x_i) to b, and w_i is already in K.
- * True residual grad Phi(x) = K x - b(x) on free nodes.
+ * True residual grad Phi(x) = K x - b(x) on free nodes; on the handle rows
+ * it is the force the handles exert (their reaction).
+ * Stopping: |grad Phi| <= max(ftol f_scale, atol, rtol |grad Phi(x0)|, the
+ * round-off floor), f_scale = |M g| + |f_const| + |handle and collider
+ * reactions| (vkpd.h).
  * Global step: Kel x = b - K x_D (handle values x_D on handle rows), the
  * three coordinates as one KSPMatSolve.  Optional Chebyshev acceleration (Wang 2015,
  * "A Chebyshev semi-iterative approach for accelerating projective and
  * position-based dynamics"):
  *   x_{k+1} = w_{k+1} (gamma (xhat_{k+1} - x_k) + x_k - x_{k-1}) + x_{k-1},
- *   w = 1 for k < S, w = 2/(2 - rho^2) at k = S, w = 4/(4 - rho^2 w) after. */
+ *   w = 1 for k < S, w = 2/(2 - rho^2) at k = S, w = 4/(4 - rho^2 w) after,
+ * restarted (w = 1, from the plain PD step) whenever Phi rises, as Wang
+ * does, so that it never ends above plain PD for long.  -pd_type lbfgs
+ * iterates in pd_lbfgs.c with the same evaluations. */
 #include <vkpd.h>
 #include <vkutil.h>
 #include <vklog.h>
+#include "pdimpl.h"
 
 PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inverted)
 {
@@ -70,6 +78,13 @@ static PetscErrorCode InertialTarget(VKPD pd, Vec y)
   PetscCall(VecGetArray(pd->My, &m));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
     for (int r = 0; r < 3; r++) m[3 * i + r] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r] + (fa ? fa[3 * i + r] : 0);
+  {
+    PetscReal f2 = 0;
+    for (PetscInt i = 0; fa && i < L->nEnd - L->nStart; i++)
+      if (pd->node_handle[i] < 0) f2 += PetscSqr(fa[3 * i]) + PetscSqr(fa[3 * i + 1]) + PetscSqr(fa[3 * i + 2]);
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &f2, 1, MPIU_REAL, MPIU_SUM, pd->comm));
+    pd->fconst_norm = PetscSqrtReal(f2);
+  }
   PetscCall(VecRestoreArray(pd->My, &m));
   if (pd->fconst) PetscCall(VecRestoreArrayRead(pd->fconst, &fa));
   PetscCall(VecRestoreArrayRead(y, &ya));
@@ -127,8 +142,13 @@ PetscErrorCode VKPDGetEliminatedRows(VKPD pd, PetscInt *n, PetscInt **rows)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscReal *norm)
+/* r = K x - b with the eliminated rows zeroed, |r|, and the norm of the
+ * scene handles' rows before zeroing (their reaction) in *reaction. */
+static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscReal *norm, PetscReal *reaction)
 {
+  const PetscScalar *ra;
+  PetscReal          h2 = 0;
+
   PetscFunctionBegin;
   for (PetscInt c = 0; c < 3; c++) {
     PetscCall(VecStrideGather(x, c, pd->xc, INSERT_VALUES));
@@ -137,6 +157,12 @@ static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscReal *norm)
     PetscCall(VecAXPY(pd->rc, -1, pd->bc));
     PetscCall(VecStrideScatter(pd->rc, c, r, INSERT_VALUES));
   }
+  PetscCall(VecGetArrayRead(r, &ra));
+  for (PetscInt i = 0; i < pd->nscene; i++)
+    for (int c = 0; c < 3; c++) h2 += PetscSqr(ra[3 * pd->handle_node[i] + c]);
+  PetscCall(VecRestoreArrayRead(r, &ra));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &h2, 1, MPIU_REAL, MPIU_SUM, pd->comm));
+  if (reaction) *reaction = PetscSqrtReal(h2);
   PetscCall(VKPDZeroEliminatedRows(pd, r));
   PetscCall(VecNorm(r, NORM_2, norm));
   PetscFunctionReturn(0);
@@ -165,14 +191,36 @@ PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
   PetscFunctionReturn(0);
 }
 
+/* X = Kel^-1 B (the three columns filled by the caller, X holding the
+ * initial guess for iterative solvers), scattered into the node vector out. */
+static PetscErrorCode SolveColumns(VKPD pd, Vec out, PetscBool *ok)
+{
+  KSPConvergedReason reason;
+  PetscScalar       *Xa;
+  PetscInt           n;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetLocalSize(pd->xc, &n));
+  PetscCall(KSPMatSolve(pd->ksp, pd->B, pd->X));
+  PetscCall(KSPGetConvergedReason(pd->ksp, &reason));
+  *ok = reason < 0 ? PETSC_FALSE : PETSC_TRUE;
+  PetscCall(MatDenseGetArrayRead(pd->X, (const PetscScalar **)&Xa));
+  for (PetscInt c = 0; c < 3; c++) {
+    PetscCall(VecPlaceArray(pd->xc, Xa + c * n));
+    PetscCall(VecStrideScatter(pd->xc, c, out, INSERT_VALUES));
+    PetscCall(VecResetArray(pd->xc));
+  }
+  PetscCall(MatDenseRestoreArrayRead(pd->X, (const PetscScalar **)&Xa));
+  PetscFunctionReturn(0);
+}
+
 /* xhat = Kel^{-1} (b - K x_D, x_D on handle rows): the three coordinates
  * as the columns of one dense right-hand side (KSPMatSolve: one pass of a
  * direct solver's triangular solves serves all three). */
 static PetscErrorCode GlobalStep(VKPD pd, Vec b, Vec x, Vec xhat, PetscBool *ok)
 {
-  KSPConvergedReason reason;
-  PetscScalar       *Ba, *Xa;
-  PetscInt           n;
+  PetscScalar *Ba, *Xa;
+  PetscInt     n;
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
@@ -197,16 +245,31 @@ static PetscErrorCode GlobalStep(VKPD pd, Vec b, Vec x, Vec xhat, PetscBool *ok)
   }
   PetscCall(MatDenseRestoreArrayWrite(pd->X, &Xa));
   PetscCall(MatDenseRestoreArrayWrite(pd->B, &Ba));
-  PetscCall(KSPMatSolve(pd->ksp, pd->B, pd->X));
-  PetscCall(KSPGetConvergedReason(pd->ksp, &reason));
-  *ok = reason < 0 ? PETSC_FALSE : PETSC_TRUE;
-  PetscCall(MatDenseGetArrayRead(pd->X, (const PetscScalar **)&Xa));
+  PetscCall(SolveColumns(pd, xhat, ok));
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDGlobal, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSolveK(VKPD pd, Vec q, Vec z, PetscBool *ok)
+{
+  PetscScalar *Ba, *Xa;
+  PetscInt     n;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
+  PetscCall(VecGetLocalSize(pd->bc, &n));
+  PetscCall(MatDenseGetArrayWrite(pd->B, &Ba));
+  PetscCall(MatDenseGetArrayWrite(pd->X, &Xa));
   for (PetscInt c = 0; c < 3; c++) {
-    PetscCall(VecPlaceArray(pd->xc, Xa + c * n));
-    PetscCall(VecStrideScatter(pd->xc, c, xhat, INSERT_VALUES));
-    PetscCall(VecResetArray(pd->xc));
+    PetscCall(VecPlaceArray(pd->bc, Ba + c * n));
+    PetscCall(VecStrideGather(q, c, pd->bc, INSERT_VALUES));
+    PetscCall(VecResetArray(pd->bc));
+    for (PetscInt i = 0; i < pd->nhandle; i++) Ba[c * n + pd->handle_node[i]] = 0;
+    for (PetscInt i = 0; i < n; i++) Xa[c * n + i] = 0;
   }
-  PetscCall(MatDenseRestoreArrayRead(pd->X, (const PetscScalar **)&Xa));
+  PetscCall(MatDenseRestoreArrayWrite(pd->X, &Xa));
+  PetscCall(MatDenseRestoreArrayWrite(pd->B, &Ba));
+  PetscCall(SolveColumns(pd, z, ok));
   PetscCall(PetscLogEventEnd(VK_EVENT_PDGlobal, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -214,13 +277,13 @@ static PetscErrorCode GlobalStep(VKPD pd, Vec b, Vec x, Vec xhat, PetscBool *ok)
 /* Local step of the collider constraints: b_i += w_i P(x_i) on free owned
  * nodes; their energy sum w_i/2 |x_i - P(x_i)|^2, the number of nodes
  * inside a collider and the deepest penetration. */
-static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt *ncontact, PetscReal *depth)
+static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt *ncontact, PetscReal *depth, PetscReal *reaction)
 {
   const PetscScalar *xa, *pa = NULL;
   PetscScalar       *ba;
   const VKLayout    *L   = &pd->mesh->layout;
   VKSum              sum = {0, 0};
-  PetscReal          mine[2], all[2], dmax = 0;
+  PetscReal          mine[3], all[3], dmax = 0, f2 = 0;
   PetscInt           n = 0;
 
   PetscFunctionBegin;
@@ -241,6 +304,7 @@ static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt
     if (!pd->contact[i]) continue;
     n++;
     VKSumAdd(&sum, 0.5 * pd->contact_w[i] * d2);
+    f2 += PetscSqr(pd->contact_w[i]) * d2;
     dmax = PetscMax(dmax, VKSceneDepth(pd->scene, pd->t, xi));
   }
   if (pd->prev) PetscCall(VecRestoreArrayRead(pd->prev, &pa));
@@ -248,7 +312,9 @@ static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt
   PetscCall(VecRestoreArrayRead(x, &xa));
   mine[0] = VKSumValue(&sum);
   mine[1] = (PetscReal)n;
-  PetscCallMPI(MPI_Allreduce(mine, all, 2, MPIU_REAL, MPIU_SUM, pd->comm));
+  mine[2] = f2;
+  PetscCallMPI(MPI_Allreduce(mine, all, 3, MPIU_REAL, MPIU_SUM, pd->comm));
+  *reaction = PetscSqrtReal(all[2]);
   PetscCallMPI(MPI_Allreduce(&dmax, depth, 1, MPIU_REAL, MPIU_MAX, pd->comm));
   *Ec       = all[0];
   *ncontact = (PetscInt)all[1];
@@ -257,26 +323,123 @@ static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt
 }
 
 /* b(x) = local step + M y/dt^2 (+ collider terms); Phi(x) and the elastic
- * energy; My must hold M y/dt^2. */
-static PetscErrorCode RightHandSide(VKPD pd, Vec y, Vec x, PetscReal *phi, VKPDStats *st)
+ * energy; My must hold M y/dt^2.  *creaction: the colliders' reaction. */
+static PetscErrorCode RightHandSide(VKPD pd, Vec y, Vec x, PetscReal *phi, VKPDStats *st, PetscReal *creaction)
 {
   PetscReal T, Ec = 0;
 
   PetscFunctionBegin;
+  *creaction = 0;
   PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
   PetscCall(VecAXPY(pd->b, 1, pd->My));
-  if (pd->scene->ncolliders) PetscCall(ContactStep(pd, x, pd->b, &Ec, &st->contacts, &st->depth));
+  if (pd->scene->ncolliders) PetscCall(ContactStep(pd, x, pd->b, &Ec, &st->contacts, &st->depth, creaction));
   PetscCall(KineticTerm(pd, x, y, &T));
   *phi = T + st->energy + Ec;
   PetscFunctionReturn(0);
 }
 
-PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal t, Vec y, Vec x, VKPDStats *);
+PetscErrorCode VKPDEvaluateAt(VKPD pd, Vec y, Vec x, VKPDStats *st)
+{
+  PetscLogDouble t0 = VKWallTime();
+  PetscReal      creaction, hreaction = 0, fs;
+
+  PetscFunctionBegin;
+  PetscCall(RightHandSide(pd, y, x, &st->phi, st, &creaction));
+  st->time_local += VKWallTime() - t0;
+  if (pd->fixed_its && pd->type == VK_PD_TYPE_PD) PetscFunctionReturn(0); /* L-BFGS needs the gradient */
+  PetscCall(Residual(pd, x, pd->b, pd->r, &st->residual, &hreaction));
+  pd->f_reaction = PetscSqrtReal(hreaction * hreaction + creaction * creaction);
+  fs             = pd->f_gravity + pd->fconst_norm + pd->f_reaction;
+  st->force_scale = fs > 0 ? fs : pd->f_unit;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDTest(VKPD pd, PetscInt it, VKPDStats *st)
+{
+  PetscReal res = st->residual, tf, tr;
+
+  PetscFunctionBegin;
+  if (it == 0) st->residual0 = res;
+  st->iterations = it;
+  if (it < pd->hist_cap) {
+    pd->hist_phi[it] = st->phi;
+    pd->hist_res[it] = res;
+    pd->hist_n       = it + 1;
+  }
+  tf            = pd->ftol * st->force_scale;
+  tr            = pd->rtol * st->residual0;
+  st->tolerance = PetscMax(PetscMax(tf, tr), PetscMax(pd->atol, pd->res_floor));
+  if (pd->monitor) {
+    if (pd->fixed_its) PetscCall(PetscPrintf(pd->comm, "  PD %3d Phi %.15e\n", (int)it, (double)st->phi));
+    else PetscCall(PetscPrintf(pd->comm, "  PD %3d Phi %.15e |grad Phi| %.6e N (%.3e of f_scale %.3e N, tolerance %.3e)\n", (int)it, (double)st->phi, (double)res, (double)(st->force_scale > 0 ? res / st->force_scale : 0), (double)st->force_scale, (double)st->tolerance));
+  }
+  if (PetscIsInfOrNanReal(st->phi) || PetscIsInfOrNanReal(res)) {
+    st->reason         = VK_PD_DIVERGED_NAN;
+    st->fail_iteration = it;
+  } else if (pd->fixed_its) {
+    if (it == pd->max_it) st->reason = VK_PD_CONVERGED_ITS;
+  } else if (res <= st->tolerance) {
+    if (st->tolerance == tf) st->reason = VK_PD_CONVERGED_FTOL;
+    else if (st->tolerance == tr) st->reason = VK_PD_CONVERGED_RTOL;
+    else st->reason = VK_PD_CONVERGED_ATOL;
+  } else if (it == pd->max_it) st->reason = VK_PD_MAX_IT;
+  PetscFunctionReturn(0);
+}
+
+/* The local/global iterations, Chebyshev-accelerated with -pd_chebyshev_rho
+ * (restarted when Phi rises).  With -pd_fixed_its the last global step
+ * ends the solve: max_it local and max_it global steps. */
+static PetscErrorCode IteratePD(VKPD pd, Vec y, Vec x, Vec prev, VKPDStats *st)
+{
+  PetscReal omega = 1, phi_prev = PETSC_INFINITY;
+  PetscInt  cheb_start = pd->cheb_delay;
+
+  PetscFunctionBegin;
+  for (PetscInt it = 0;; it++) {
+    PetscBool      ok = PETSC_FALSE;
+    PetscLogDouble t1;
+    if (pd->fixed_its && it == pd->max_it) {
+      PetscCall(VKPDTest(pd, it, st));
+      break;
+    }
+    PetscCall(VKPDEvaluateAt(pd, y, x, st));
+    if (pd->cheb_rho > 0 && it >= cheb_start && st->phi > phi_prev) {
+      /* the accelerated iterate went uphill: back to the last one and its
+       * plain PD step, acceleration restarted after the delay */
+      PetscCall(VecCopy(pd->xold, x));
+      PetscCall(VKPDEvaluateAt(pd, y, x, st));
+      cheb_start = it + pd->cheb_delay;
+      omega      = 1;
+    }
+    phi_prev = st->phi;
+    PetscCall(VKPDTest(pd, it, st));
+    if (st->reason == VK_PD_DIVERGED_NAN) {
+      if (it > 0) PetscCall(VecCopy(pd->xold, x));
+      else if (prev) PetscCall(VecCopy(prev, x));
+    }
+    if (st->reason) break;
+    t1 = VKWallTime();
+    PetscCall(GlobalStep(pd, pd->b, x, pd->xhat, &ok));
+    st->time_global += VKWallTime() - t1;
+    if (!ok) {
+      st->reason         = VK_PD_DIVERGED_GLOBAL;
+      st->fail_iteration = it;
+      break;
+    }
+    if (pd->cheb_rho > 0 && it + 1 >= cheb_start) {
+      omega = it + 1 == cheb_start ? 2 / (2 - pd->cheb_rho * pd->cheb_rho) : 4 / (4 - pd->cheb_rho * pd->cheb_rho * omega);
+      /* x1 = w gamma xhat + w (1 - gamma) x + (1 - w) xold */
+      PetscCall(VecAXPBYPCZ(pd->xhat, omega * (1 - pd->cheb_gamma), 1 - omega, omega * pd->cheb_gamma, x, pd->xold));
+    }
+    PetscCall(VecCopy(x, pd->xold));
+    PetscCall(VecCopy(pd->xhat, x));
+  }
+  PetscFunctionReturn(0);
+}
 
 PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *st)
 {
-  PetscReal      omega = 1, res;
-  PetscLogDouble t0 = VKWallTime(), t1;
+  PetscLogDouble t0 = VKWallTime();
 
   PetscFunctionBegin;
   PetscCall(VKPDSetUp(pd));
@@ -301,49 +464,11 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
   PetscCall(InertialTarget(pd, y));
   pd->t    = t;
   pd->prev = prev;
-  for (PetscInt it = 0;; it++) {
-    PetscBool ok = PETSC_FALSE;
-    t1 = VKWallTime();
-    PetscCall(RightHandSide(pd, y, x, &st->phi, st));
-    st->time_local += VKWallTime() - t1;
-    PetscCall(Residual(pd, x, pd->b, pd->r, &res));
-    st->residual = res;
-    if (it == 0) st->residual0 = res;
-    st->iterations = it;
-    if (it < pd->hist_cap) {
-      pd->hist_phi[it] = st->phi;
-      pd->hist_res[it] = res;
-      pd->hist_n       = it + 1;
-    }
-    if (pd->monitor) PetscCall(PetscPrintf(pd->comm, "  PD %3d Phi %.15e |grad Phi| %.6e (rel %.3e)\n", (int)it, (double)st->phi, (double)res, (double)(st->residual0 > 0 ? res / st->residual0 : 0)));
-    if (PetscIsInfOrNanReal(st->phi) || PetscIsInfOrNanReal(res)) {
-      st->reason         = VK_PD_DIVERGED_NAN;
-      st->fail_iteration = it;
-      if (it > 0) PetscCall(VecCopy(pd->xold, x));
-      else if (prev) PetscCall(VecCopy(prev, x));
-      break;
-    }
-    if (res <= pd->atol || res <= pd->res_floor) st->reason = VK_PD_CONVERGED_ATOL;
-    else if (res <= pd->rtol * st->residual0) st->reason = VK_PD_CONVERGED_RTOL;
-    else if (it == pd->max_it) st->reason = VK_PD_MAX_IT;
-    if (st->reason) break;
-    t1 = VKWallTime();
-    PetscCall(GlobalStep(pd, pd->b, x, pd->xhat, &ok));
-    st->time_global += VKWallTime() - t1;
-    if (!ok) {
-      st->reason         = VK_PD_DIVERGED_GLOBAL;
-      st->fail_iteration = it;
-      break;
-    }
-    if (pd->cheb_rho > 0 && it + 1 >= pd->cheb_delay) {
-      omega = it + 1 == pd->cheb_delay ? 2 / (2 - pd->cheb_rho * pd->cheb_rho) : 4 / (4 - pd->cheb_rho * pd->cheb_rho * omega);
-      /* x1 = w gamma xhat + w (1 - gamma) x + (1 - w) xold */
-      PetscCall(VecAXPBYPCZ(pd->xhat, omega * (1 - pd->cheb_gamma), 1 - omega, omega * pd->cheb_gamma, x, pd->xold));
-    }
-    PetscCall(VecCopy(x, pd->xold));
-    PetscCall(VecCopy(pd->xhat, x));
-  }
-  if (st->reason > 0 && pd->newton_its > 0) PetscCall(VKPDNewton(pd, t, y, x, st));
+  if (pd->type == VK_PD_TYPE_LBFGS) {
+    PetscCall(VKPDIterateLBFGS(pd, y, x, st));
+    if (st->reason == VK_PD_DIVERGED_NAN && st->fail_iteration == 0 && prev) PetscCall(VecCopy(prev, x));
+  } else PetscCall(IteratePD(pd, y, x, prev, st));
+  if (st->reason > 0 && st->reason != VK_PD_CONVERGED_ITS && pd->newton_its > 0) PetscCall(VKPDNewton(pd, t, y, x, st));
   st->time_other = VKWallTime() - t0 - st->time_local - st->time_global;
   PetscFunctionReturn(0);
 }
@@ -351,17 +476,17 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
 PetscErrorCode VKPDEvaluate(VKPD pd, Vec y, Vec x, PetscReal *phi, Vec g, PetscReal *E, PetscInt *inverted)
 {
   VKPDStats st;
-  PetscReal p, norm;
+  PetscReal p = 0, norm;
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(&st, sizeof(st)));
   PetscCall(VKPDSetUp(pd));
   PetscCall(InertialTarget(pd, y));
-  PetscCall(RightHandSide(pd, y, x, &p, &st));
+  PetscCall(RightHandSide(pd, y, x, &p, &st, &norm));
   if (phi) *phi = p;
   if (E) *E = st.energy;
   if (inverted) *inverted = st.inverted;
-  if (g) PetscCall(Residual(pd, x, pd->b, g, &norm));
+  if (g) PetscCall(Residual(pd, x, pd->b, g, &norm, NULL));
   PetscFunctionReturn(0);
 }
 
