@@ -25,11 +25,19 @@ PETSC_EXTERN PetscErrorCode VKTSPDGetVelocity(TS, Vec *);
 /* Statistics of the last step and totals over all steps so far. */
 typedef struct {
   PetscInt       steps, iterations, iterations_max, newton_its, inverted_max, contacts_max, max_it_steps;
+  PetscInt       unconverged_steps, first_unconverged_step; /* steps that ended above their tolerance (MAX_IT, NEWTON_FAILED) */
+  PetscInt       unmeasured_steps;                          /* -pd_fixed_its steps */
   PetscReal      residual_rel_max, residual_rel_last, depth_max;
+  PetscReal      residual_force_max;        /* max over steps of |grad Phi| / f_scale at the end of the step */
+  PetscReal      residual_over_tol_max;     /* max over steps of |grad Phi| / tolerance (> 1: unconverged) */
   PetscLogDouble time_local, time_global, time_other;
   VKPDStats      last;
 } VKTSPDStats;
 PETSC_EXTERN PetscErrorCode VKTSPDGetStats(TS, VKTSPDStats *);
+/* With strict set, a step that ends unconverged fails the TS
+ * (TS_DIVERGED_NONLINEAR_SOLVE, the state of the step's start kept);
+ * otherwise it is accepted, counted and warned about on stderr. */
+PETSC_EXTERN PetscErrorCode VKTSPDSetStrict(TS, PetscBool);
 
 typedef struct _n_VKSim *VKSim;
 struct _n_VKSim {
@@ -41,7 +49,7 @@ struct _n_VKSim {
   TS         ts;
   Vec        x, x0, v0; /* state; initial state (NULL: rest, at rest) */
   char       dir[PETSC_MAX_PATH_LEN]; /* output directory, "" for none */
-  PetscBool  quiet, setup;
+  PetscBool  quiet, setup, strict;
   void      *out;                     /* frame writer (sim_output.c) */
   PetscReal  next_output, last_frame_time;
   PetscInt   frames;
@@ -59,6 +67,10 @@ PETSC_EXTERN PetscErrorCode VKSimSetUp(VKSim);
 /* Start from x, v instead of the rest state at rest (copied; a crumpled
  * start, a restart).  Handle nodes still follow the scene. */
 PETSC_EXTERN PetscErrorCode VKSimSetInitialState(VKSim, Vec x, Vec v);
+/* The run's status: "completed" (every step converged), "unconverged"
+ * (some step ended above its tolerance: -pd_max_it, a failed Newton
+ * polish), "unmeasured" (-pd_fixed_its). */
+PETSC_EXTERN PetscErrorCode VKSimGetStatus(VKSim, const char **);
 /* Simulate over the scene from the initial state. */
 PETSC_EXTERN PetscErrorCode VKSimRun(VKSim);
 PETSC_EXTERN PetscErrorCode VKSimView(VKSim, PetscViewer);

@@ -73,7 +73,9 @@ PetscErrorCode VKSimSetFromOptions(VKSim sim)
   PetscCheck(dt > 0 && dt < PETSC_INFINITY, sim->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_dt must be positive, got %g", (double)dt);
   PetscOptionsBegin(sim->comm, NULL, "Homogenized simulation", "VKSim");
   PetscCall(PetscOptionsBool("-sim_quiet", "Do not print the summary line", "VKSimRun", sim->quiet, &sim->quiet, NULL));
+  PetscCall(PetscOptionsBool("-sim_strict", "A step that ends above its tolerance stops the run with an error (otherwise it is counted, warned about, and the status is 'unconverged')", "VKSimRun", sim->strict, &sim->strict, NULL));
   PetscOptionsEnd();
+  PetscCall(VKTSPDSetStrict(sim->ts, sim->strict));
   PetscFunctionReturn(0);
 }
 
@@ -169,6 +171,16 @@ PetscErrorCode VKSimSetInitialState(VKSim sim, Vec x, Vec v)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKSimGetStatus(VKSim sim, const char **status)
+{
+  VKTSPDStats st;
+
+  PetscFunctionBegin;
+  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  *status = st.unconverged_steps ? "unconverged" : (st.unmeasured_steps ? "unmeasured" : "completed");
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKSimRun(VKSim sim)
 {
   TSConvergedReason reason;
@@ -200,7 +212,9 @@ PetscErrorCode VKSimRun(VKSim sim)
   PetscCall(VKTSPDGetStats(sim->ts, &st));
   if (reason < 0) {
     char msg[512];
-    PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) failed at PD iteration %d: %s", (int)(steps + 1), (double)(t + dt), (int)st.last.fail_iteration, st.last.reason == VK_PD_DIVERGED_NAN ? "non-finite energy or residual (NaN/Inf)" : "the global-step solver (-pd_global_) failed"));
+    if (st.last.reason == VK_PD_MAX_IT || st.last.reason == VK_PD_NEWTON_FAILED)
+      PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) did not converge (%s, -sim_strict): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N after %d iterations; raise -pd_max_it, or try -pd_type lbfgs", (int)(steps + 1), (double)(t + dt), VKPDReasonName(st.last.reason), (double)st.last.residual, (double)(st.last.residual / st.last.tolerance), (double)st.last.tolerance, (int)st.last.iterations));
+    else PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) failed at PD iteration %d: %s", (int)(steps + 1), (double)(t + dt), (int)st.last.fail_iteration, st.last.reason == VK_PD_DIVERGED_NAN ? "non-finite energy or residual (NaN/Inf)" : "the global-step solver (-pd_global_) failed"));
     if (sim->out) PetscCall(VKSimOutputFrame(sim, t, sim->x));
     PetscCall(VKSimOutputClose(sim, msg));
     PetscCall(PetscLogStagePop());
@@ -210,7 +224,11 @@ PetscErrorCode VKSimRun(VKSim sim)
   sim->time_run = VKWallTime() - t0;
   PetscCall(VKSimOutputClose(sim, NULL));
   if (!sim->quiet) {
-    PetscCall(PetscPrintf(sim->comm, "volknit sim: %s, %d steps of %g s to t = %g s, PD iterations %.1f per step (max %d), |grad Phi| reached %.1e relative (max), %d inverted tets (max), %.3f s per step (local %.3f, global %.3f, other %.3f)%s%s\n", sim->scene->name, (int)steps, (double)dt, (double)t, st.steps ? (double)st.iterations / st.steps : 0.0, (int)st.iterations_max, (double)st.residual_rel_max, (int)st.inverted_max, st.steps ? sim->time_run / st.steps : 0.0,
+    char conv[160];
+    if (st.unconverged_steps) PetscCall(PetscSNPrintf(conv, sizeof(conv), "UNCONVERGED in %d of %d steps (first: step %d; worst |grad Phi| %.3g x its tolerance)", (int)st.unconverged_steps, (int)st.steps, (int)st.first_unconverged_step, (double)st.residual_over_tol_max));
+    else if (st.unmeasured_steps) PetscCall(PetscSNPrintf(conv, sizeof(conv), "residual not measured (-pd_fixed_its)"));
+    else PetscCall(PetscSNPrintf(conv, sizeof(conv), "converged in every step (|grad Phi| <= %.2g x f_scale at most)", (double)st.residual_force_max));
+    PetscCall(PetscPrintf(sim->comm, "volknit sim: %s, %d steps of %g s to t = %g s, %s iterations %.1f per step (max %d), %s, %d inverted tets (max), %.3f s per step (local %.3f, global %.3f, other %.3f)%s%s\n", sim->scene->name, (int)steps, (double)dt, (double)t, VKPDTypes[sim->pd->type], st.steps ? (double)st.iterations / st.steps : 0.0, (int)st.iterations_max, conv, (int)st.inverted_max, st.steps ? sim->time_run / st.steps : 0.0,
                           st.steps ? st.time_local / st.steps : 0.0, st.steps ? st.time_global / st.steps : 0.0, st.steps ? st.time_other / st.steps : 0.0, sim->dir[0] ? " -> " : "", sim->dir[0] ? sim->dir : ""));
   }
   PetscCall(PetscLogStagePop());

@@ -5,7 +5,9 @@
  *                 /sim/time, /sim/energy (elastic, kinetic, potential)
  *   DIR/sim.xdmf  two temporal collections (mesh, yarn) for ParaView
  *   DIR/sim.json  steps, PD iterations, residual reached, time split,
- *                 inverted tets, energies, status.
+ *                 inverted tets, energies, status (completed, unconverged:
+ *                 some step ended above its tolerance, unmeasured:
+ *                 -pd_fixed_its, or failed).
  * Positions are gathered on rank 0, which writes; sim.h5 is written under
  * a temporary name and renamed when the run ends (also after a failure,
  * with every good frame up to it). */
@@ -169,7 +171,11 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONBegin(&j, out->fp));
   PetscCall(VKJSONString(&j, "format", "volknit-sim-summary 1"));
   PetscCall(VKJSONString(&j, "scene", sim->scene->name));
-  PetscCall(VKJSONString(&j, "status", c->failure ? "failed" : "completed"));
+  {
+    const char *status;
+    PetscCall(VKSimGetStatus(sim, &status));
+    PetscCall(VKJSONString(&j, "status", c->failure ? "failed" : status));
+  }
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
   PetscCall(VKJSONInt(&j, "ranks", size));
   PetscCall(VKJSONInt(&j, "nodes", sim->mesh->nv));
@@ -181,8 +187,16 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "frames", sim->frames));
   PetscCall(VKJSONObjectBegin(&j, "pd"));
   PetscCall(VKJSONString(&j, "global_pc", solver));
+  PetscCall(VKJSONString(&j, "type", VKPDTypes[sim->pd->type]));
+  PetscCall(VKJSONReal(&j, "ftol", sim->pd->ftol));
   PetscCall(VKJSONReal(&j, "rtol", sim->pd->rtol));
+  PetscCall(VKJSONReal(&j, "atol", sim->pd->atol));
   PetscCall(VKJSONInt(&j, "max_it", sim->pd->max_it));
+  PetscCall(VKJSONInt(&j, "unconverged_steps", st.unconverged_steps));
+  if (st.unconverged_steps) PetscCall(VKJSONInt(&j, "first_unconverged_step", st.first_unconverged_step));
+  PetscCall(VKJSONInt(&j, "unmeasured_steps", st.unmeasured_steps));
+  PetscCall(VKJSONReal(&j, "residual_over_tolerance_max", st.residual_over_tol_max));
+  PetscCall(VKJSONReal(&j, "residual_over_force_scale_max", st.residual_force_max));
   PetscCall(VKJSONReal(&j, "iterations_mean", (PetscReal)st.iterations / nsteps));
   PetscCall(VKJSONInt(&j, "iterations_max", st.iterations_max));
   PetscCall(VKJSONInt(&j, "steps_at_max_it", st.max_it_steps));
@@ -218,7 +232,11 @@ static PetscErrorCode CloseRank0(VKSim sim, const char failure[])
   PetscFunctionBegin;
   PetscCall(VKH5WriteReal(&o->h5, "/sim/time", o->n, 1, o->time));
   PetscCall(VKH5WriteReal(&o->h5, "/sim/energy", o->n, 3, o->energy));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/sim", "status", failure ? failure : "completed"));
+  {
+    const char *status;
+    PetscCall(VKSimGetStatus(sim, &status));
+    PetscCall(VKH5WriteAttrString(&o->h5, "/sim", "status", failure ? failure : status));
+  }
   PetscCall(VKH5WriteAttrInt(&o->h5, "/sim", "frames", o->n));
   o->open = PETSC_FALSE;
   PetscCall(VKH5Close(&o->h5));

@@ -5,7 +5,8 @@
  *   at t_{n+1}),   v_{n+1} = (x_{n+1} - x_n)/dt.
  * A failed PD solve (non-finite values, global KSP failure) restores x_n
  * and sets TS_DIVERGED_NONLINEAR_SOLVE, so the caller still has the last
- * good state.  Modelled on PETSc's own TS implementations (TSStep_Euler). */
+ * good state.  A solve that ends above its tolerance is counted and
+ * warned about on stderr, or, with VKTSPDSetStrict, fails like that.  Modelled on PETSc's own TS implementations (TSStep_Euler). */
 #include <vksim.h>
 #include <petsc/private/tsimpl.h>
 
@@ -13,7 +14,10 @@ typedef struct {
   VKPD        pd;
   Vec         v, y, xprev;
   VKTSPDStats stats;
+  PetscBool   strict;
 } TS_PD;
+
+#define VK_TSPD_WARNINGS 10 /* unconverged steps named on stderr before the rest are only counted */
 
 static PetscErrorCode TSSetUp_PD(TS ts)
 {
@@ -52,6 +56,19 @@ static PetscErrorCode TSStep_PD(TS ts)
   PetscCall(VecRestoreArray(p->y, &ya));
   PetscCall(VecCopy(p->y, x));
   PetscCall(VKPDSolve(pd, t1, p->y, p->xprev, x, &s->last));
+  if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED) {
+    MPI_Comm comm = PetscObjectComm((PetscObject)ts);
+    if (!s->unconverged_steps) s->first_unconverged_step = ts->steps + 1;
+    s->unconverged_steps++;
+    if (p->strict) {
+      PetscCall(VecCopy(p->xprev, x));
+      ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
+      PetscFunctionReturn(0);
+    }
+    if (s->unconverged_steps <= VK_TSPD_WARNINGS)
+      PetscCall(PetscFPrintf(comm, PETSC_STDERR, "volknit: warning: step %d (t = %g s) did not converge (%s): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N, after %d iterations%s\n", (int)(ts->steps + 1), (double)t1, VKPDReasonName(s->last.reason), (double)s->last.residual, (double)(s->last.residual / s->last.tolerance), (double)s->last.tolerance, (int)s->last.iterations,
+                             s->unconverged_steps == VK_TSPD_WARNINGS ? "; further unconverged steps are only counted" : ""));
+  }
   if (s->last.reason < 0) {
     PetscCall(VecCopy(p->xprev, x));
     ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
@@ -71,6 +88,11 @@ static PetscErrorCode TSStep_PD(TS ts)
   s->contacts_max = PetscMax(s->contacts_max, s->last.contacts);
   s->depth_max    = PetscMax(s->depth_max, s->last.depth);
   if (s->last.reason == VK_PD_MAX_IT) s->max_it_steps++;
+  if (s->last.reason == VK_PD_CONVERGED_ITS) s->unmeasured_steps++;
+  else {
+    if (s->last.force_scale > 0) s->residual_force_max = PetscMax(s->residual_force_max, s->last.residual / s->last.force_scale);
+    if (s->last.tolerance > 0) s->residual_over_tol_max = PetscMax(s->residual_over_tol_max, s->last.residual / s->last.tolerance);
+  }
   s->residual_rel_max  = PetscMax(s->residual_rel_max, rel);
   s->residual_rel_last = rel;
   s->time_local += s->last.time_local;
@@ -170,6 +192,16 @@ PetscErrorCode VKTSPDGetVelocity(TS ts, Vec *v)
   PetscFunctionBegin;
   PetscCall(GetData(ts, &p));
   *v = p->v;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKTSPDSetStrict(TS ts, PetscBool strict)
+{
+  TS_PD *p = NULL;
+
+  PetscFunctionBegin;
+  PetscCall(GetData(ts, &p));
+  p->strict = strict;
   PetscFunctionReturn(0);
 }
 
