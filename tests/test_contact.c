@@ -78,6 +78,8 @@ static PetscErrorCode RunCreate(MPI_Comm comm, Case which, PetscReal T, Run *r)
   PetscCall(VKSceneSetUp(r->s, lo, hi));
   PetscCall(VKSimCreate(r->mat, r->s, &r->sim));
   r->sim->quiet        = PETSC_TRUE;
+  r->sim->pd->type     = VK_PD_TYPE_PD;
+  r->sim->pd->ftol     = 0;
   r->sim->pd->rtol     = which == DRAPE ? 1e-3 : 1e-5; /* sticking needs a converged step */
   r->sim->pd->max_it   = 1000;
   r->sim->pd->cheb_rho = 0.99;

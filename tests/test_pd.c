@@ -124,8 +124,11 @@ static PetscErrorCode TestMonotoneAndNewton(VKMaterial mat)
   PetscCall(RestTarget(m, dt, s->gravity, y));
 
   /* monotone Phi over 60 plain PD iterations */
+  pd->type   = VK_PD_TYPE_PD; /* plain PD: the local/global iterations themselves */
   pd->max_it = 60;
   pd->rtol   = 0;
+  pd->ftol   = 0;
+  pd->atol   = 1e-300;
   PetscCall(VKPDSetUp(pd));
   PetscCall(VecCopy(y, x));
   PetscCall(VKPDSolve(pd, t, y, NULL, x, &st));
@@ -276,6 +279,8 @@ static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton
   PetscCall(StretchScene(mat->mesh, -9.81, &s));
   PetscCall(VKSimCreate(mat, s, &sim));
   sim->quiet           = PETSC_TRUE;
+  sim->pd->type        = VK_PD_TYPE_PD;
+  sim->pd->ftol        = 0;
   sim->pd->rtol        = rtol;
   sim->pd->max_it      = 2000;
   sim->pd->newton_its  = newton;

@@ -147,6 +147,8 @@ static PetscErrorCode Run(MPI_Comm comm, Scene which, PetscReal **xk, PetscInt *
   PetscCall(Setup(&p, which, -9.81, &s, &dt, &T));
   PetscCall(VKSimCreate(p.mat, s, &sim));
   sim->quiet         = PETSC_TRUE;
+  sim->pd->type      = VK_PD_TYPE_PD;
+  sim->pd->ftol      = 0;
   sim->pd->rtol      = 1e-6;
   sim->pd->max_it    = 3000;
   sim->pd->cheb_rho  = 0.99;
