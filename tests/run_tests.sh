@@ -102,6 +102,14 @@ if timeout "$TIMEOUT" bin/volknit mesh -yarn_pattern rib1x1 -yarn_wales 30 -yarn
    && timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 > "$d30.sim.log" 2>&1 \
    && [ -s "$d30/sim.h5" ]; then ok
 else not_ok "30 x 30 rib: volknit mesh to file, then volknit sim -n 2 from it (see $d30.mesh.log, $d30.sim.log)"; fi
+# a step stopped at -pd_max_it: warned about, status "unconverged"; with -sim_strict an error
+if timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -pd_max_it 1 > "$d30.unconv.log" 2>&1 \
+   && grep -q 'did not converge' "$d30.unconv.log" && grep -q '"status": "unconverged"' "$d30/sim.json"; then ok
+else not_ok "volknit sim -pd_max_it 1: expected a warning and status unconverged in sim.json (see $d30.unconv.log)"; fi
+timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -pd_max_it 1 -sim_strict > "$d30.strict.log" 2>&1
+rc=$?
+if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q 'did not converge (MAX_IT, -sim_strict)' "$d30.strict.log"; then ok
+else not_ok "volknit sim -pd_max_it 1 -sim_strict: expected a non-zero exit naming the step (status $rc, see $d30.strict.log)"; fi
 printf '%-22s       : %4d passed, %d failed\n' "mesh, 1 vs 2 ranks" "$((passed - cmp_passed))" "$((failed - cmp_failed))"
 
 # 4. the example programs: ex1's printed mass balance and reproduction error,
