@@ -191,16 +191,42 @@ PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
   PetscFunctionReturn(0);
 }
 
-/* X = Kel^-1 B (the three columns filled by the caller, X holding the
- * initial guess for iterative solvers), scattered into the node vector out. */
-static PetscErrorCode SolveColumns(VKPD pd, Vec out, PetscBool *ok)
+/* out = Kel^-1 rhs for the three coordinates at once: the columns of one
+ * dense right-hand side (KSPMatSolve: one pass of a direct solver's
+ * triangular solves serves all three).  With handles, the eliminated rows
+ * carry the handle values x_D (rhs - K x_D elsewhere: the PD global step);
+ * without, they are zero (a correction, as L-BFGS solves for).  guess
+ * (NULL: zero) starts iterative solvers. */
+static PetscErrorCode SolveColumns(VKPD pd, Vec rhs, PetscBool handles, Vec guess, Vec out, PetscBool *ok)
 {
   KSPConvergedReason reason;
-  PetscScalar       *Xa;
+  PetscScalar       *Ba, *Xa;
   PetscInt           n;
 
   PetscFunctionBegin;
-  PetscCall(VecGetLocalSize(pd->xc, &n));
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
+  PetscCall(VecGetLocalSize(pd->bc, &n));
+  PetscCall(MatDenseGetArrayWrite(pd->B, &Ba));
+  PetscCall(MatDenseGetArrayWrite(pd->X, &Xa));
+  for (PetscInt c = 0; c < 3; c++) {
+    const PetscScalar *da = NULL;
+    PetscCall(VecPlaceArray(pd->bc, Ba + c * n));
+    PetscCall(VecStrideGather(rhs, c, pd->bc, INSERT_VALUES));
+    if (handles && pd->nhandle_total) {
+      PetscCall(MatMult(pd->K, pd->xd[c], pd->rc));
+      PetscCall(VecAXPY(pd->bc, -1, pd->rc));
+    }
+    PetscCall(VecResetArray(pd->bc));
+    if (handles) PetscCall(VecGetArrayRead(pd->xd[c], &da));
+    for (PetscInt i = 0; i < pd->nhandle; i++) Ba[c * n + pd->handle_node[i]] = da ? pd->kdiag * da[pd->handle_node[i]] : 0;
+    if (handles) PetscCall(VecRestoreArrayRead(pd->xd[c], &da));
+    PetscCall(VecPlaceArray(pd->xc, Xa + c * n));
+    if (guess) PetscCall(VecStrideGather(guess, c, pd->xc, INSERT_VALUES));
+    else PetscCall(VecSet(pd->xc, 0));
+    PetscCall(VecResetArray(pd->xc));
+  }
+  PetscCall(MatDenseRestoreArrayWrite(pd->X, &Xa));
+  PetscCall(MatDenseRestoreArrayWrite(pd->B, &Ba));
   PetscCall(KSPMatSolve(pd->ksp, pd->B, pd->X));
   PetscCall(KSPGetConvergedReason(pd->ksp, &reason));
   *ok = reason < 0 ? PETSC_FALSE : PETSC_TRUE;
@@ -211,66 +237,22 @@ static PetscErrorCode SolveColumns(VKPD pd, Vec out, PetscBool *ok)
     PetscCall(VecResetArray(pd->xc));
   }
   PetscCall(MatDenseRestoreArrayRead(pd->X, (const PetscScalar **)&Xa));
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDGlobal, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
 
-/* xhat = Kel^{-1} (b - K x_D, x_D on handle rows): the three coordinates
- * as the columns of one dense right-hand side (KSPMatSolve: one pass of a
- * direct solver's triangular solves serves all three). */
+/* xhat = Kel^{-1} (b - K x_D, x_D on handle rows), from x. */
 static PetscErrorCode GlobalStep(VKPD pd, Vec b, Vec x, Vec xhat, PetscBool *ok)
 {
-  PetscScalar *Ba, *Xa;
-  PetscInt     n;
-
   PetscFunctionBegin;
-  PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
-  PetscCall(VecGetLocalSize(pd->bc, &n));
-  PetscCall(MatDenseGetArrayWrite(pd->B, &Ba));
-  PetscCall(MatDenseGetArrayWrite(pd->X, &Xa));
-  for (PetscInt c = 0; c < 3; c++) {
-    PetscCall(VecPlaceArray(pd->bc, Ba + c * n));
-    PetscCall(VecStrideGather(b, c, pd->bc, INSERT_VALUES));
-    if (pd->nhandle_total) {
-      const PetscScalar *da;
-      PetscCall(MatMult(pd->K, pd->xd[c], pd->rc));
-      PetscCall(VecAXPY(pd->bc, -1, pd->rc));
-      PetscCall(VecGetArrayRead(pd->xd[c], &da));
-      for (PetscInt i = 0; i < pd->nhandle; i++) Ba[c * n + pd->handle_node[i]] = pd->kdiag * da[pd->handle_node[i]];
-      PetscCall(VecRestoreArrayRead(pd->xd[c], &da));
-    }
-    PetscCall(VecResetArray(pd->bc));
-    PetscCall(VecPlaceArray(pd->xc, Xa + c * n)); /* initial guess for iterative solvers */
-    PetscCall(VecStrideGather(x, c, pd->xc, INSERT_VALUES));
-    PetscCall(VecResetArray(pd->xc));
-  }
-  PetscCall(MatDenseRestoreArrayWrite(pd->X, &Xa));
-  PetscCall(MatDenseRestoreArrayWrite(pd->B, &Ba));
-  PetscCall(SolveColumns(pd, xhat, ok));
-  PetscCall(PetscLogEventEnd(VK_EVENT_PDGlobal, 0, 0, 0, 0));
+  PetscCall(SolveColumns(pd, b, PETSC_TRUE, x, xhat, ok));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKPDSolveK(VKPD pd, Vec q, Vec z, PetscBool *ok)
 {
-  PetscScalar *Ba, *Xa;
-  PetscInt     n;
-
   PetscFunctionBegin;
-  PetscCall(PetscLogEventBegin(VK_EVENT_PDGlobal, 0, 0, 0, 0));
-  PetscCall(VecGetLocalSize(pd->bc, &n));
-  PetscCall(MatDenseGetArrayWrite(pd->B, &Ba));
-  PetscCall(MatDenseGetArrayWrite(pd->X, &Xa));
-  for (PetscInt c = 0; c < 3; c++) {
-    PetscCall(VecPlaceArray(pd->bc, Ba + c * n));
-    PetscCall(VecStrideGather(q, c, pd->bc, INSERT_VALUES));
-    PetscCall(VecResetArray(pd->bc));
-    for (PetscInt i = 0; i < pd->nhandle; i++) Ba[c * n + pd->handle_node[i]] = 0;
-    for (PetscInt i = 0; i < n; i++) Xa[c * n + i] = 0;
-  }
-  PetscCall(MatDenseRestoreArrayWrite(pd->X, &Xa));
-  PetscCall(MatDenseRestoreArrayWrite(pd->B, &Ba));
-  PetscCall(SolveColumns(pd, z, ok));
-  PetscCall(PetscLogEventEnd(VK_EVENT_PDGlobal, 0, 0, 0, 0));
+  PetscCall(SolveColumns(pd, q, PETSC_FALSE, NULL, z, ok));
   PetscFunctionReturn(0);
 }
 
