@@ -414,8 +414,10 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
     if (fitting) PetscCall(FitStage(fit, dir));
     if (fitting && fit->stopped) PetscCall(PetscPrintf(comm, "volknit run: the fit stopped before the end; go on with volknit fit -o %s -fit_restart, then volknit sim -o %s -mat_file %s/material.h5\n", dir, dir, dir));
     else {
+      const char *status;
       PetscCall(SimStage(&p));
-      PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim done in %.2f s; outputs in %s/\n", reference ? "yls, " : "", fitting ? "fit, " : "", VKWallTime() - t0, dir));
+      PetscCall(VKSimGetStatus(p.sim, &status));
+      PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim done in %.2f s (sim status: %s); outputs in %s/\n", reference ? "yls, " : "", fitting ? "fit, " : "", VKWallTime() - t0, status, dir));
     }
   }
   PetscCall(VKFitDestroy(&fit));
