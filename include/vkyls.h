@@ -37,6 +37,12 @@ typedef struct {
   PetscInt       steps, newton_its, newton_its_max, pairs_max, line_search_cuts, capped_steps, pattern_rebuilds;
   PetscReal      dmin_over_2r; /* smallest distance between non-adjacent segment axes / 2r seen */
   PetscLogDouble time_solve, time_pairs;
+  /* steps whose Newton solve ended above its tolerance (DIVERGED_MAX_IT or a
+   * line search that could not lower Phi): the run goes on from the last
+   * iterate, and the status says "unconverged" */
+  PetscInt  unconverged_steps, first_unconverged_step;
+  PetscInt  halved_steps; /* solves that failed and were redone as two steps of half the length */
+  PetscReal residual_over_tol_max; /* over every step: |grad Phi| / tolerance at the end of the solve */
 } VKYLSStats;
 
 typedef struct _n_VKYLS *VKYLS;
@@ -49,6 +55,9 @@ struct _n_VKYLS {
   VKRodParams par;
   PetscReal   density, cv, cs, kw, friction_eps, cap, dt;
   PetscInt    ls_max_it;
+  PetscReal   ftol;   /* Newton stops at |grad Phi| <= ftol x the force scale (newton.c) */
+  PetscInt    max_halvings; /* a failed step is redone as two of dt/2, this deep at most */
+  PetscBool   strict; /* an unconverged step is an error */
   PetscReal   pattern_margin; /* contact pairs in the Hessian's pattern: closer than 2r + this x r */
   PetscBool   relax;                         /* relax the rest state before the run */
   PetscBool   predict;                       /* Newton starts from x_n + dt v_n (capped) */
@@ -80,6 +89,9 @@ struct _n_VKYLS {
   PetscBool  setup, quiet, relaxing;
   VKYLSHessianType hessian;
   PetscBool  psd_now;   /* element Hessians of the current Newton iteration projected */
+  PetscReal  weight;                   /* sqrt(sum m_i^2) max(|g|, g_0) over the free vertices, N */
+  PetscReal  reaction, collider_force; /* at the last gradient: 2-norms of the handle reaction and collider forces, N */
+  PetscReal  tolerance, residual;      /* of the last Newton iteration: ftol x force scale, |grad Phi|, N */
   PetscReal  phi;       /* Phi at the SNES iterate, when phi_valid (set by the line search) */
   PetscBool  phi_valid;
   VKYLSStats stats;

@@ -110,6 +110,16 @@ timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -sc
 rc=$?
 if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q 'did not converge (MAX_IT, -sim_strict)' "$d30.strict.log"; then ok
 else not_ok "volknit sim -pd_max_it 1 -sim_strict: expected a non-zero exit naming the step (status $rc, see $d30.strict.log)"; fi
+# the same for the yarn-level Newton: one iteration and no halving per step
+dy="$out/yls_unconverged"
+yargs="-yarn_pattern rib1x1 -yarn_wales 3 -yarn_courses 3 -yls_relax 0 -options_file options/hang.opts -scene_duration 0.005 -yls_snes_max_it 1 -yls_max_halvings 0"
+if timeout "$TIMEOUT" bin/volknit yls -o "$dy" $yargs > "$dy.log" 2>&1 \
+   && grep -q 'yarn-level step 1 (t = 0.001 s) did not converge' "$dy.log" && grep -q '"status": "unconverged"' "$dy/yls.json"; then ok
+else not_ok "volknit yls -yls_snes_max_it 1: expected a warning and status unconverged in yls.json (see $dy.log)"; fi
+timeout "$TIMEOUT" bin/volknit yls -o "$dy" $yargs -yls_strict > "$dy.strict.log" 2>&1
+rc=$?
+if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q 'Yarn-level step 1 .*(-yls_strict)' "$dy.strict.log"; then ok
+else not_ok "volknit yls -yls_snes_max_it 1 -yls_strict: expected a non-zero exit naming the step (status $rc, see $dy.strict.log)"; fi
 printf '%-22s       : %4d passed, %d failed\n' "mesh, 1 vs 2 ranks" "$((passed - cmp_passed))" "$((failed - cmp_failed))"
 
 # 4. the example programs: ex1's printed mass balance and reproduction error,

@@ -7,6 +7,13 @@
  * SNESLineSearch) that
  *   1. scales the Newton step so no vertex moves more than cap = -yls_cap x r,
  *   2. backtracks from the capped step until Phi decreases (Armijo, 1e-4).
+ * Newton stops when |grad Phi| <= -yls_ftol x the force scale of the step:
+ * the weight of the free yarn (under standard gravity when the scene's is
+ * weaker, so a scene without gravity and the relaxation have a scale too),
+ * plus the handle reaction and the collider normal forces at the iterate.
+ * The scale has units of force and does not depend on k_s or on the
+ * inertial predictor, so a stiff yarn is held to the same tolerance in
+ * newtons as a soft one.
  * Contact pairs are re-found before every Newton iteration (SNESSetUpdate)
  * with a margin of 2 cap: within one line search no segment pair can come
  * closer than 2r unseen, so Phi is evaluated exactly and the barrier of
@@ -42,6 +49,24 @@ static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
   y->psd_now = y->hessian == VK_YLS_HESSIAN_PROJECTED ? PETSC_TRUE : PETSC_FALSE;
   PetscCall(VKYLSHessian(y, y->xall, P));
   PetscCall(PetscLogEventEnd(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Converged(SNES snes, PetscInt it, PetscReal xnorm, PetscReal snorm, PetscReal fnorm, SNESConvergedReason *reason, void *ctx)
+{
+  VKYLS    y = (VKYLS)ctx;
+  PetscInt max_it;
+
+  PetscFunctionBegin;
+  (void)xnorm;
+  (void)snorm;
+  PetscCall(SNESGetTolerances(snes, NULL, NULL, NULL, &max_it, NULL));
+  y->residual  = fnorm;
+  y->tolerance = y->ftol * (y->weight + y->reaction + y->collider_force);
+  *reason      = SNES_CONVERGED_ITERATING;
+  if (PetscIsInfOrNanReal(fnorm)) *reason = SNES_DIVERGED_FNORM_NAN;
+  else if (fnorm <= y->tolerance) *reason = SNES_CONVERGED_FNORM_ABS;
+  else if (it >= max_it) *reason = SNES_DIVERGED_MAX_IT;
   PetscFunctionReturn(0);
 }
 
@@ -254,7 +279,8 @@ PetscErrorCode VKYLSCreateSNES(VKYLS y)
   PetscCall(SNESSetFunction(y->snes, r, FormFunction, y));
   PetscCall(VecDestroy(&r));
   PetscCall(SNESSetUpdate(y->snes, Update));
-  PetscCall(SNESSetTolerances(y->snes, 1e-10 * PetscMax(y->par.ks, PETSC_SMALL), 1e-6, 1e-10, 50, PETSC_MAX_INT));
+  PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, 50, PETSC_MAX_INT));
+  PetscCall(SNESSetConvergenceTest(y->snes, Converged, y, NULL));
   PetscCall(SNESGetKSP(y->snes, &ksp));
   PetscCall(VKKSPSetMUMPS(ksp, PCCHOLESKY));
   PetscCall(SNESGetLineSearch(y->snes, &ls));

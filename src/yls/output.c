@@ -180,8 +180,12 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONBegin(&j, out->fp));
   PetscCall(VKJSONString(&j, "format", "volknit-yls-summary 1"));
   PetscCall(VKJSONString(&j, "scene", y->scene->name));
-  PetscCall(VKJSONString(&j, "status", c->failure ? "failed" : "completed"));
+  PetscCall(VKJSONString(&j, "status", VKYLSStatus(y, c->failure)));
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
+  PetscCall(VKJSONInt(&j, "unconverged_steps", y->stats.unconverged_steps));
+  if (y->stats.unconverged_steps) PetscCall(VKJSONInt(&j, "first_unconverged_step", y->stats.first_unconverged_step));
+  PetscCall(VKJSONReal(&j, "residual_over_tolerance_max", y->stats.residual_over_tol_max));
+  PetscCall(VKJSONInt(&j, "halved_steps", y->stats.halved_steps));
   PetscCall(VKJSONInt(&j, "ranks", size));
   PetscCall(VKJSONInt(&j, "vertices", y->model.nv));
   PetscCall(VKJSONInt(&j, "segments", y->model.nseg));
@@ -198,6 +202,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "damping_per_s", y->cv));
   PetscCall(VKJSONReal(&j, "dashpot_N_s", y->cs));
   PetscCall(VKJSONReal(&j, "cap_radii", y->cap));
+  PetscCall(VKJSONReal(&j, "newton_ftol", y->ftol));
   PetscCall(VKJSONString(&j, "hessian", VKYLSHessianTypes[y->hessian]));
   PetscCall(VKJSONReal(&j, "dt", y->dt));
   PetscCall(VKJSONString(&j, "linear_solver", pc));
@@ -253,7 +258,7 @@ static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
   PetscCall(VKH5WriteReal(&o->h5, "/yls/energy", o->n, 6, e));
   PetscCall(PetscFree2(t, e));
   PetscCall(VKH5WriteAttrString(&o->h5, "/yls/energy", "columns", "stretch bending contact glue kinetic gravity"));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/yls", "status", failure ? failure : "completed"));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/yls", "status", failure ? failure : VKYLSStatus(y, NULL)));
   PetscCall(VKH5WriteAttrInt(&o->h5, "/yls", "frames", o->n));
   o->open = PETSC_FALSE;
   PetscCall(VKH5Close(&o->h5));

@@ -28,6 +28,7 @@ typedef struct {
   PetscReal *g;
   Mat        H;
   PetscInt   active_pairs;
+  PetscReal  collider2; /* sum over the owned vertices of |collider normal force|^2 */
 } Accum;
 
 static PetscErrorCode AddElement(VKYLS y, Accum *acc, PetscInt nv, const PetscInt v[], const PetscReal ge[], const PetscReal He[])
@@ -90,6 +91,7 @@ static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accu
   depth = y->scene->ncolliders ? VKSceneContact(y->scene, t1, xi, y->par.radius, n, &which) : 0;
   if (depth > 0) {
     VKSumAdd(&acc->term[YLS_COLLIDER], 0.5 * y->kw * depth * depth);
+    acc->collider2 += PetscSqr(y->kw * depth);
     for (int k = 0; k < 3; k++) {
       ge[k] -= y->kw * depth * n[k];
       for (int l = 0; l < 3; l++) He[3 * k + l] += y->kw * n[k] * n[l];
@@ -204,10 +206,15 @@ PetscErrorCode VKYLSPotential(VKYLS y, const PetscReal x[], PetscReal term[], Pe
   PetscFunctionReturn(0);
 }
 
+/* The gradient, with handle rows zeroed (Dirichlet); on the way it records
+ * the forces the step must balance, for the stopping rule of newton.c: the
+ * handle reaction (the zeroed rows) and the collider normal forces, 2-norms
+ * in y->reaction and y->collider_force. */
 PetscErrorCode VKYLSGradient(VKYLS y, const PetscReal x[], Vec G)
 {
-  Accum      acc;
-  PetscReal *g;
+  Accum        acc;
+  PetscReal   *g, local[2] = {0, 0}, sum[2];
+  PetscScalar *ga;
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(&acc, sizeof(acc)));
@@ -215,13 +222,22 @@ PetscErrorCode VKYLSGradient(VKYLS y, const PetscReal x[], Vec G)
   PetscCall(PetscArrayzero(g, 3 * y->model.nv));
   acc.g = g;
   PetscCall(Accumulate(y, x, &acc));
-  for (PetscInt i = 0; i < y->model.nv; i++)
-    if (y->handle[i] >= 0)
-      for (int k = 0; k < 3; k++) g[3 * i + k] = 0;
   PetscCall(VecRestoreArray(y->xseq, &g));
   PetscCall(VecSet(G, 0));
   PetscCall(VecScatterBegin(y->toall, y->xseq, G, ADD_VALUES, SCATTER_REVERSE));
   PetscCall(VecScatterEnd(y->toall, y->xseq, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecGetArray(G, &ga));
+  for (PetscInt i = y->vbeg; i < y->vend; i++)
+    if (y->handle[i] >= 0)
+      for (int k = 0; k < 3; k++) {
+        local[0] += PetscSqr(ga[3 * (i - y->vbeg) + k]);
+        ga[3 * (i - y->vbeg) + k] = 0;
+      }
+  PetscCall(VecRestoreArray(G, &ga));
+  local[1] = acc.collider2;
+  PetscCall(MPIU_Allreduce(local, sum, 2, MPIU_REAL, MPIU_SUM, y->comm));
+  y->reaction       = PetscSqrtReal(sum[0]);
+  y->collider_force = PetscSqrtReal(sum[1]);
   PetscFunctionReturn(0);
 }
 

@@ -2,8 +2,8 @@
  * Procedural knits interpenetrate a little and are not in equilibrium.
  * The relaxation is a quasi-static solve by proximal steps: repeated
  * implicit Euler steps from rest with a long pseudo time step, no scene
- * (no gravity, handles or colliders) and no damping, until no vertex moves
- * more than 1e-4 r in a step.  The contact radius is grown from
+ * (no gravity, handles or colliders) and no damping, until the state is
+ * static to the Newton tolerance of newton.c.  The contact radius is grown from
  * -yls_relax_radius_start x r to r in -yls_relax_stages stages, so yarns
  * that start inside each other are pushed apart gradually (the similarity
  * idea of Leaf et al. 2018, applied to the contact radius only).  Then the
@@ -15,20 +15,22 @@
  * no stretch, bending or contact energy and stays still. */
 #include "ylsimpl.h"
 
-/* Proximal steps at the current contact radius until the motion stops. */
+/* Proximal steps at the current contact radius until the state is static:
+ * the next step's Newton solve converges at its first residual, which at
+ * rest is the elastic force alone.  (A proximal step whose Newton solve
+ * fails is redone as two of half the pseudo step by VKYLSStep: the inertia
+ * term m/tau^2 regularizes the Hessian.) */
 static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
 {
-  PetscReal tol = 1e-4 * y->par.radius;
-
   PetscFunctionBegin;
-  for (PetscInt k = 0; k < y->relax_max_steps; k++) {
-    PetscReal move = 0, all;
+  for (PetscInt k = 0;; k++) {
+    PetscInt its;
+    PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r (last |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (double)y->residual, (double)y->tolerance);
     PetscCall(VecSet(y->v, 0));
     PetscCall(VKYLSStep(y));
     (*steps)++;
-    for (PetscInt i = y->vbeg; i < y->vend; i++) move = PetscMax(move, PetscSqr(y->xall[3 * i] - y->xn[3 * i]) + PetscSqr(y->xall[3 * i + 1] - y->xn[3 * i + 1]) + PetscSqr(y->xall[3 * i + 2] - y->xn[3 * i + 2]));
-    PetscCall(MPIU_Allreduce(&move, &all, 1, MPIU_REAL, MPIU_MAX, y->comm));
-    if (PetscSqrtReal(all) < tol) break;
+    PetscCall(SNESGetIterationNumber(y->snes, &its));
+    if (its == 0) break; /* converged at x_n: static */
   }
   PetscFunctionReturn(0);
 }
@@ -58,7 +60,7 @@ static PetscErrorCode ResetRest(VKYLS y)
 
 PetscErrorCode VKYLSRelax(VKYLS y)
 {
-  PetscInt      *handle, steps = 0, nhandles, ncolliders;
+  PetscInt      *handle, steps = 0, halved, nhandles, ncolliders;
   PetscReal      g[3], dt, cv, cs, r;
   VKYLSStats     stats;
   PetscLogDouble t0 = VKWallTime();
@@ -90,6 +92,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     y->model.par.radius    = f * r;
     PetscCall(RelaxStage(y, &steps));
   }
+  halved = y->stats.halved_steps - stats.halved_steps;
   PetscCall(ResetRest(y));
   /* the scene back */
   PetscCall(PetscArraycpy(y->handle, handle, y->model.nv));
@@ -107,7 +110,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   y->relax_time        = VKWallTime() - t0;
   y->stats             = stats;
   y->stats.dmin_over_2r = PETSC_INFINITY;
-  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d radius stages from %g r), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->model.par.radius, (double)r, y->relax_time));
+  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d halved; %d radius stages from %g r), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)halved, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->model.par.radius, (double)r, y->relax_time));
   PetscFunctionReturn(0);
 }
 

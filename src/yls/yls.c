@@ -13,6 +13,9 @@
 #define YLS_CV  1.0    /* 1/s */
 #define YLS_CS  1.0e-3 /* N s */
 #define YLS_CAP 0.25   /* of r */
+#define YLS_FTOL 1e-3  /* of the force scale */
+#define YLS_G0 9.80665 /* m/s^2: the force scale's gravity when the scene's is weaker */
+#define YLS_WARNINGS 10 /* unconverged steps named on stderr before the rest are only counted */
 
 const char *const VKYLSHessianTypes[] = {"projected", "exact", "auto", "VKYLSHessianType", "VK_YLS_HESSIAN_", NULL};
 
@@ -36,6 +39,8 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->friction_eps = 1e-3;
   y->cap          = YLS_CAP;
   y->ls_max_it    = 30;
+  y->ftol         = YLS_FTOL;
+  y->max_halvings = 4;
   y->pattern_margin = 0.1;
   y->dt           = 0; /* from the scene unless given */
   y->hessian      = VK_YLS_HESSIAN_AUTO;
@@ -62,6 +67,9 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsReal("-yls_collider_stiffness", "Collider penalty k_w, N/m", "VKYLSSetFromOptions", y->kw, &y->kw, NULL));
   PetscCall(PetscOptionsReal("-yls_friction_eps", "Sliding speed below which collider friction is smoothed, m/s", "VKYLSSetFromOptions", y->friction_eps, &y->friction_eps, NULL));
   PetscCall(PetscOptionsReal("-yls_cap", "Largest vertex motion per Newton iteration, in yarn radii", "VKYLSSetFromOptions", y->cap, &y->cap, NULL));
+  PetscCall(PetscOptionsReal("-yls_ftol", "Newton stops when |grad Phi| <= this x (weight of the free yarn + handle reaction + collider forces), all in N", "VKYLSSetFromOptions", y->ftol, &y->ftol, NULL));
+  PetscCall(PetscOptionsInt("-yls_max_halvings", "A step whose Newton solve fails is redone as two steps of dt/2, at most this many times over", "VKYLSStep", y->max_halvings, &y->max_halvings, NULL));
+  PetscCall(PetscOptionsBool("-yls_strict", "A step whose Newton solve ends above its tolerance stops the run with an error (otherwise it is counted, warned about, and the status is 'unconverged')", "VKYLSRun", y->strict, &y->strict, NULL));
   PetscCall(PetscOptionsInt("-yls_line_search_max_it", "Halvings of a Newton step before the line search gives up", "VKYLSSetFromOptions", y->ls_max_it, &y->ls_max_it, NULL));
   PetscCall(PetscOptionsReal("-yls_pattern_margin", "Contact pairs closer than 2r + this x r are in the Hessian's nonzero pattern (at most 2 cap); wider: fewer rebuilds, more fill", "VKYLSSetFromOptions", y->pattern_margin, &y->pattern_margin, NULL));
   PetscCall(PetscOptionsReal("-yls_dt", "Time step, s (default: 1 ms, less if a handle would move more than the cap per step)", "VKYLSSetFromOptions", y->dt, &y->dt, NULL));
@@ -80,6 +88,8 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCheck(y->cv >= 0 && y->cs >= 0 && y->kw > 0 && y->friction_eps > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_damping >= 0, -yls_dashpot >= 0, -yls_collider_stiffness > 0, -yls_friction_eps > 0");
   PetscCheck(y->cap > 0 && y->cap <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_cap must be in (0, 1] yarn radii, got %g", (double)y->cap);
   PetscCheck(y->pattern_margin >= 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_pattern_margin must be >= 0 yarn radii, got %g", (double)y->pattern_margin);
+  PetscCheck(y->max_halvings >= 0 && y->max_halvings <= 20, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_max_halvings must be in 0..20, got %d", (int)y->max_halvings);
+  PetscCheck(y->ftol > 0 && y->ftol < 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_ftol must be in (0, 1), got %g", (double)y->ftol);
   PetscCheck(y->ls_max_it >= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_line_search_max_it must be >= 1");
   PetscCheck(y->relax_tau > 0 && y->relax_stages >= 1 && y->relax_max_steps >= 1 && y->relax_radius_start > 0 && y->relax_radius_start <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_relax_tau > 0, -yls_relax_stages >= 1, -yls_relax_max_steps >= 1, 0 < -yls_relax_radius_start <= 1");
   PetscCheck(y->dt >= 0 && y->dt < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt must be positive, got %g", (double)y->dt);
@@ -231,6 +241,14 @@ static PetscErrorCode BeginStep(VKYLS y)
     for (int k = 0; k < 3; k++) t[k] = y->xn[3 * m->seg[2 * s + 1] + k] - y->xn[3 * m->seg[2 * s] + k];
     VKNormalize3(t);
   }
+  {
+    const PetscReal *g = y->scene->gravity;
+    PetscReal        m2 = 0, all;
+    for (PetscInt i = y->vbeg; i < y->vend; i++)
+      if (y->handle[i] < 0) m2 += PetscSqr(m->mass[i]);
+    PetscCall(MPIU_Allreduce(&m2, &all, 1, MPIU_REAL, MPIU_SUM, y->comm));
+    y->weight = PetscSqrtReal(all) * PetscMax(PetscSqrtReal(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]), YLS_G0);
+  }
   for (PetscInt i = y->vbeg; i < y->vend; i++) {
     PetscInt  which = -1;
     PetscReal depth = y->scene->ncolliders ? VKSceneContact(y->scene, y->t, y->xn + 3 * i, y->par.radius, y->contact_normal + 3 * i, &which) : 0;
@@ -262,14 +280,35 @@ static PetscErrorCode BeginStep(VKYLS y)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKYLSStep(VKYLS y)
+/* Back to the state at the start of the step (x_n, v_n). */
+static PetscErrorCode RestoreStart(VKYLS y)
+{
+  PetscScalar *xa, *va;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(y->x, &xa));
+  PetscCall(VecGetArray(y->v, &va));
+  PetscCall(PetscArraycpy(xa, y->xn + 3 * y->vbeg, 3 * (y->vend - y->vbeg)));
+  PetscCall(PetscArraycpy(va, y->vn + 3 * y->vbeg, 3 * (y->vend - y->vbeg)));
+  PetscCall(VecRestoreArray(y->x, &xa));
+  PetscCall(VecRestoreArray(y->v, &va));
+  PetscFunctionReturn(0);
+}
+
+/* One implicit Euler step of dt from the current state (a proximal step
+ * from rest while relaxing).  A Newton solve that ends above its tolerance
+ * is replaced by two steps of dt/2, at most -yls_max_halvings deep; one
+ * that still fails there is counted and warned about (the run goes on
+ * from its last iterate, which lowered Phi), or is an error with
+ * -yls_strict, while relaxing, or when the iterate is not finite. */
+static PetscErrorCode Advance(VKYLS y, PetscReal dt, PetscInt depth)
 {
   SNESConvergedReason reason;
   PetscInt            its;
-  PetscLogDouble      t0 = VKWallTime();
 
   PetscFunctionBegin;
-  PetscCall(VKYLSSetUp(y));
+  y->dt = dt;
+  if (y->relaxing) PetscCall(VecSet(y->v, 0));
   PetscCall(BeginStep(y));
   PetscCall(VKYLSGather(y, y->x, y->xall));
   PetscCall(VKYLSFindPairs(y, y->xall));
@@ -281,18 +320,51 @@ PetscErrorCode VKYLSStep(VKYLS y)
   PetscCall(SNESGetIterationNumber(y->snes, &its));
   y->stats.newton_its += its;
   y->stats.newton_its_max = PetscMax(y->stats.newton_its_max, its);
-  if (y->relaxing && (reason == SNES_DIVERGED_MAX_IT || reason == SNES_DIVERGED_LINE_SEARCH)) reason = SNES_CONVERGED_ITS; /* every iteration lowered Phi: a proximal step needs no more */
-  PetscCheck(reason > 0, y->comm, PETSC_ERR_NOT_CONVERGED, "Yarn-level step %d (t = %g s -> %g s): Newton failed after %d iterations (%s); try a smaller -yls_dt or look at -yls_snes_monitor", (int)y->step + 1, (double)y->t, (double)(y->t + y->dt), (int)its, SNESConvergedReasons[reason]);
+  if (reason <= 0 && depth < y->max_halvings) {
+    PetscCall(PetscInfo(y->snes, "yarn-level step %d: Newton failed (%s) with dt %g s, |grad Phi| %g N (tolerance %g N); two steps of dt/2 instead\n", (int)y->step + 1, SNESConvergedReasons[reason], (double)dt, (double)y->residual, (double)y->tolerance));
+    y->stats.halved_steps++;
+    PetscCall(RestoreStart(y));
+    PetscCall(Advance(y, dt / 2, depth + 1));
+    PetscCall(Advance(y, dt / 2, depth + 1));
+    PetscFunctionReturn(0);
+  }
+  y->stats.residual_over_tol_max = PetscMax(y->stats.residual_over_tol_max, y->residual / y->tolerance);
+  if (reason <= 0) {
+    const char *what   = SNESConvergedReasons[reason];
+    PetscBool   usable = (reason == SNES_DIVERGED_MAX_IT || reason == SNES_DIVERGED_LINE_SEARCH || reason == SNES_DIVERGED_LOCAL_MIN) && !PetscIsInfOrNanReal(y->residual) ? PETSC_TRUE : PETSC_FALSE;
+    PetscCheck(usable && !y->relaxing && !y->strict, y->comm, PETSC_ERR_NOT_CONVERGED, "Yarn-level %s %d (t = %g s -> %g s): Newton did not converge (%s) after %d iterations (dt halved %d times): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N%s", y->relaxing ? "relaxation step" : "step", (int)y->step + 1, (double)y->t, (double)(y->t + dt), what, (int)its, (int)depth, (double)y->residual,
+               (double)(y->residual / y->tolerance), (double)y->tolerance, y->relaxing || !usable ? "; try a smaller -yls_dt, more -yls_max_halvings or look at -yls_snes_monitor" : " (-yls_strict)");
+    if (!y->stats.unconverged_steps) y->stats.first_unconverged_step = y->step + 1;
+    y->stats.unconverged_steps++;
+    if (y->stats.unconverged_steps <= YLS_WARNINGS)
+      PetscCall(PetscFPrintf(y->comm, PETSC_STDERR, "volknit: warning: yarn-level step %d (t = %g s) did not converge (%s): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N, after %d Newton iterations (dt halved %d times)%s\n", (int)y->step + 1, (double)(y->t + dt), what, (double)y->residual, (double)(y->residual / y->tolerance), (double)y->tolerance, (int)its, (int)depth,
+                             y->stats.unconverged_steps == YLS_WARNINGS ? "; further unconverged steps are only counted" : ""));
+  }
   /* v = (x - x_n) / dt, frames carried along */
   PetscCall(VKYLSGather(y, y->x, y->xall));
   {
     PetscScalar *va;
     PetscCall(VecGetArray(y->v, &va));
-    for (PetscInt k = 0; k < 3 * (y->vend - y->vbeg); k++) va[k] = (y->xall[3 * y->vbeg + k] - y->xn[3 * y->vbeg + k]) / y->dt;
+    for (PetscInt k = 0; k < 3 * (y->vend - y->vbeg); k++) va[k] = (y->xall[3 * y->vbeg + k] - y->xn[3 * y->vbeg + k]) / dt;
     PetscCall(VecRestoreArray(y->v, &va));
   }
   PetscCall(VKTransportFramesInTime(y->model.nseg, y->model.seg, y->xn, y->xall, y->normal));
-  y->t += y->dt;
+  y->t += dt;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSStep(VKYLS y)
+{
+  PetscReal      t = y->t, dt = y->dt;
+  PetscLogDouble t0 = VKWallTime();
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSSetUp(y));
+  ierr  = Advance(y, dt, 0);
+  y->dt = dt;
+  PetscCall(ierr);
+  y->t = t + dt;
   y->step++;
   y->stats.steps++;
   y->stats.time_solve += VKWallTime() - t0;
@@ -361,6 +433,12 @@ PetscErrorCode VKYLSMinDistance(VKYLS y, PetscReal *dmin, PetscInt *npairs)
   PetscFunctionReturn(0);
 }
 
+const char *VKYLSStatus(VKYLS y, const char failure[])
+{
+  if (failure) return "failed";
+  return y->stats.unconverged_steps ? "unconverged" : "completed";
+}
+
 PetscErrorCode VKYLSRun(VKYLS y)
 {
   PetscInt       nsteps;
@@ -395,8 +473,10 @@ PetscErrorCode VKYLSRun(VKYLS y)
   PetscCall(VKYLSOutputClose(y, failure[0] ? failure : NULL));
   PetscCheck(!failure[0], y->comm, PETSC_ERR_NOT_CONVERGED, "%s (the frames up to t = %g s are written)", failure, (double)y->t);
   if (!y->quiet)
-    PetscCall(PetscPrintf(y->comm, "volknit yls: %d vertices, %d steps of %g s to t = %g s, Newton its %.2f/step (max %d), contact pairs max %d, min distance %.3f x 2r, %d frames (%.2f s, %.3g s per simulated second without the relaxation)\n", (int)y->model.nv, (int)y->stats.steps, (double)y->dt, (double)y->t, (double)y->stats.newton_its / PetscMax(1, y->stats.steps), (int)y->stats.newton_its_max, (int)y->stats.pairs_max,
-                          (double)y->stats.dmin_over_2r, (int)y->frames, y->time_run, (y->time_run - y->relax_time) / PetscMax(y->t, PETSC_SMALL)));
+    PetscCall(PetscPrintf(y->comm, "volknit yls: %d vertices, %d steps of %g s to t = %g s, Newton its %.2f/step (max %d), contact pairs max %d, min distance %.3f x 2r, %d frames (%.2f s, %.3g s per simulated second without the relaxation); status %s", (int)y->model.nv, (int)y->stats.steps, (double)y->dt, (double)y->t, (double)y->stats.newton_its / PetscMax(1, y->stats.steps), (int)y->stats.newton_its_max, (int)y->stats.pairs_max,
+                          (double)y->stats.dmin_over_2r, (int)y->frames, y->time_run, (y->time_run - y->relax_time) / PetscMax(y->t, PETSC_SMALL), VKYLSStatus(y, NULL)));
+  if (!y->quiet && y->stats.unconverged_steps) PetscCall(PetscPrintf(y->comm, " (%d steps above the Newton tolerance, the first step %d, worst %.3g x the tolerance)", (int)y->stats.unconverged_steps, (int)y->stats.first_unconverged_step, (double)y->stats.residual_over_tol_max));
+  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "\n"));
   PetscFunctionReturn(0);
 }
 

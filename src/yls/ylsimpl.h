@@ -23,6 +23,9 @@ PETSC_INTERN PetscErrorCode VKYLSMeasure(VKYLS, PetscReal e[], PetscReal momentu
 /* The SNES of a step (newton.c). */
 PETSC_INTERN PetscErrorCode VKYLSCreateSNES(VKYLS);
 PETSC_INTERN PetscErrorCode VKYLSFindPairs(VKYLS, const PetscReal x[]);
+/* "failed" (failure given), "unconverged" (a step ended above its
+ * tolerance) or "completed". */
+PETSC_INTERN const char *VKYLSStatus(VKYLS, const char failure[]);
 /* Frames (output.c). */
 PETSC_INTERN PetscErrorCode VKYLSOutputOpen(VKYLS);
 PETSC_INTERN PetscErrorCode VKYLSOutputFrame(VKYLS);
