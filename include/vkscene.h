@@ -79,11 +79,3 @@ PETSC_EXTERN PetscReal VKSceneDepth(VKScene, PetscReal t, const PetscReal p[]);
  * yarn's radius) at time t: the depth (0 outside all), the outward normal
  * there and the collider (*which = -1 when outside all). */
 PETSC_EXTERN PetscReal VKSceneContact(VKScene, PetscReal t, const PetscReal p[], PetscReal inflate, PetscReal normal[], PetscInt *which);
-/* Push a point out of every collider at time t (closest surface point),
- * with Coulomb friction against its motion since `prev` (position at the
- * start of the step, dt before t): the tangential motion relative to the
- * collider is removed while it is below
- * friction x penetration (sticking), reduced by that much otherwise.
- * Returns whether the point touched a collider; `normal` (optional) gets
- * the outward normal of the last collider touched. */
-PETSC_EXTERN PetscBool VKSceneCollide(VKScene, PetscReal t, PetscReal dt, const PetscReal prev[], PetscReal p[], PetscReal normal[]);

@@ -1,6 +1,7 @@
 /* test_contact.c: colliders in the PD simulator (DESIGN §7, §10): PD
- * constraints toward the projection out of the collider, with Coulomb
- * friction.  On a small rib patch:
+ * penalty on the depth and lagged smoothed Coulomb friction, as one
+ * potential (src/sim/pd_contact.c), solved at the default solver and
+ * tolerance.  On a small rib patch:
  *  - sliding down a plane tilted by 30 degrees (gravity tilted, the patch
  *    resting on the plane) with friction 0.2 < tan 30: the mean velocity
  *    after T follows the rigid-block law v = g (sin 30 - mu cos 30) T;
@@ -8,12 +9,15 @@
  *  - at rest on the plane the penetration is at most the bound the
  *    constraint weight gives, g dt^2 / w (w = -pd_contact_weight relative
  *    to each node's diagonal of K, which is at least m_i/dt^2);
+ *  - Phi and grad Phi agree (Taylor test) with nodes sliding and sticking;
+ *  - every step converges, on the incline and the sphere;
  *  - draped over a sphere: no inverted tet, the corners fall below the
  *    part resting on the sphere, penetration bounded, 1 and 2 ranks agree.
  * ranks: 1 2
  */
 #include <vksim.h>
 #include "vktest.h"
+#include "../src/sim/pdimpl.h" /* VKPDNodeContact */
 #include "meshcompare.h"
 
 PETSC_UNUSED static PetscErrorCode (*unused_compare)(VKMesh, VKMesh, const char[], PetscBool) = VKTestCompareMeshes;
@@ -78,11 +82,6 @@ static PetscErrorCode RunCreate(MPI_Comm comm, Case which, PetscReal T, Run *r)
   PetscCall(VKSceneSetUp(r->s, lo, hi));
   PetscCall(VKSimCreate(r->mat, r->s, &r->sim));
   r->sim->quiet        = PETSC_TRUE;
-  r->sim->pd->type     = VK_PD_TYPE_PD;
-  r->sim->pd->ftol     = 0;
-  r->sim->pd->rtol     = which == DRAPE ? 1e-3 : 1e-5; /* sticking needs a converged step */
-  r->sim->pd->max_it   = 1000;
-  r->sim->pd->cheb_rho = 0.99;
   PetscCall(TSSetTimeStep(r->sim->ts, 1.0 / 150));
   PetscCall(TSSetMaxTime(r->sim->ts, T));
   PetscCall(VKSimRun(r->sim));
@@ -121,6 +120,133 @@ static PetscErrorCode MeanVelocityX(Run *r, PetscReal *vx)
   PetscFunctionReturn(0);
 }
 
+/* Taylor test of Phi and grad Phi with the colliders and friction at the
+ * end of a run (nodes resting on the plane, lagged friction active): the
+ * remainder |Phi(x + h d) - Phi(x) - h grad Phi . d| must fall as h^2,
+ * h from the penetration depth down, so the steps cross the friction's
+ * smoothing length 2 mu d and the contact surface. */
+static PetscErrorCode TestTaylor(Run *r, const char label[])
+{
+  VKPD        pd = r->sim->pd;
+  Vec         x = r->sim->x, d, xh, grad;
+  PetscRandom rnd;
+  PetscReal   phi0, phi, slope, h, rem[6], worst = PETSC_MAX_REAL;
+  VKTSPDStats st;
+
+  PetscFunctionBegin;
+  PetscCall(VKTSPDGetStats(r->sim->ts, &st));
+  PetscCall(VecDuplicate(x, &d));
+  PetscCall(VecDuplicate(x, &xh));
+  PetscCall(VecDuplicate(x, &grad));
+  PetscCall(PetscRandomCreate(PetscObjectComm((PetscObject)x), &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1, 1));
+  PetscCall(PetscRandomSetSeed(rnd, 7));
+  PetscCall(PetscRandomSeed(rnd));
+  PetscCall(VecSetRandom(d, rnd));
+  PetscCall(VKPDEvaluate(pd, x, x, &phi0, grad, NULL, NULL));
+  PetscCall(VecDot(grad, d, &slope));
+  h = 4 * st.last.depth;
+  for (int k = 0; k < 6; k++, h /= 2) {
+    PetscCall(VecWAXPY(xh, h, d, x));
+    PetscCall(VKPDEvaluate(pd, x, xh, &phi, NULL, NULL, NULL));
+    rem[k] = PetscAbsReal(phi - phi0 - h * slope);
+    if (k) worst = PetscMin(worst, PetscLog2Real(rem[k - 1] / rem[k]));
+  }
+  PetscCall(VKTestCheck((PetscBool)(worst >= 1.8 && pd->prev && st.last.contacts > 0), NULL, "%s: Taylor test of Phi with the plane and friction (%d nodes in contact): remainder %.2e -> %.2e, order >= %.2f", label, (int)st.last.contacts, (double)rem[0], (double)rem[5], (double)worst));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(VecDestroy(&d));
+  PetscCall(VecDestroy(&xh));
+  PetscCall(VecDestroy(&grad));
+  PetscFunctionReturn(0);
+}
+
+/* Taylor test of one node's collider and friction potential
+ * (VKPDNodeContact) on a tilted plane and a sphere moving sideways, at
+ * points that slide (|u_T| > eps) and stick (|u_T| < eps), in random
+ * directions: the remainder |E(x+hd) - E(x) - h g.d| falls as h^2; so does
+ * |g(x+hd) - g(x) - h H d| on the plane, where the Hessian is exact (on
+ * the sphere it is the PSD projection: the curvature term
+ * -w d/rho (I - n n^T) of the penetration is dropped). */
+static PetscErrorCode TestNodeTaylor(void)
+{
+  VKScene             s;
+  struct _n_VKPD      pd;
+  PetscReal           w = 3.0, worst_g = PETSC_MAX_REAL, worst_H = PETSC_MAX_REAL;
+  PetscRandom         rnd;
+  PetscInt            cases = 0;
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(PETSC_COMM_SELF, &s));
+  s->relative   = PETSC_FALSE;
+  s->ncolliders = 2;
+  s->collider[0].type      = VK_COLLIDER_PLANE;
+  s->collider[0].normal[0] = 0.3 / PetscSqrtReal(1.09);
+  s->collider[0].normal[2] = 1 / PetscSqrtReal(1.09);
+  s->collider[0].friction  = 0.4;
+  s->collider[1].type      = VK_COLLIDER_SPHERE;
+  s->collider[1].point[0]  = 1;
+  s->collider[1].radius    = 0.2;
+  s->collider[1].friction  = 0.7;
+  s->collider[1].velocity[1] = 0.05;
+  PetscCall(VKSceneSetUp(s, (PetscReal[]){-1, -1, -1}, (PetscReal[]){1, 1, 1}));
+  PetscCall(PetscMemzero(&pd, sizeof(pd)));
+  pd.scene     = s;
+  pd.contact_w = &w;
+  pd.t         = 0.1;
+  pd.dt        = 0.01;
+  PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1, 1));
+  for (int c = 0; c < 2; c++)
+    for (int slide = 0; slide < 2; slide++)
+      for (int rep = 0; rep < 4; rep++) {
+        PetscReal prev[3], x[3], dir[3], g0[3], H0[9], g1[3], H1[9], E0, E1, h = 1e-4, rg[5], rh[5], n[3];
+        PetscBool in;
+        /* prev 1e-3 inside the collider; x moved tangentially far past eps (slide) or well within it */
+        for (int k = 0; k < 3; k++) PetscCall(PetscRandomGetValueReal(rnd, &dir[k]));
+        if (c == 0) { /* on the plane through 0 with normal (0.3, 0, 1) */
+          PetscReal nn = PetscSqrtReal(1.09);
+          prev[0] = 0.2 * dir[0]; prev[1] = 0.2 * dir[1]; prev[2] = -0.3 * prev[0];
+          n[0] = 0.3 / nn; n[1] = 0; n[2] = 1 / nn;
+        } else { /* on the sphere, centre (1, v (t - dt), 0), radius 0.2 */
+          PetscReal ctr[3] = {1, s->collider[1].velocity[1] * (pd.t - pd.dt), 0}, q[3] = {0.1 * dir[0], 0.1 * dir[1], 0.2}, rr;
+          rr = PetscSqrtReal(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+          for (int k = 0; k < 3; k++) {
+            n[k]    = q[k] / rr;
+            prev[k] = ctr[k] + 0.2 * n[k];
+          }
+        }
+        for (int k = 0; k < 3; k++) prev[k] -= 1e-3 * n[k];
+        for (int k = 0; k < 3; k++) PetscCall(PetscRandomGetValueReal(rnd, &dir[k]));
+        {
+          PetscReal dn = dir[0] * n[0] + dir[1] * n[1] + dir[2] * n[2];
+          for (int k = 0; k < 3; k++) x[k] = prev[k] + (slide ? 5e-3 : 1e-4) * (dir[k] - dn * n[k]) - 5e-4 * n[k];
+        }
+        for (int k = 0; k < 3; k++) PetscCall(PetscRandomGetValueReal(rnd, &dir[k]));
+        E0 = VKPDNodeContact(&pd, 0, x, prev, g0, H0, &in);
+        for (int k = 0; k < 5; k++, h /= 2) {
+          PetscReal xh[3], a = 0, b = 0, dg = 0;
+          for (int l = 0; l < 3; l++) xh[l] = x[l] + h * dir[l];
+          E1 = VKPDNodeContact(&pd, 0, xh, prev, g1, H1, &in);
+          for (int l = 0; l < 3; l++) a += g0[l] * dir[l];
+          rg[k] = PetscAbsReal(E1 - E0 - h * a);
+          for (int l = 0; l < 3; l++) {
+            b = g1[l] - g0[l];
+            for (int m = 0; m < 3; m++) b -= h * H0[3 * l + m] * dir[m];
+            dg += b * b;
+          }
+          rh[k] = PetscSqrtReal(dg);
+        }
+        worst_g = PetscMin(worst_g, PetscLog2Real(rg[3] / rg[4]));
+        if (c == 0) worst_H = PetscMin(worst_H, PetscLog2Real(rh[3] / rh[4]));
+        PetscCheck(in, PETSC_COMM_SELF, PETSC_ERR_PLIB, "test set-up: the node is not inside collider %d", c);
+        cases++;
+      }
+  PetscCall(VKTestCheck((PetscBool)(worst_g >= 1.9 && worst_H >= 1.9), NULL, "collider + friction of one node, %d points sliding and sticking on a plane and a moving sphere: Taylor orders >= %.2f (energy/gradient), %.2f (gradient/Hessian, plane)", (int)cases, (double)worst_g, (double)worst_H));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(VKSceneDestroy(&s));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode TestIncline(void)
 {
   const PetscReal T = 0.3, dt = 1.0 / 150, free = g * PetscSinReal(theta) * T;
@@ -137,10 +263,13 @@ static PetscErrorCode TestIncline(void)
   PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(vx - want) <= 0.02 * want), NULL, "incline 30 deg, friction 0.2: mean velocity %.5f m/s after %g s, rigid block %.5f (error %.2f %%)", (double)vx, (double)T, (double)want, (double)(100 * (vx / want - 1))));
   bound = g * dt * dt / r.sim->pd->contact_weight;
   PetscCall(VKTestCheck((PetscBool)(st.last.depth > 0 && st.last.depth <= bound), NULL, "incline: penetration at the end %.3e m <= g dt^2 / w = %.3e m (%d nodes in contact; PD %.1f its per step)", (double)st.last.depth, (double)bound, (int)st.last.contacts, (double)st.iterations / st.steps));
+  PetscCall(VKTestCheck((PetscBool)(st.unconverged_steps == 0), NULL, "incline, sliding: every step converged at the default tolerance (%d did not)", (int)st.unconverged_steps));
+  PetscCall(TestTaylor(&r, "incline, sliding"));
   PetscCall(RunDestroy(&r));
   PetscCall(RunCreate(PETSC_COMM_WORLD, STICK, T, &r));
   PetscCall(MeanVelocityX(&r, &vx));
   PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(vx) <= 0.01 * free), NULL, "incline 30 deg, friction 0.8 > tan 30: the patch sticks, mean velocity %.2e m/s (frictionless %.3f)", (double)vx, (double)free));
+  PetscCall(TestTaylor(&r, "incline, sticking"));
   PetscCall(RunDestroy(&r));
   PetscFunctionReturn(0);
 }
@@ -168,6 +297,7 @@ static PetscErrorCode TestDrape(void)
     if (r2 < PetscSqr(0.1 * rp.L)) zc = PetscMax(zc, xp[3 * i + 2]);
   }
   PetscCall(VKTestCheck((PetscBool)(sp.inverted_max == 0 && sp.contacts_max > 0), NULL, "drape: %d steps (PD %.1f its per step), %d nodes on the sphere at most, no inverted tet (%d)", (int)sp.steps, (double)sp.iterations / sp.steps, (int)sp.contacts_max, (int)sp.inverted_max));
+  PetscCall(VKTestCheck((PetscBool)(sp.unconverged_steps == 0), NULL, "drape with friction 0.3: every step converged at the default tolerance (%d did not)", (int)sp.unconverged_steps));
   PetscCall(VKTestCheck((PetscBool)(zc >= top && zc <= top + 0.2 * rp.L && zlow < top - 0.15 * rp.L), NULL, "drape: the centre rests on the sphere (%.4f m above its top), the edges hang %.4f m below it (patch %.4f m)", (double)(zc - top), (double)(top - zlow), (double)rp.L));
   PetscCall(VKTestCheck((PetscBool)(sp.depth_max <= 3 * g * dt * dt / rp.sim->pd->contact_weight), NULL, "drape: deepest penetration during the run %.3e m <= 3 g dt^2 / w = %.3e m", (double)sp.depth_max, (double)(3 * g * dt * dt / rp.sim->pd->contact_weight)));
   PetscCall(VKTestCheck((PetscBool)(d <= 1e-6 * rp.L), NULL, "drape: %d ranks and one agree: max difference %.2e of the patch size", (int)size, (double)(d / rp.L)));
@@ -183,6 +313,7 @@ int main(int argc, char **argv)
   PetscFunctionBeginUser;
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
   VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(TestNodeTaylor());
   PetscCall(TestIncline());
   PetscCall(TestDrape());
   {

@@ -1,9 +1,9 @@
 /* scene.c: the scene object (DESIGN §10): -scene_ options, conversion from
  * scene units to metres, handle motion (Dirichlet points driven by a
  * translation and a rotation about an axis, Rodrigues' formula) and
- * collider projection with Coulomb friction in position form (the
- * tangential motion of a penetrating point over the step is cancelled up
- * to friction x penetration depth). */
+ * collider geometry: depth and outward normal of a point (the simulators
+ * turn them into contact and friction potentials: src/sim/pd_contact.c,
+ * src/yls/potential.c). */
 #include <vkscene.h>
 #include <petscviewer.h>
 #include <vkutil.h>
@@ -280,29 +280,3 @@ PetscReal VKSceneContact(VKScene s, PetscReal t, const PetscReal p[], PetscReal 
   return depth;
 }
 
-PetscBool VKSceneCollide(VKScene s, PetscReal t, PetscReal dt, const PetscReal prev[], PetscReal p[], PetscReal normal[])
-{
-  PetscBool touched = PETSC_FALSE;
-
-  for (PetscInt i = 0; i < s->ncolliders; i++) {
-    const VKCollider *c = &s->collider[i];
-    PetscReal         n[3], d = ColliderDistance(c, t, p, n), m[3], mn, mt, limit;
-
-    if (d >= 0) continue;
-    touched = PETSC_TRUE;
-    for (int a = 0; a < 3; a++) p[a] -= d * n[a]; /* onto the surface */
-    /* tangential motion relative to the collider over the step */
-    for (int a = 0; a < 3; a++) m[a] = p[a] - prev[a] - c->velocity[a] * dt;
-    mn = m[0] * n[0] + m[1] * n[1] + m[2] * n[2];
-    for (int a = 0; a < 3; a++) m[a] -= mn * n[a];
-    mt    = Norm3(m);
-    limit = c->friction * (-d);
-    if (mt > 0) {
-      PetscReal f = mt <= limit ? 1 : limit / mt;
-      for (int a = 0; a < 3; a++) p[a] -= f * m[a];
-    }
-    if (normal)
-      for (int a = 0; a < 3; a++) normal[a] = n[a];
-  }
-  return touched;
-}

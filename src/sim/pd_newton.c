@@ -2,8 +2,8 @@
  * equilibrium (the fitting needs |grad Phi| <= 1e-5 relative and better).
  * SNES (prefix -pd_newton_) on F(x) = grad Phi(x) = M (x - y)/dt^2 +
  * grad E(x) with the exact Hessian M/dt^2 + d2E/dx2 (VKMaterialHessian,
- * not projected; a collider constraint adds w_i I at nodes inside a
- * collider, exact while friction sticks), handle rows and columns
+ * not projected; colliders and friction add their PSD node Hessians of
+ * pd_contact.c), handle rows and columns
  * eliminated, and a backtracking
  * line search on |grad Phi|^2.  (A line search on Phi itself stalls near
  * the minimum: the decrease |g|^2/H drops below the round-off of Phi long
@@ -25,8 +25,9 @@ static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
   PetscFunctionReturn(0);
 }
 
-/* M/dt^2 + d2E/dx2 (PSD-projected per tet with psd) + active collider
- * weights, eliminated rows and columns replaced by kdiag I. */
+/* M/dt^2 + d2E/dx2 (PSD-projected per tet with psd) + the collider and
+ * friction Hessians of pd_contact.c, eliminated rows and columns replaced
+ * by kdiag I. */
 static PetscErrorCode Hessian(VKPD pd, Vec x, PetscBool psd, Mat H)
 {
   const VKLayout *L    = &pd->mesh->layout;
@@ -39,9 +40,25 @@ static PetscErrorCode Hessian(VKPD pd, Vec x, PetscBool psd, Mat H)
   PetscCall(VKMaterialHessian(pd->mat, x, psd, H));
   PetscCall(VecGetArray(pd->hdiag, &ma));
   for (PetscInt i = 0; i < nown; i++)
-    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) + (pd->contact[i] ? pd->contact_w[i] : 0);
+    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt);
   PetscCall(VecRestoreArray(pd->hdiag, &ma));
   PetscCall(MatDiagonalSet(H, pd->hdiag, ADD_VALUES));
+  if (pd->scene->ncolliders) {
+    const PetscScalar *xa, *pa = NULL;
+    PetscCall(VecGetArrayRead(x, &xa));
+    if (pd->prev) PetscCall(VecGetArrayRead(pd->prev, &pa));
+    for (PetscInt i = 0; i < nown; i++) {
+      PetscReal g[3], Hi[9];
+      PetscBool inside;
+      if (pd->node_handle[i] >= 0) continue;
+      (void)VKPDNodeContact(pd, i, xa + 3 * i, pa ? pa + 3 * i : NULL, g, Hi, &inside);
+      PetscCall(MatSetValuesBlockedLocal(H, 1, &i, 1, &i, Hi, ADD_VALUES));
+    }
+    if (pd->prev) PetscCall(VecRestoreArrayRead(pd->prev, &pa));
+    PetscCall(VecRestoreArrayRead(x, &xa));
+    PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
+  }
   PetscCall(VKPDGetEliminatedRows(pd, &n, &rows));
   PetscCall(MatZeroRowsColumns(H, n, rows, pd->kdiag, NULL, NULL));
   PetscCall(PetscFree(rows));

@@ -2,9 +2,10 @@
  * §7.1).  Local step: R_e and V_e of every owned tet (VKTetProject) and
  * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e)
  * (+ the constant force of VKPDSetConstantForce; no M y/dt^2 when static).
- * Colliders (DESIGN §7) are PD constraints w_i/2 |x_i - P(x_i)|^2 with
- * P the projection out of the colliders (VKSceneCollide, with friction);
- * their local step adds w_i P(x_i) to b, and w_i is already in K.
+ * Colliders (DESIGN §7): a penalty w_i/2 d(x_i)^2 and lagged smoothed
+ * Coulomb friction per node (pd_contact.c); their local step adds
+ * w_i x_i - grad E_i to b (w_i P(x_i) without friction), and w_i is
+ * already in K.
  * True residual grad Phi(x) = K x - b(x) on free nodes; on the handle rows
  * it is the force the handles exert (their reaction).
  * Stopping: |grad Phi| <= max(ftol f_scale, atol, rtol |grad Phi(x0)|, the
@@ -256,9 +257,10 @@ PetscErrorCode VKPDSolveK(VKPD pd, Vec q, Vec z, PetscBool *ok)
   PetscFunctionReturn(0);
 }
 
-/* Local step of the collider constraints: b_i += w_i P(x_i) on free owned
- * nodes; their energy sum w_i/2 |x_i - P(x_i)|^2, the number of nodes
- * inside a collider and the deepest penetration. */
+/* Local step of the colliders: b_i += w_i x_i - grad E_i(x_i) on free owned
+ * nodes (pd_contact.c; w_i P(x_i) without friction); their energy, the
+ * number of nodes inside a collider, the deepest penetration and the
+ * 2-norm of the contact forces. */
 static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt *ncontact, PetscReal *depth, PetscReal *reaction)
 {
   const PetscScalar *xa, *pa = NULL;
@@ -275,18 +277,19 @@ static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt
   if (pd->prev) PetscCall(VecGetArrayRead(pd->prev, &pa));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
     const PetscScalar *xi = xa + 3 * i;
-    PetscReal          q[3] = {xi[0], xi[1], xi[2]}, d2 = 0;
+    PetscReal          gi[3], Ei;
+    PetscBool          inside;
     pd->contact[i] = PETSC_FALSE;
     if (pd->node_handle[i] >= 0) continue;
-    pd->contact[i] = VKSceneCollide(pd->scene, pd->t, pd->dt, pa ? pa + 3 * i : xi, q, NULL);
+    Ei = VKPDNodeContact(pd, i, xi, pa ? pa + 3 * i : NULL, gi, NULL, &inside);
+    pd->contact[i] = inside;
     for (int c = 0; c < 3; c++) {
-      ba[3 * i + c] += pd->contact_w[i] * q[c];
-      d2 += PetscSqr(xi[c] - q[c]);
+      ba[3 * i + c] += pd->contact_w[i] * xi[c] - gi[c];
+      f2 += gi[c] * gi[c];
     }
-    if (!pd->contact[i]) continue;
+    VKSumAdd(&sum, Ei);
+    if (!inside) continue;
     n++;
-    VKSumAdd(&sum, 0.5 * pd->contact_w[i] * d2);
-    f2 += PetscSqr(pd->contact_w[i]) * d2;
     dmax = PetscMax(dmax, VKSceneDepth(pd->scene, pd->t, xi));
   }
   if (pd->prev) PetscCall(VecRestoreArrayRead(pd->prev, &pa));

@@ -20,3 +20,8 @@ PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal t, Vec y, Vec x, VKPDStat
 /* Projected Newton from x, where grad Phi (pd->r), Phi and the residual in
  * st are current and iteration it0 has been tested. */
 PETSC_INTERN PetscErrorCode VKPDIterateProjectedNewton(VKPD, Vec y, Vec x, PetscInt it0, VKPDStats *st);
+/* The collider and friction potential of free node i at x (pd_contact.c):
+ * its energy, gradient g[3] and (H not NULL) PSD Hessian H[9]; prev: the
+ * node at the start of the step (NULL: no friction); *inside: x is inside
+ * a collider. */
+PETSC_INTERN PetscReal VKPDNodeContact(VKPD, PetscInt i, const PetscReal x[], const PetscReal prev[], PetscReal g[], PetscReal H[], PetscBool *inside);
