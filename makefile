@@ -23,7 +23,7 @@ LDLIBS     = $(PKG_LIBS) -lmetis -lm
 MPIEXEC   ?= mpiexec
 FUZZ_TIME ?= 60
 
-LIB_SRC   := $(sort $(wildcard src/util/*.c src/yarn/*.c src/mesh/*.c src/material/*.c src/scene/*.c src/sim/*.c src/rod/*.c src/yls/*.c src/fit/*.c src/app/*.c))
+LIB_SRC   := $(sort $(wildcard src/util/*.c src/yarn/*.c src/mesh/*.c src/material/*.c src/scene/*.c src/sim/*.c src/rod/*.c src/yls/*.c src/fit/*.c src/report/*.c src/app/*.c))
 LIB_OBJ   := $(LIB_SRC:src/%.c=build/%.o)
 LIB       := lib/libvolknit.a
 BIN       := bin/volknit

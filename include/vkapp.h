@@ -19,3 +19,4 @@ PETSC_EXTERN PetscErrorCode  VKCommandSim(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandYLS(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandFit(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandRun(MPI_Comm);
+PETSC_EXTERN PetscErrorCode  VKCommandReport(MPI_Comm);

@@ -8,18 +8,12 @@
 static const char help[] = "volknit: volumetric homogenization of knitwear.\n"
                            "Usage: volknit <command> [options]   (volknit <command> -help lists its options)\n";
 
-static const char *const planned[][2] = {
-  {"report", "error and run-time reports (DESIGN §11)"          }
-};
-
 static PetscErrorCode Usage(void)
 {
   PetscFunctionBegin;
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%sCommands:\n", help));
   for (const VKCommand *c = VKCommands; c->name; c++) PetscCall(PetscPrintf(PETSC_COMM_WORLD, "  %-7s %s\n", c->name, c->summary));
-  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Planned, not in this build:"));
-  for (size_t i = 0; i < sizeof(planned) / sizeof(planned[0]); i++) PetscCall(PetscPrintf(PETSC_COMM_WORLD, " %s", planned[i][0]));
-  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "\nCommon options: -o DIR (output directory, default out), -options_file FILE, -log_view\n"));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Common options: -o DIR (output directory, default out), -options_file FILE, -log_view\n"));
   PetscFunctionReturn(0);
 }
 
@@ -32,9 +26,6 @@ static PetscErrorCode Dispatch(const char *name, PetscBool *found)
       *found = PETSC_TRUE;
       PetscCall(c->run(PETSC_COMM_WORLD));
     }
-  if (!*found)
-    for (size_t i = 0; i < sizeof(planned) / sizeof(planned[0]); i++)
-      PetscCheck(strcmp(planned[i][0], name), PETSC_COMM_WORLD, PETSC_ERR_SUP, "volknit %s, %s, is planned but not part of this build", name, planned[i][1]);
   PetscFunctionReturn(0);
 }
 

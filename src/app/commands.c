@@ -5,6 +5,7 @@
  *   yls   simulate the yarns themselves over a scene -> DIR/yls.h5 .xdmf .csv .json
  *   fit   learn gamma per tet from DIR/yls.h5 on DIR/mesh.h5 -> DIR/material.h5 .xdmf, fit.csv .json .png
  *   run   the stages the scene needs, in order (today: yarn, mesh, sim)
+ *   report  homogenized runs against a yarn-level run (cmd_report.c)
  * Each runs in its own PetscLogStage, so -log_view splits the time by
  * stage.  With -help a command lists its options and stops. */
 #include <vkapp.h>
@@ -23,6 +24,7 @@ const VKCommand VKCommands[] = {
   {"yls",  "simulate the yarn-level model over a scene (reads DIR/yarn.h5 or the -yarn_ options): DIR/yls.{h5,xdmf,csv,json}", VKCommandYLS},
   {"fit",  "learn two material parameters per tet from the yarn-level frames (reads DIR/yls.h5, DIR/mesh.h5): DIR/material.{h5,xdmf}, DIR/fit.{csv,json,png}", VKCommandFit},
   {"run",  "run the stages the scene needs (yarn, yls with -run_reference, mesh, fit with -run_fit, sim)", VKCommandRun},
+  {"report", "measure homogenized runs against a yarn-level run of the same scene (-report_yls DIR -report_runs DIR,...): DIR/report.{md,csv,json,png}", VKCommandReport},
   {NULL,   NULL, NULL}
 };
 

@@ -2,7 +2,9 @@
  *   DIR/sim.h5    /mesh/tets, /mesh/node_mass, /yarn/... (the yarn model),
  *                 /frames/NNNNNN/x (n_V x 3 node positions),
  *                 /frames/NNNNNN/yarn (n_Y x 3, x^Y = N x^V, Eq. 4),
- *                 /sim/time, /sim/energy (elastic, kinetic, potential)
+ *                 /sim/time, /sim/energy (elastic, kinetic, potential);
+ *                 attributes of /sim: status, frames, wall_time and its
+ *                 split time_local, time_global, time_other (s)
  *   DIR/sim.xdmf  two temporal collections (mesh, yarn) for ParaView
  *   DIR/sim.json  steps, PD iterations, residual reached, time split,
  *                 inverted tets, energies, status (completed, unconverged:
@@ -238,6 +240,14 @@ static PetscErrorCode CloseRank0(VKSim sim, const char failure[])
     PetscCall(VKH5WriteAttrString(&o->h5, "/sim", "status", failure ? failure : status));
   }
   PetscCall(VKH5WriteAttrInt(&o->h5, "/sim", "frames", o->n));
+  { /* the cost, for volknit report */
+    VKTSPDStats st;
+    PetscCall(VKTSPDGetStats(sim->ts, &st));
+    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "wall_time", sim->time_run));
+    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "time_local", st.time_local));
+    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "time_global", st.time_global));
+    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "time_other", st.time_other));
+  }
   o->open = PETSC_FALSE;
   PetscCall(VKH5Close(&o->h5));
   PetscCall(VKOutputCommit(&o->h5out));

@@ -260,6 +260,7 @@ static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
   PetscCall(VKH5WriteAttrString(&o->h5, "/yls/energy", "columns", "stretch bending contact glue kinetic gravity"));
   PetscCall(VKH5WriteAttrString(&o->h5, "/yls", "status", failure ? failure : VKYLSStatus(y, NULL)));
   PetscCall(VKH5WriteAttrInt(&o->h5, "/yls", "frames", o->n));
+  PetscCall(VKH5WriteAttrReal(&o->h5, "/yls", "wall_time_stepping", y->time_run - y->relax_time)); /* for volknit report */
   o->open = PETSC_FALSE;
   PetscCall(VKH5Close(&o->h5));
   PetscCall(VKOutputCommit(&o->h5out));

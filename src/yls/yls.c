@@ -40,7 +40,7 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->cap          = YLS_CAP;
   y->ls_max_it    = 30;
   y->ftol         = YLS_FTOL;
-  y->max_halvings = 4;
+  y->max_halvings = 8;
   y->pattern_margin = 0.1;
   y->dt           = 0; /* from the scene unless given */
   y->hessian      = VK_YLS_HESSIAN_AUTO;
@@ -441,21 +441,30 @@ const char *VKYLSStatus(VKYLS y, const char failure[])
 
 PetscErrorCode VKYLSRun(VKYLS y)
 {
-  PetscInt       nsteps;
-  PetscErrorCode ierr;
+  PetscInt       kout;
+  PetscReal      dt, T;
+  PetscErrorCode ierr = 0;
   char           failure[256] = "";
   PetscLogDouble t0           = VKWallTime();
 
   PetscFunctionBegin;
   PetscCall(VKYLSSetUp(y));
   if (y->relax && !(y->yarn->contact_radius > 0)) PetscCall(VKYLSRelax(y));
-  nsteps = (PetscInt)PetscFloorReal(y->scene->duration / y->dt + 0.5);
+  dt = y->dt;
+  T  = y->scene->duration;
+  /* steps of dt, the one before each output time (and the end) shortened
+   * (or the last two before it split evenly) so frames land on the output
+   * interval exactly and the run ends at the scene's duration */
   PetscCall(VKYLSOutputOpen(y));
   PetscCall(VKYLSOutputFrame(y));
-  y->next_output = y->scene->output_interval;
-  for (PetscInt k = 0; k < nsteps; k++) {
+  kout           = 1;
+  y->next_output = PetscMin(y->scene->output_interval, T);
+  while (y->t < T - 1e-9 * dt) {
+    PetscReal gap = y->next_output - y->t, h = gap <= dt * (1 + 1e-9) ? gap : (gap < 1.5 * dt ? gap / 2 : dt);
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-    ierr = VKYLSStep(y);
+    y->dt = h;
+    ierr  = VKYLSStep(y);
+    y->dt = dt;
     PetscCall(PetscPopErrorHandler());
     if (ierr) {
       const char *text;
@@ -464,9 +473,11 @@ PetscErrorCode VKYLSRun(VKYLS y)
       PetscCall(PetscSNPrintf(failure, sizeof(failure), "%s", spec && spec[0] ? spec : text));
       break;
     }
-    if (y->t >= y->next_output - 1e-6 * y->dt || k == nsteps - 1) {
+    if (h == gap) {
+      y->t = y->next_output; /* exactly */
       PetscCall(VKYLSOutputFrame(y));
-      while (y->next_output <= y->t + 1e-6 * y->dt) y->next_output += y->scene->output_interval;
+      kout++;
+      y->next_output = PetscMin(kout * y->scene->output_interval, T);
     }
   }
   y->time_run = VKWallTime() - t0;
