@@ -120,6 +120,13 @@ timeout "$TIMEOUT" bin/volknit yls -o "$dy" $yargs -yls_strict > "$dy.strict.log
 rc=$?
 if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q 'Yarn-level step 1 .*(-yls_strict)' "$dy.strict.log"; then ok
 else not_ok "volknit yls -yls_snes_max_it 1 -yls_strict: expected a non-zero exit naming the step (status $rc, see $dy.strict.log)"; fi
+# volknit report on the runs test_report wrote by hand (1 and 2 ranks)
+tr="$out/test_report.n1"
+for n in 1 2; do
+  if timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit report -report_yls "$tr/yls" -report_runs "$tr/same,$tr/shifted" -o "$out/report.n$n" > "$out/report.n$n.log" 2>&1 \
+     && grep -q 'same: REL 0.000' "$out/report.n$n.log" && grep -q '"label": "shifted"' "$out/report.n$n/report.json" && [ -s "$out/report.n$n/report.md" ]; then ok
+  else not_ok "volknit report -n $n on tests/out/test_report.n1 (see $out/report.n$n.log)"; fi
+done
 printf '%-22s       : %4d passed, %d failed\n' "mesh, 1 vs 2 ranks" "$((passed - cmp_passed))" "$((failed - cmp_failed))"
 
 # 4. the example programs: ex1's printed mass balance and reproduction error,

@@ -4,7 +4,7 @@
  * frame the mass-weighted RMS and largest distance of the embedded yarns
  * N x^V (Eq. 4) from the yarn-level ones, the displacement of the latter
  * from rest (for REL), and the shape-fit floor min_x |N x - x^Y| (the
- * shape fit of DESIGN §8, paper Eq. 5-6, with the position term 1e4 times
+ * shape fit of DESIGN §8, paper Eq. 5-6, with the position term 1e8 times
  * the deformation term, which then only fills nodes no yarn constrains).
  * Writing the results is report_output.c's job. */
 #include <vkreport.h>
@@ -13,7 +13,7 @@
 #include <vkutil.h>
 #include "reportimpl.h"
 
-#define REPORT_FLOOR_ALPHA 1e4
+#define REPORT_FLOOR_ALPHA 1e8
 
 PetscErrorCode VKReportCreate(MPI_Comm comm, VKReport *out)
 {
