@@ -77,12 +77,15 @@ typedef enum { VK_FIT_INERTIA_IMPLICIT, VK_FIT_INERTIA_DATA, VK_FIT_INERTIA_NONE
 PETSC_EXTERN const char *const VKFitInertias[];
 
 /* One sample frame i: its shape-fit target xhat_i with eps(xhat_i), the
- * inertial target y = 2 xhat_{i-1} - xhat_{i-2} + dt^2 g, and the
- * equilibrium x of the homogenized model there (also the warm start of the
- * next solve). */
+ * inertial target y = xhat_{i-1} + (h/h') (xhat_{i-1} - xhat_{i-2}) + h^2 g
+ * of one implicit Euler step of h = t_i - t_{i-1} (h' = t_{i-1} - t_{i-2};
+ * 2 xhat_{i-1} - xhat_{i-2} + h^2 g for even frames), and the equilibrium
+ * x of the homogenized model there (also the warm start of the next
+ * solve). */
 typedef struct {
   PetscInt  index;  /* frame number in the yarn-level run */
   PetscReal t;      /* its time (handles) */
+  PetscReal dt;     /* h = t_i - t_{i-1}: the step of its equilibrium */
   PetscReal weight; /* yarn elastic energy (sample averaging, Eq. 22) */
   PetscReal eps_hat, scale; /* eps(xhat); force scale of the equilibrium tolerance */
   Vec       xhat, xprev, y, x; /* xprev = xhat_{i-1}: start of the step (friction) */
@@ -173,6 +176,9 @@ PETSC_EXTERN PetscErrorCode VKFitSetGamma(VKFit, Vec);
 /* A frame from its target and the two before it (NULL: the frame itself,
  * i.e. at rest before the data starts); the equilibrium starts at xhat. */
 PETSC_EXTERN PetscErrorCode VKFitFrameCreate(VKFit, PetscInt index, PetscReal t, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *);
+/* The same with the frame spacings h = t_i - t_{i-1}, h' = t_{i-1} - t_{i-2}
+ * (VKFitFrameCreate: both the fit's frame interval). */
+PETSC_EXTERN PetscErrorCode VKFitFrameCreateSpaced(VKFit, PetscInt index, PetscReal t, PetscReal h, PetscReal hprev, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *);
 PETSC_EXTERN PetscErrorCode VKFitFrameDestroy(VKFitFrame *);
 /* Equilibrium g(x; gamma) = 0 at the frame by PD then Newton (exact
  * Hessian) to |g| <= eq_rtol x scale, scale = |grad E(xhat)| + |M (xhat - y)|/dt^2
@@ -236,7 +242,8 @@ PETSC_EXTERN PetscErrorCode VKFitDataDestroy(VKFitData *);
 /* Positions (3 per yarn vertex) and normals (3 per segment) of frame k,
  * on every rank; an error when the counts are not ny and nseg. */
 PETSC_EXTERN PetscErrorCode VKFitDataReadFrame(VKFitData, PetscInt k, PetscInt ny, PetscInt nseg, PetscReal xy[], PetscReal n1[]);
-/* The mean frame interval; an error when spacings differ from it by > 5%. */
+/* The mean frame interval (frames may be spaced unevenly: each sample
+ * frame steps from the frame before it, VKFitFrameCreateSpaced). */
 PETSC_EXTERN PetscErrorCode VKFitDataTimeStep(VKFitData, PetscReal *dt);
 /* Yarn elastic energy of frame k: stretch + bending + contact + glue. */
 PETSC_EXTERN PetscReal VKFitDataElasticEnergy(VKFitData, PetscInt k);

@@ -159,7 +159,7 @@ printf '%-22s       : examples ex1_chart_mesh, ex2_stretch with 1 and 2 ranks\n'
 fit_passed=$passed
 fit_failed=$failed
 fd="$out/fit"
-FIT_OPTS="-options_file options/stretch.opts -fit_gd_its 3 -fit_gn_its 5 -fit_harmonic 1,10"
+FIT_OPTS="-options_file options/stretch.opts -fit_nsamples 2 -fit_sample_by energy -fit_gd_its 3 -fit_gn_its 5 -fit_harmonic 1,10"
 compare_material() { # a b rtol what
   log="$fd/compare.$4.log"
   bin/tests/tool_compare_material "$1" "$2" "$3" > "$log" 2>&1

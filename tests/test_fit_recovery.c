@@ -13,6 +13,8 @@
  *    below the floor; 1 and 2 ranks fit the same gamma (with 2 ranks the
  *    fit is repeated on one rank in the same run).  A following stage over
  *    every parameter must never raise the loss nor cross the floor.
+ *  - Frames at uneven spacing: a sample frame stepping from the frame
+ *    before it by its own spacing has the data as its equilibrium.
  *  - On the same problem Gauss-Newton reaches a lower loss in 20 iterations
  *    than gradient descent in 200 (paper Fig. 12), both over every parameter.
  * Two choices make recovery a fair question.  gamma* lies in the span of a
@@ -341,6 +343,53 @@ static PetscErrorCode TestHarmonics(Problem *p)
 
 /* gamma of the fit on every rank, keyed by (voxel, Kuhn tet) so meshes of
  * different communicators compare. */
+/* Frames at uneven spacing: implicit Euler of gamma* with steps dt, 0.4 dt,
+ * 1.7 dt from rest; a sample frame built with its own spacings
+ * (VKFitFrameCreateSpaced) has the data itself as its equilibrium at
+ * gamma*, one built as if the frames were even does not. */
+static PetscErrorCode TestUnevenSpacing(Problem *p)
+{
+  VKFit      fit = p->fit;
+  PetscReal  h[3] = {fit->dt, 0.4 * fit->dt, 1.7 * fit->dt}, t = 0, ref, dsp, dev;
+  Vec        x[4];
+  VKFitFrame f;
+
+  PetscFunctionBegin;
+  PetscCall(VKFitSetGamma(fit, p->gstar));
+  fit->eq_rtol = 1e-12;
+  for (int i = 0; i < 4; i++) {
+    PetscCall(VKMeshCreateNodeVec(p->m, 3, &x[i]));
+    PetscCall(VKMeshGetRestPositions(p->m, x[i]));
+  }
+  for (int i = 1; i <= 3; i++) {
+    t += h[i - 1];
+    PetscCall(VKFitFrameCreateSpaced(fit, i, t, h[i - 1], i > 1 ? h[i - 2] : h[0], x[i - 1], 0, x[i - 1], x[i > 1 ? i - 2 : 0], &f));
+    PetscCall(VKFitEquilibrium(fit, &f, NULL));
+    PetscCall(VecCopy(f.x, x[i]));
+    PetscCall(VKFitFrameDestroy(&f));
+  }
+  PetscCall(VecAXPY(x[0], -1, x[3]));
+  PetscCall(VecNorm(x[0], NORM_INFINITY, &ref)); /* how far frame 3 is from rest */
+  PetscCall(VKFitFrameCreateSpaced(fit, 3, t, h[2], h[1], x[3], 0, x[2], x[1], &f));
+  PetscCall(VecCopy(x[2], f.x)); /* start away from the answer */
+  PetscCall(VKFitEquilibrium(fit, &f, NULL));
+  PetscCall(VecAXPY(f.x, -1, x[3]));
+  PetscCall(VecNorm(f.x, NORM_INFINITY, &dsp));
+  PetscCall(VKFitFrameDestroy(&f));
+  PetscCall(VKFitSetTimeStep(fit, h[2]));
+  PetscCall(VKFitFrameCreate(fit, 3, t, x[3], 0, x[2], x[1], &f));
+  PetscCall(VecCopy(x[2], f.x));
+  PetscCall(VKFitEquilibrium(fit, &f, NULL));
+  PetscCall(VecAXPY(f.x, -1, x[3]));
+  PetscCall(VecNorm(f.x, NORM_INFINITY, &dev));
+  PetscCall(VKFitFrameDestroy(&f));
+  PetscCall(VKFitSetTimeStep(fit, h[0]));
+  fit->eq_rtol = 1e-9; /* as BuildProblem leaves it */
+  PetscCall(VKTestCheck((PetscBool)(dsp <= 1e-8 * ref && dev >= 1e-4 * ref && dev >= 1e4 * dsp), NULL, "frames at spacings dt, 0.4 dt, 1.7 dt: the sample frame's equilibrium at gamma* is the data to %.1e of the motion (taken as evenly spaced: %.1e)", (double)(dsp / ref), (double)(dev / ref)));
+  for (int i = 0; i < 4; i++) PetscCall(VecDestroy(&x[i]));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode GammaByKuhn(Problem *p, Vec gamma, PetscReal **out)
 {
   VKMesh     m = p->m;
@@ -368,6 +417,7 @@ int main(int argc, char **argv)
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscCall(BuildProblem(PETSC_COMM_WORLD, &p));
   PetscCall(TestHarmonics(&p));
+  PetscCall(TestUnevenSpacing(&p));
   {
     PetscReal ls;
     PetscCall(VKFitSetGamma(p.fit, p.gstar));

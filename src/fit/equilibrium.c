@@ -1,15 +1,16 @@
 /* equilibrium.c: the sample frames of the fitting and the equilibrium of
  * the homogenized model at each (DESIGN §8, our form of paper Eq. 14):
- *   g_i(x; gamma) = M (x - 2 xhat_{i-1} + xhat_{i-2}) / dt^2 - f_ext + grad E(x; gamma) = 0
- * on the free nodes, handle nodes placed by the scene at t_i.  This is
- * grad Phi of one implicit Euler step with the inertial target
- * y = 2 xhat_{i-1} - xhat_{i-2} + dt^2 g, so VKPDSolve minimizes it: PD
+ *   g_i(x; gamma) = M (x - y) / h^2 - f_ext + grad E(x; gamma) = 0,
+ *   y = xhat_{i-1} + (h/h') (xhat_{i-1} - xhat_{i-2}) + h^2 g  (VKFitFrame)
+ * on the free nodes, handle nodes placed by the scene at t_i, h and h' the
+ * spacings of frames i and i-1.  This is grad Phi of one implicit Euler
+ * step of h with the inertial target y, so VKPDSolve minimizes it: PD
  * iterations, then Newton with the exact Hessian until
- *   |g| <= eq_rtol (|grad E(xhat_i)| + |M (xhat_i - y)|/dt^2),
+ *   |g| <= eq_rtol (|grad E(xhat_i)| + |M (xhat_i - y)|/h^2),
  * a scale made of the forces that balance at the data, so the tolerance
  * does not shrink as the fit approaches the data.  -fit_inertia data and
  * none make it static (VKPDSetStatic): M a_data - f_ext + grad E(x) = 0
- * with the data acceleration a_data = (xhat_i - 2 xhat_{i-1} + xhat_{i-2})/dt^2
+ * with the data acceleration a_data = (xhat_i - y)/h^2 + g
  * (paper Eq. 14), or -f_ext + grad E(x) = 0, the constant force passed
  * to PD (VKPDSetConstantForce) and its norm in the scale.  The adjoint and
  * Gauss-Newton are only valid at equilibrium, so a solve that does not get
@@ -20,13 +21,22 @@
 
 PetscErrorCode VKFitFrameCreate(VKFit fit, PetscInt index, PetscReal t, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *f)
 {
+  PetscFunctionBegin;
+  PetscCall(VKFitFrameCreateSpaced(fit, index, t, fit->dt, fit->dt, xhat, eps_hat, xhat1, xhat2, f));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitFrameCreateSpaced(VKFit fit, PetscInt index, PetscReal t, PetscReal h, PetscReal hprev, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *f)
+{
   const VKLayout *L = &fit->mesh->layout;
   PetscScalar    *ya;
 
   PetscFunctionBegin;
+  PetscCheck(h > 0 && hprev > 0 && h < PETSC_INFINITY && hprev < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Sample frame %d: frame spacings %g s and %g s must be positive", (int)index, (double)h, (double)hprev);
   PetscCall(PetscMemzero(f, sizeof(*f)));
   f->index   = index;
   f->t       = t;
+  f->dt      = h;
   f->eps_hat = eps_hat;
   if (!xhat1) xhat1 = xhat;
   if (!xhat2) xhat2 = xhat1;
@@ -38,10 +48,10 @@ PetscErrorCode VKFitFrameCreate(VKFit fit, PetscInt index, PetscReal t, Vec xhat
   PetscCall(VecCopy(xhat, f->x));
   PetscCall(VecDuplicate(xhat, &f->y));
   PetscCall(VecCopy(xhat1, f->y)); /* xhat1 and xhat2 may be one Vec */
-  PetscCall(VecAXPBY(f->y, -1, 2, xhat2));
+  PetscCall(VecAXPBY(f->y, -h / hprev, 1 + h / hprev, xhat2));
   PetscCall(VecGetArray(f->y, &ya));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) ya[3 * i + r] += fit->dt * fit->dt * fit->scene->gravity[r];
+    for (int r = 0; r < 3; r++) ya[3 * i + r] += h * h * fit->scene->gravity[r];
   PetscCall(VecRestoreArray(f->y, &ya));
   if (fit->inertia != VK_FIT_INERTIA_IMPLICIT) { /* M (y - xhat)/dt^2 = M (g - a_data), or M g */
     const PetscScalar *xa;
@@ -53,7 +63,7 @@ PetscErrorCode VKFitFrameCreate(VKFit fit, PetscInt index, PetscReal t, Vec xhat
     for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
       for (int r = 0; r < 3; r++) {
         PetscReal m = fit->mesh->mass[L->nStart + i];
-        fa[3 * i + r] = fit->inertia == VK_FIT_INERTIA_DATA ? m * (ya[3 * i + r] - xa[3 * i + r]) / (fit->dt * fit->dt) : m * fit->scene->gravity[r];
+        fa[3 * i + r] = fit->inertia == VK_FIT_INERTIA_DATA ? m * (ya[3 * i + r] - xa[3 * i + r]) / (h * h) : m * fit->scene->gravity[r];
       }
     PetscCall(VecRestoreArray(f->fext, &fa));
     PetscCall(VecRestoreArrayRead(f->y, (const PetscScalar **)&ya));
@@ -95,7 +105,7 @@ static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
   PetscCall(VecRestoreArrayRead(f->y, &ya));
   PetscCall(VecRestoreArrayRead(f->xhat, &xa));
   PetscCallMPI(MPI_Allreduce(&in, &all, 1, MPIU_REAL, MPIU_SUM, fit->comm));
-  *scale = gE + PetscSqrtReal(all) / (fit->dt * fit->dt);
+  *scale = gE + PetscSqrtReal(all) / (f->dt * f->dt);
   PetscFunctionReturn(0);
 }
 
@@ -110,6 +120,7 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
 
   PetscFunctionBegin;
   PetscCall(VKFitSetUp(fit));
+  PetscCall(VKPDSetTimeStep(pd, f->dt)); /* a frame spaced unlike the one before: K is refactored */
   PetscCall(PetscLogEventBegin(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));
   PetscCall(ForceScale(fit, f, &f->scale));
   tol             = fit->eq_rtol * f->scale;

@@ -42,7 +42,10 @@ static PetscErrorCode SampleFrame(VKFit fit, VKFitData data, PetscInt k, VKFitFr
     PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &xh[j]));
     PetscCall(FrameTarget(fit, data, PetscMax(k - j, 0), xy, n1, Fhat, xh[j], j ? NULL : &eps));
   }
-  PetscCall(VKFitFrameCreate(fit, k, data->time[k], xh[0], eps, xh[1], xh[2], f));
+  {
+    PetscReal h = data->time[k] - data->time[k - 1], hprev = k > 1 ? data->time[k - 1] - data->time[k - 2] : h;
+    PetscCall(VKFitFrameCreateSpaced(fit, k, data->time[k], h, hprev, xh[0], eps, xh[1], xh[2], f));
+  }
   f->weight = VKFitDataElasticEnergy(data, k);
   for (int j = 0; j < 3; j++) PetscCall(VecDestroy(&xh[j]));
   PetscCall(PetscFree3(xy, n1, Fhat));
