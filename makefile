@@ -36,7 +36,7 @@ EX_BIN    := $(EX_SRC:examples/%.c=bin/examples/%)
 FUZZ_SRC  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BIN  := $(FUZZ_SRC:tests/fuzz/%.c=bin/fuzz/%)
 
-.PHONY: all run check bench fuzz examples clean deps tests
+.PHONY: all run check bench fidelity fuzz examples clean deps tests
 .DEFAULT_GOAL := all
 
 all: $(LIB) $(BIN)
@@ -59,6 +59,10 @@ bench: deps
 	@tests/bench/run_bench.sh
 	@echo
 	@tests/bench/run_fit_bench.sh
+
+fidelity: deps
+	@$(MAKE) --no-print-directory all
+	@tests/bench/run_fidelity.sh
 
 tests: $(TEST_BIN)
 examples: $(EX_BIN)

@@ -146,6 +146,7 @@ struct _n_VKFit {
   PetscInt   rbasis;
   PetscReal *basis, *basis_eig;
   PetscLogDouble time_eq, time_adjoint, time_kkt, time_eigen;
+  PetscInt      eq_fallbacks; /* equilibria finished by L-BFGS + projected Newton after PD + Newton stalled */
   /* checkpoints: after every checkpoint_every accepted iterations the
    * schedule calls checkpoint(fit, phase, iteration, ctx) with the place
    * a restart goes on from (VK_FIT_PHASE_*, the next iteration); it stops

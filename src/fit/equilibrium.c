@@ -133,9 +133,25 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
   pd->step        = f->index;
   PetscCall(VKPDSetConstantForce(pd, f->fext));
   PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
-  PetscCall(VKPDSetConstantForce(pd, NULL));
   PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the PD global solve failed (see -pd_global_ksp_converged_reason)", (int)f->index, (double)f->t);
   *ok = (st.reason != VK_PD_DIVERGED_NAN && st.residual <= PetscMax(tol, pd->res_floor)) ? PETSC_TRUE : PETSC_FALSE;
+  if (!*ok && st.reason != VK_PD_DIVERGED_NAN) {
+    /* Newton after PD did not get there (a large deformation, where the
+     * exact Hessian is indefinite and its line search on |g|^2 stalls):
+     * on from where it stopped by L-BFGS and projected Newton, which
+     * descend on Phi itself, all the way to tol, then the Newton polish */
+    PetscInt its = st.iterations, nits = st.newton_its;
+    PetscCall(VKPDSetType(pd, VK_PD_TYPE_LBFGS));
+    PetscCall(VKPDSetTolerances(pd, 0, tol, 0, PETSC_DEFAULT));
+    PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
+    PetscCall(VKPDSetType(pd, VK_PD_TYPE_PD));
+    PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the global solve of the L-BFGS fallback failed", (int)f->index, (double)f->t);
+    st.iterations += its;
+    st.newton_its += nits;
+    fit->eq_fallbacks++;
+    *ok = (st.reason != VK_PD_DIVERGED_NAN && st.residual <= PetscMax(tol, pd->res_floor)) ? PETSC_TRUE : PETSC_FALSE;
+  }
+  PetscCall(VKPDSetConstantForce(pd, NULL));
   if (stats) {
     stats->pd_its         = st.iterations;
     stats->newton_its     = st.newton_its;

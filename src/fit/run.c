@@ -98,6 +98,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "parameters", 2 * fit->mesh->ne));
   PetscCall(VKJSONInt(&j, "yarn_vertices", fit->mesh->ny));
   PetscCall(VKJSONReal(&j, "frame_interval", fit->dt));
+  PetscCall(VKJSONInt(&j, "equilibrium_fallbacks", fit->eq_fallbacks));
   PetscCall(VKJSONReal(&j, "alpha", fit->sf->alpha));
   PetscCall(VKJSONArrayBegin(&j, "samples"));
   for (PetscInt s = 0; s < c->ns; s++) {

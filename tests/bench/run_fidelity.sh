@@ -1,0 +1,109 @@
+#!/bin/bash
+# tests/bench/run_fidelity.sh (make fidelity): how close the homogenized
+# knit comes to the yarn-level knit (issue 21), measured by volknit report.
+# For each pattern (relaxed once) and scene of options/:
+#   1. the yarn-level reference (volknit yls; cached: rerun only when its
+#      command line changes);
+#   2. homogenized runs on one mesh: uniform materials g_s = g_v = g over a
+#      log grid (the best of them is the baseline a fit must beat), and the
+#      material fitted on the scene's own frames (training error);
+#   3. the materials fitted on the other scenes (held-out error, paper §8.6);
+#   4. volknit report on all of them; a Markdown table on stdout.
+# Sizes from the environment: FID_PATTERNS (rib1x1), FID_WALES x FID_COURSES
+# (8 x 7, about 2K yarn vertices), FID_SCENES (hang stretch drape twist),
+# FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
+# about 8 minutes on 2 cores, the others about 1.5), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS.
+# Outputs in out/fidelity (outside tests/out, which make check clears).
+# Nothing is asserted: the table is the result.
+set -u
+cd "$(dirname "$0")/../.."
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+MPIEXEC=${MPIEXEC:-mpiexec}
+NP=${FID_RANKS:-2}
+PATTERNS=${FID_PATTERNS:-rib1x1}
+W=${FID_WALES:-8}
+C=${FID_COURSES:-7}
+SCENES=${FID_SCENES:-hang stretch drape twist}
+T=${FID_DURATION:-0.2}
+UNIFORM=${FID_UNIFORM:-10 100 1000 10000}
+FIT_OPTS=${FID_FIT_OPTS:-}
+top=out/fidelity
+mkdir -p "$top"
+cmds="$top/commands"
+: > "$cmds"
+run() { echo "    $*" >> "$cmds"; "$@"; }
+json() { sed -n "s/.*\"$2\": \([^,]*\),\{0,1\}$/\1/p" "$1" | head -n "${3:-1}" | tail -n 1; }
+
+# a sim directory with the mesh: $1 dir, then sim options
+sim_run() {
+  local dir=$1; shift
+  mkdir -p "$dir"; cp "$mesh/mesh.h5" "$dir/"
+  run $MPIEXEC -n "$NP" bin/volknit sim -o "$dir" "$@" > "$dir/sim.log" 2>&1 || echo "    (failed: see $dir/sim.log)" >> "$cmds"
+}
+
+for pat in $PATTERNS; do
+  d="$top/${pat}_${W}x${C}"
+  mkdir -p "$d"
+  if [ ! -s "$d/yarn.h5" ]; then
+    run $MPIEXEC -n "$NP" bin/volknit yarn -o "$d" -yarn_pattern "$pat" -yarn_wales "$W" -yarn_courses "$C" -yarn_relax > "$d/yarn.log" 2>&1 || { echo "relaxation failed: $d/yarn.log"; exit 1; }
+  fi
+  mesh="$d/mesh"
+  if [ ! -s "$mesh/mesh.h5" ]; then
+    run bin/volknit mesh -o "$mesh" -yarn_h5 "$d/yarn.h5" > "$d/mesh.log" 2>&1 || { echo "mesh failed: $d/mesh.log"; exit 1; }
+  fi
+  for s in $SCENES; do
+    ref="$d/$s/yls"; mkdir -p "$ref"
+    want="yls -yarn_h5 $d/yarn.h5 -options_file options/$s.opts -scene_duration $T"
+    if [ ! -s "$ref/yls.h5" ] || [ "$(cat "$ref/stamp" 2>/dev/null)" != "$want" ]; then
+      t0=$(date +%s)
+      run $MPIEXEC -n "$NP" bin/volknit yls -o "$ref" -yarn_h5 "$d/yarn.h5" -options_file "options/$s.opts" -scene_duration "$T" > "$ref/yls.log" 2>&1 \
+        && echo "$want" > "$ref/stamp" || echo "    (yarn-level run failed: see $ref/yls.log)" >> "$cmds"
+      echo "(yarn-level $pat $s: $(( $(date +%s) - t0 )) s)" >&2
+    fi
+    # the fit on this scene's own frames
+    fit="$d/$s/fit"; mkdir -p "$fit"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$fit/"
+    if [ ! -s "$fit/material.h5" ] || [ "$ref/yls.h5" -nt "$fit/material.h5" ]; then
+      run $MPIEXEC -n "$NP" bin/volknit fit -o "$fit" -options_file "options/$s.opts" $FIT_OPTS > "$fit/fit.log" 2>&1 || echo "    (fit failed: see $fit/fit.log)" >> "$cmds"
+    fi
+  done
+  for s in $SCENES; do
+    runs=""; labels=""
+    for g in $UNIFORM; do
+      sim_run "$d/$s/u$g" -options_file "options/$s.opts" -scene_duration "$T" -mat_gamma_s "$g" -mat_gamma_v "$g"
+      runs="$runs,$d/$s/u$g"; labels="$labels,uniform_${g}Pa"
+    done
+    for f in $SCENES; do
+      [ -s "$d/$f/fit/material.h5" ] || continue
+      sim_run "$d/$s/fit_$f" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$f/fit/material.h5"
+      runs="$runs,$d/$s/fit_$f"; labels="$labels,fitted_on_$f"
+    done
+    run bin/volknit report -report_yls "$d/$s/yls" -report_runs "${runs#,}" -report_labels "${labels#,}" -o "$d/$s/report" > "$d/$s/report.log" 2>&1 \
+      || echo "    (report failed: see $d/$s/report.log)" >> "$cmds"
+  done
+done
+
+echo "REL = RMS distance of the embedded yarns from the yarn-level ones / RMS displacement of the latter from rest, over"
+echo "the frames (1: no better than leaving the patch at rest); floor: the best any mesh shape can do on the mesh."
+echo "Speed-up: yarn-level wall time per simulated second / the homogenized run's, both on $NP ranks."
+echo
+echo "| pattern | scene | material | REL | floor REL | max error (r) | s per simulated s | speed-up |"
+echo "|---|---|---|---|---|---|---|---|"
+for pat in $PATTERNS; do
+  d="$top/${pat}_${W}x${C}"
+  for s in $SCENES; do
+    j="$d/$s/report/report.json"
+    [ -s "$j" ] || { echo "| $pat | $s | (no report: see $d/$s/report.log) | | | | | |"; continue; }
+    n=$(grep -c '"label"' "$j")
+    best=""; bestrel=""
+    for i in $(seq 1 "$n"); do
+      label=$(json "$j" label "$i" | tr -d '"'); rel=$(json "$j" rel "$i"); fl=$(json "$j" floor_rel "$i")
+      mx=$(json "$j" max_error_r "$i"); ps=$(json "$j" wall_time_per_simulated_second "$((i + 1))"); sp=$(json "$j" speedup "$i")
+      printf '| %s | %s | %s | %.3f | %.3f | %.1f | %.3g | %.0f |\n' "$pat" "$s" "$label" "$rel" "$fl" "$mx" "$ps" "$sp"
+      case "$label" in uniform*) if [ -z "$bestrel" ] || awk "BEGIN{exit !($rel < $bestrel)}"; then best=$label; bestrel=$rel; fi ;; esac
+    done
+    echo "| $pat | $s | best uniform: $best | $(printf %.3f "$bestrel") | | | | |"
+  done
+done
+echo
+echo "Commands:"
+cat "$cmds"
