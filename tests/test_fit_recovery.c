@@ -25,7 +25,7 @@
  * so the positions carry the data: yarn normals are unit, so the per-segment
  * F^Y cannot carry the mesh's stretch across the yarn, and the voxel targets
  * F^{Y2V} differ from F(x*) -- a loss floor eps(xhat) of the same size as
- * the loss at gamma* under the default alpha = 0.1 (printed as a comment).
+ * the loss at gamma* under alpha = 0.1 (printed as a comment).
  * ranks: 1 2
  */
 #include <vkfit.h>
