@@ -14,6 +14,8 @@
 # FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
 # about 8 minutes on 2 cores, the others about 1.5), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS.
 # Outputs in out/fidelity (outside tests/out, which make check clears).
+# Cost: the 4 x 4 rib with hang and stretch took 14 min on 2 cores (the hang
+# fit 10 of them); at the defaults expect a few hours, mostly the fits.
 # Nothing is asserted: the table is the result.
 set -u
 cd "$(dirname "$0")/../.."
