@@ -133,6 +133,9 @@ struct _n_VKFit {
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
   PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2];
+  PetscBool best_uniform;              /* start from the best uniform material (uniform.c) */
+  PetscReal uniform_range[2];          /* its search interval, Pa */
+  PetscReal uniform_g, uniform_loss;   /* its result (uniform_g 0: not searched in this run) */
   PetscBool monitor;
   PetscBool step_memory; /* -fit_step_memory: an iteration's halving begins at the last accepted step */
   PetscReal step_factor; /* where the next iteration's halving begins, relative to the phase's full step */
@@ -221,6 +224,9 @@ PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v
  * the floor gamma_min (projection of every trial; frozen and pivoted
  * parameters in the full space).  Iterations are appended
  * to fit->hist.  The frame is left at the equilibrium of the final gamma. */
+/* The uniform material g_s = g_v = g in [lo, hi] Pa minimizing the sum of
+ * the frames' losses at equilibrium (uniform.c). */
+PETSC_EXTERN PetscErrorCode VKFitBestUniform(VKFit, PetscInt nf, VKFitFrame f[], PetscReal lo, PetscReal hi, PetscReal *g, PetscReal *loss);
 PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma);
 /* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
  * g_v in gamma. */

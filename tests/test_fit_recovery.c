@@ -15,6 +15,7 @@
  *    every parameter must never raise the loss nor cross the floor.
  *  - Frames at uneven spacing: a sample frame stepping from the frame
  *    before it by its own spacing has the data as its equilibrium.
+ *  - The best uniform search recovers a uniform material from its frames.
  *  - On the same problem Gauss-Newton reaches a lower loss in 20 iterations
  *    than gradient descent in 200 (paper Fig. 12), both over every parameter.
  * Two choices make recovery a fair question.  gamma* lies in the span of a
@@ -390,6 +391,44 @@ static PetscErrorCode TestUnevenSpacing(Problem *p)
   PetscFunctionReturn(0);
 }
 
+/* The best uniform search (uniform.c) on frames made with a uniform
+ * material of 300 Pa recovers it: frames 2 and 3 of its trajectory, the
+ * data themselves as targets, so the loss at 300 Pa is 0. */
+static PetscErrorCode TestUniformSearch(Problem *p)
+{
+  VKFit      fit = p->fit;
+  PetscReal  gstar = 300, t = 0, g, loss;
+  Vec        x[4], gam;
+  VKFitFrame f[2];
+
+  PetscFunctionBegin;
+  PetscCall(VKFitCreateGammaVec(fit, &gam));
+  PetscCall(VecSet(gam, gstar));
+  PetscCall(VKFitSetGamma(fit, gam));
+  fit->eq_rtol = 1e-12;
+  for (int i = 0; i < 4; i++) {
+    PetscCall(VKMeshCreateNodeVec(p->m, 3, &x[i]));
+    PetscCall(VKMeshGetRestPositions(p->m, x[i]));
+  }
+  for (int i = 1; i <= 3; i++) {
+    VKFitFrame fr;
+    t += fit->dt;
+    PetscCall(VKFitFrameCreate(fit, i, t, x[i - 1], 0, x[i - 1], x[i > 1 ? i - 2 : 0], &fr));
+    PetscCall(VKFitEquilibrium(fit, &fr, NULL));
+    PetscCall(VecCopy(fr.x, x[i]));
+    PetscCall(VKFitFrameDestroy(&fr));
+  }
+  fit->eq_rtol = 1e-9;
+  PetscCall(VKFitFrameCreate(fit, 2, 2 * fit->dt, x[2], 0, x[1], x[0], &f[0]));
+  PetscCall(VKFitFrameCreate(fit, 3, 3 * fit->dt, x[3], 0, x[2], x[1], &f[1]));
+  PetscCall(VKFitBestUniform(fit, 2, f, 1, 1e5, &g, &loss));
+  PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(g / gstar - 1) <= 0.01), NULL, "best uniform search on frames of a uniform %g Pa material: %.4g Pa (loss %.2e)", (double)gstar, (double)g, (double)loss));
+  for (int k = 0; k < 2; k++) PetscCall(VKFitFrameDestroy(&f[k]));
+  for (int i = 0; i < 4; i++) PetscCall(VecDestroy(&x[i]));
+  PetscCall(VecDestroy(&gam));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode GammaByKuhn(Problem *p, Vec gamma, PetscReal **out)
 {
   VKMesh     m = p->m;
@@ -418,6 +457,7 @@ int main(int argc, char **argv)
   PetscCall(BuildProblem(PETSC_COMM_WORLD, &p));
   PetscCall(TestHarmonics(&p));
   PetscCall(TestUnevenSpacing(&p));
+  PetscCall(TestUniformSearch(&p));
   {
     PetscReal ls;
     PetscCall(VKFitSetGamma(p.fit, p.gstar));

@@ -25,6 +25,9 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->dt            = 1.0 / 150;
   fit->eq_rtol       = 1e-5;
   fit->eq_newton_its = 50;
+  fit->best_uniform  = PETSC_FALSE; /* measured: from the loss-best uniform the fit ends no better (docs/FIDELITY.md) */
+  fit->uniform_range[0] = 1;
+  fit->uniform_range[1] = 1e5;
   fit->inertia       = VK_FIT_INERTIA_IMPLICIT;
   fit->gd_its        = 15;
   fit->gn_its        = 30;
@@ -114,6 +117,11 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
   PetscCall(PetscOptionsInt("-fit_checkpoint_every", "Write DIR/fit_checkpoint.h5 every this many iterations (0: only after each sample)", "VKFitRun", fit->checkpoint_every, &fit->checkpoint_every, NULL));
   PetscCall(PetscOptionsInt("-fit_max_iterations", "Stop after this many iterations in all, with a checkpoint to go on from (0: no limit)", "VKFitRun", fit->max_iterations, &fit->max_iterations, NULL));
+  {
+    PetscInt n = 2;
+    PetscCall(PetscOptionsBool("-fit_best_uniform", "Before the first sample, search the uniform material g_s = g_v = g with the lowest loss over the sample frames, report it as the baseline and start the fit from it", "VKFitRun", fit->best_uniform, &fit->best_uniform, NULL));
+    PetscCall(PetscOptionsRealArray("-fit_uniform_range", "The interval lo,hi (Pa) of that search", "VKFitBestUniform", fit->uniform_range, &n, NULL));
+  }
   PetscCall(PetscOptionsBool("-fit_restart", "Go on from DIR/fit_checkpoint.h5 (sample frames and stages as the checkpoint has them)", "VKFitRun", fit->restart, &fit->restart, NULL));
   PetscCall(PetscOptionsBool("-fit_monitor", "Print every iteration of the schedule", "VKFitOptimize", fit->monitor, &fit->monitor, NULL));
   PetscCall(PetscOptionsEnum("-fit_inertia", "Inertia in the equilibrium of a frame: implicit, M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2; data, the data acceleration as a force; none, static", "VKFitEquilibrium", VKFitInertias, (PetscEnum)fit->inertia, (PetscEnum *)&fit->inertia, NULL));
@@ -126,6 +134,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->rtol >= 0 && fit->rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_rtol must be in [0, 1), got %g", (double)fit->rtol);
   PetscCheck(fit->max_halvings >= 0 && fit->max_pivots >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_max_halvings and -fit_max_pivots must be >= 0");
   PetscCheck(fit->checkpoint_every >= 0 && fit->max_iterations >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_checkpoint_every and -fit_max_iterations must be >= 0, got %d and %d", (int)fit->checkpoint_every, (int)fit->max_iterations);
+  PetscCheck(fit->uniform_range[0] > 0 && fit->uniform_range[1] > fit->uniform_range[0] && fit->uniform_range[1] < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_uniform_range must be lo,hi with 0 < lo < hi, got %g,%g", (double)fit->uniform_range[0], (double)fit->uniform_range[1]);
   PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
   if (set) {
     PetscCheck(nharm >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_harmonic needs a list of basis sizes, e.g. 1,10,30 (or 0 for none)");

@@ -99,6 +99,12 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "yarn_vertices", fit->mesh->ny));
   PetscCall(VKJSONReal(&j, "frame_interval", fit->dt));
   PetscCall(VKJSONInt(&j, "equilibrium_fallbacks", fit->eq_fallbacks));
+  if (fit->uniform_g > 0) { /* searched in this run (not after a restart) */
+    PetscCall(VKJSONObjectBegin(&j, "best_uniform"));
+    PetscCall(VKJSONReal(&j, "gamma_Pa", fit->uniform_g));
+    PetscCall(VKJSONReal(&j, "loss_summed_over_samples", fit->uniform_loss));
+    PetscCall(VKJSONObjectEnd(&j));
+  }
   PetscCall(VKJSONReal(&j, "alpha", fit->sf->alpha));
   PetscCall(VKJSONArrayBegin(&j, "samples"));
   for (PetscInt s = 0; s < c->ns; s++) {
@@ -226,6 +232,17 @@ static PetscErrorCode Plan(VKFit fit, VKFitData data, VKFitState *st)
     if (fit->harm_r[h] < fit->mesh->ne) st->stages[st->nstages++] = fit->harm_r[h];
   st->stages[st->nstages++] = 0;
   PetscCall(VKFitGetGamma(fit, st->avg));
+  if (fit->best_uniform) { /* the baseline, and the start */
+    VKFitFrame *f;
+    PetscCall(PetscMalloc1(st->ns, &f));
+    for (PetscInt i = 0; i < st->ns; i++) PetscCall(SampleFrame(fit, data, st->samples[i], &f[i]));
+    PetscCall(VKFitBestUniform(fit, st->ns, f, fit->uniform_range[0], fit->uniform_range[1], &fit->uniform_g, &fit->uniform_loss));
+    for (PetscInt i = 0; i < st->ns; i++) PetscCall(VKFitFrameDestroy(&f[i]));
+    PetscCall(PetscFree(f));
+    PetscCall(VecSet(st->avg, fit->uniform_g));
+    PetscCall(VKFitSetGamma(fit, st->avg));
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: best uniform material g_s = g_v = %.4g Pa (summed loss %.4e over the %d sample frames); the fit starts from it\n", (double)fit->uniform_g, (double)fit->uniform_loss, (int)st->ns));
+  }
   PetscCall(VKFitSetGammaFloor(fit, st->avg));
   st->sample = st->stage = st->iteration = 0;
   st->phase  = -1;
