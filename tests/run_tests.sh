@@ -189,6 +189,10 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
   done
   compare_material "$fd/ref/material.h5" "$fd/n1/material.h5" 1e-7 "volknit run -run_fit vs volknit fit"
   compare_material "$fd/n1/material.h5" "$fd/n2/material.h5" 1e-5 "1 vs 2 ranks"
+  # the best uniform material first (-fit_best_uniform): reported, in fit.json
+  fit_dir "uniform"
+  if fit_run "uniform" 2 -fit_best_uniform && grep -q 'best uniform material g_s = g_v' "$fd/uniform.log" && grep -q '"best_uniform"' "$fd/uniform/fit.json" && [ -s "$fd/uniform/material.h5" ]; then ok
+  else not_ok "volknit fit -fit_best_uniform: expected the search's line and best_uniform in fit.json (see $fd/uniform.log)"; fi
   # stopped, then restarted: with the same rank count, and with the other
   # (the restart re-converges its equilibria from the checkpoint, so even on
   # the same ranks it agrees to solver tolerance, not bit for bit: 1.4e-7
