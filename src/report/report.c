@@ -99,6 +99,20 @@ void VKReportFrameSums(PetscInt n, const PetscReal mass[], const PetscReal a[], 
   *msum = m;
 }
 
+/* A timing attribute, 0 when the file predates it (the speed-up is then
+ * reported as 0: unknown). */
+static PetscErrorCode ReadOptionalReal(VKH5 *h, const char obj[], const char name[], PetscReal *v)
+{
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+  ierr = VKH5ReadAttrReal(h, obj, name, v);
+  PetscCall(PetscPopErrorHandler());
+  if (ierr) *v = 0;
+  PetscFunctionReturn(0);
+}
+
 /* The yarn-level run: yarn model (masses, radius), frame times, scene,
  * wall time, and frame 0 (rest). */
 static PetscErrorCode LoadReference(VKReport r)
@@ -116,7 +130,7 @@ static PetscErrorCode LoadReference(VKReport r)
   VKCallCollective(r->comm, VKH5Open(path, &h));
   {
     PetscErrorCode ierr = VKH5ReadAttrString(&h, "/", "scene", r->scene, sizeof(r->scene));
-    if (!ierr) ierr = VKH5ReadAttrReal(&h, "/yls", "wall_time_stepping", &r->wall);
+    if (!ierr) ierr = ReadOptionalReal(&h, "/yls", "wall_time_stepping", &r->wall);
     VKH5Close(&h);
     VKCallCollective(r->comm, ierr);
   }
@@ -157,10 +171,10 @@ static PetscErrorCode LoadRunHeader(VKReport r, VKReportRun *run, char path[], P
   if (!ierr) ierr = VKH5ReadAttrString(&h, "/sim", "status", run->status, sizeof(run->status));
   if (!ierr) ierr = VKH5ReadAttrInt(&h, "/sim", "frames", &nf);
   if (!ierr) ierr = VKH5ReadReal(&h, "/sim/time", 1, &nt, &t);
-  if (!ierr) ierr = VKH5ReadAttrReal(&h, "/sim", "wall_time", &run->wall);
-  if (!ierr) ierr = VKH5ReadAttrReal(&h, "/sim", "time_local", &run->time_local);
-  if (!ierr) ierr = VKH5ReadAttrReal(&h, "/sim", "time_global", &run->time_global);
-  if (!ierr) ierr = VKH5ReadAttrReal(&h, "/sim", "time_other", &run->time_other);
+  if (!ierr) ierr = ReadOptionalReal(&h, "/sim", "wall_time", &run->wall);
+  if (!ierr) ierr = ReadOptionalReal(&h, "/sim", "time_local", &run->time_local);
+  if (!ierr) ierr = ReadOptionalReal(&h, "/sim", "time_global", &run->time_global);
+  if (!ierr) ierr = ReadOptionalReal(&h, "/sim", "time_other", &run->time_other);
   if (!ierr && nf > 0) ierr = VKH5ReadReal(&h, "/frames/000000/yarn", 3, &ny, &x);
   VKH5Close(&h);
   if (!ierr && !(nf > 0 && nt == nf)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: %d frames but %d times", path, (int)nf, (int)nt);

@@ -127,8 +127,11 @@ static PetscErrorCode Plots(VKReport r, const char dir[])
   }
   fprintf(fp, ", '' every ::1 using 2:(strcol(1) eq '%s' ? $5 : 1/0) with lines lc rgb 'gray' title 'displacement from rest'\n", r->run[0].label);
   fprintf(fp, "set output '%s'\nset title 'scene %s: error against cost'\nset logscale xy\nset xlabel 'wall time per simulated second (s)'\nset ylabel 'REL'\n", png[1], r->scene);
-  fprintf(fp, "set arrow from %.9g, graph 0 to %.9g, graph 1 nohead lc rgb 'red'\nset label 'yarn-level' at %.9g, graph 0.95 right offset -0.5,0 tc rgb 'red'\n", (double)(r->wall / r->time_reached), (double)(r->wall / r->time_reached), (double)(r->wall / r->time_reached));
-  fprintf(fp, "set xrange [*:%.9g]\n$points << EOD\n", (double)(2 * r->wall / r->time_reached));
+  if (r->wall > 0) { /* the yarn-level cost, when its file records it */
+    fprintf(fp, "set arrow from %.9g, graph 0 to %.9g, graph 1 nohead lc rgb 'red'\nset label 'yarn-level' at %.9g, graph 0.95 right offset -0.5,0 tc rgb 'red'\n", (double)(r->wall / r->time_reached), (double)(r->wall / r->time_reached), (double)(r->wall / r->time_reached));
+    fprintf(fp, "set xrange [*:%.9g]\n", (double)(2 * r->wall / r->time_reached));
+  }
+  fprintf(fp, "$points << EOD\n");
   for (PetscInt i = 0; i < r->nruns; i++) fprintf(fp, "%.9g %.9g \"%s\"\n", (double)PetscMax(r->run[i].wall_per_second, 1e-9), (double)PetscMax(r->run[i].rel, 1e-9), r->run[i].label);
   fprintf(fp, "EOD\nset datafile separator whitespace\nplot $points using 1:2 with points pt 7 ps 1.5 notitle, '' using 1:2:3 with labels offset 1,1 left notitle\n");
   fclose(fp);
