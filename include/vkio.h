@@ -50,6 +50,11 @@ PETSC_EXTERN PetscErrorCode VKOutputBegin(const char path[], PetscBool text, VKO
 PETSC_EXTERN PetscErrorCode VKOutputCommit(VKOutput *);
 PETSC_EXTERN PetscErrorCode VKOutputAbandon(VKOutput *);
 /* Begin, write(ctx, out), then commit, or abandon if write fails. */
+/* PNG plots by gnuplot (rank 0 alone): write(ctx, fp, tmp) writes a script
+ * whose k-th plot goes to tmp[k]; on success each is renamed dir/names[k].
+ * A missing gnuplot or a failed plot prints a message, prefixed by who,
+ * and leaves no file (src/util/gnuplot.c). */
+PETSC_EXTERN PetscErrorCode VKGnuplot(const char who[], const char dir[], PetscInt n, const char *const names[], PetscErrorCode (*write)(void *ctx, FILE *fp, char tmp[][PETSC_MAX_PATH_LEN]), void *ctx);
 PETSC_EXTERN PetscErrorCode VKOutputWrite(const char path[], PetscBool text, PetscErrorCode (*write)(void *ctx, VKOutput *out), void *ctx);
 
 /* HDF5 file handle that remembers its name for error messages. */

@@ -148,43 +148,32 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   PetscFunctionReturn(0);
 }
 
-/* fit.png by gnuplot from fit.csv; a missing gnuplot is a warning. */
-static PetscErrorCode Plot(VKFit fit, const char dir[])
+/* The script of fit.png: loss against iteration and against wall time. */
+static PetscErrorCode PlotScript(void *ctx, FILE *fp, char png[][PETSC_MAX_PATH_LEN])
 {
-  PetscMPIInt rank;
-  char        script[PETSC_MAX_PATH_LEN], csv[PETSC_MAX_PATH_LEN], png[PETSC_MAX_PATH_LEN], cmd[3 * PETSC_MAX_PATH_LEN];
-  FILE       *fp;
-  int         st;
+  const char *csv = (const char *)ctx;
 
   PetscFunctionBegin;
-  PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
-  if (rank) PetscFunctionReturn(0);
-  if (system("command -v gnuplot > /dev/null 2>&1")) {
-    PetscCall(PetscPrintf(PETSC_COMM_SELF, "volknit fit: gnuplot not found, %s/fit.png not drawn (install gnuplot-nox)\n", dir));
-    PetscFunctionReturn(0);
-  }
-  PetscCall(VKPathJoin(dir, "fit.csv", csv, sizeof(csv)));
-  PetscCall(VKPathJoin(dir, ".fit.png.tmp", png, sizeof(png)));
-  PetscCall(VKPathJoin(dir, ".fit.gp", script, sizeof(script)));
-  fp = fopen(script, "w");
-  PetscCheck(fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "Cannot write %s", script);
-  fprintf(fp, "set terminal pngcairo size 1200,500 noenhanced\nset output '%s'\nset datafile separator ','\nset key top right\nset logscale y\nset format y '%%.0e'\nset grid\nset multiplot layout 1,2 title 'volknit fit: %s'\n", png, csv);
+  fprintf(fp, "set terminal pngcairo size 1200,500 noenhanced\nset output '%s'\nset datafile separator ','\nset key top right\nset logscale y\nset format y '%%.0e'\nset grid\nset multiplot layout 1,2 title 'volknit fit: %s'\n", png[0], csv);
   fprintf(fp, "set xlabel 'iteration (all samples and stages)'\nset ylabel 'loss'\n");
   fprintf(fp, "plot '%s' every ::1 using 0:(strcol(3) eq 'GD' ? $5 : 1/0) with points pt 7 ps 0.6 title 'gradient descent', '' every ::1 using 0:(strcol(3) eq 'GN' ? $5 : 1/0) with points pt 5 ps 0.6 title 'Gauss-Newton'\n", csv);
   fprintf(fp, "set xlabel 'wall time (s)'\n");
   fprintf(fp, "plot '%s' every ::1 using 9:(strcol(3) eq 'GD' ? $5 : 1/0) with points pt 7 ps 0.6 title 'gradient descent', '' every ::1 using 9:(strcol(3) eq 'GN' ? $5 : 1/0) with points pt 5 ps 0.6 title 'Gauss-Newton'\nunset multiplot\n", csv);
-  fclose(fp);
-  PetscCall(PetscSNPrintf(cmd, sizeof(cmd), "gnuplot '%s' 2>&1", script));
-  st = system(cmd);
-  (void)remove(script);
-  if (st) {
-    (void)remove(png);
-    PetscCall(PetscPrintf(PETSC_COMM_SELF, "volknit fit: gnuplot failed (status %d), %s/fit.png not drawn\n", st, dir));
-  } else {
-    char final[PETSC_MAX_PATH_LEN];
-    PetscCall(VKPathJoin(dir, "fit.png", final, sizeof(final)));
-    PetscCheck(!rename(png, final), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "Cannot rename %s to %s", png, final);
-  }
+  PetscFunctionReturn(0);
+}
+
+/* fit.png by gnuplot from fit.csv, on rank 0; a missing gnuplot is a message. */
+static PetscErrorCode Plot(VKFit fit, const char dir[])
+{
+  const char *const names[] = {"fit.png"};
+  PetscMPIInt       rank;
+  char              csv[PETSC_MAX_PATH_LEN];
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
+  if (rank) PetscFunctionReturn(0);
+  PetscCall(VKPathJoin(dir, "fit.csv", csv, sizeof(csv)));
+  PetscCall(VKGnuplot("volknit fit", dir, 1, names, PlotScript, csv));
   PetscFunctionReturn(0);
 }
 

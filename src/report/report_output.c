@@ -98,27 +98,15 @@ static PetscErrorCode WriteMarkdown(void *ctx, VKOutput *out)
   PetscFunctionReturn(0);
 }
 
-/* The two plots, by gnuplot from report.csv; a missing gnuplot or a failed
- * plot is reported and leaves no file. */
-static PetscErrorCode Plots(VKReport r, const char dir[])
+/* The script of the two plots, from report.csv. */
+static PetscErrorCode PlotScript(void *ctx, FILE *fp, char png[][PETSC_MAX_PATH_LEN])
 {
-  char  csv[PETSC_MAX_PATH_LEN], script[PETSC_MAX_PATH_LEN], png[2][PETSC_MAX_PATH_LEN], fin[2][PETSC_MAX_PATH_LEN], cmd[2 * PETSC_MAX_PATH_LEN];
-  FILE *fp;
-  int   st;
+  VKReport  r = (VKReport)ctx;
+  char      csv[PETSC_MAX_PATH_LEN];
+  PetscReal yls = r->wall / r->time_reached;
 
   PetscFunctionBegin;
-  if (system("command -v gnuplot > /dev/null 2>&1")) {
-    PetscCall(PetscPrintf(PETSC_COMM_SELF, "volknit report: gnuplot not found, the plots are not drawn (install gnuplot-nox)\n"));
-    PetscFunctionReturn(0);
-  }
-  PetscCall(VKPathJoin(dir, "report.csv", csv, sizeof(csv)));
-  PetscCall(VKPathJoin(dir, ".report.gp", script, sizeof(script)));
-  PetscCall(VKPathJoin(dir, ".report_error.png.tmp", png[0], sizeof(png[0])));
-  PetscCall(VKPathJoin(dir, ".report_tradeoff.png.tmp", png[1], sizeof(png[1])));
-  PetscCall(VKPathJoin(dir, "report_error.png", fin[0], sizeof(fin[0])));
-  PetscCall(VKPathJoin(dir, "report_tradeoff.png", fin[1], sizeof(fin[1])));
-  fp = fopen(script, "w");
-  PetscCheck(fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "Cannot write %s", script);
+  PetscCall(VKPathJoin(r->outdir, "report.csv", csv, sizeof(csv)));
   fprintf(fp, "set terminal pngcairo size 900,600 noenhanced\nset datafile separator ','\nset grid\nset key outside right\n");
   fprintf(fp, "set output '%s'\nset title 'scene %s: embedded yarns against the yarn-level run'\nset xlabel 'time (s)'\nset ylabel 'RMS error (yarn radii)'\nplot ", png[0], r->scene);
   for (PetscInt i = 0; i < r->nruns; i++) {
@@ -128,21 +116,12 @@ static PetscErrorCode Plots(VKReport r, const char dir[])
   fprintf(fp, ", '' every ::1 using 2:(strcol(1) eq '%s' ? $5 : 1/0) with lines lc rgb 'gray' title 'displacement from rest'\n", r->run[0].label);
   fprintf(fp, "set output '%s'\nset title 'scene %s: error against cost'\nset logscale xy\nset xlabel 'wall time per simulated second (s)'\nset ylabel 'REL'\n", png[1], r->scene);
   if (r->wall > 0) { /* the yarn-level cost, when its file records it */
-    fprintf(fp, "set arrow from %.9g, graph 0 to %.9g, graph 1 nohead lc rgb 'red'\nset label 'yarn-level' at %.9g, graph 0.95 right offset -0.5,0 tc rgb 'red'\n", (double)(r->wall / r->time_reached), (double)(r->wall / r->time_reached), (double)(r->wall / r->time_reached));
-    fprintf(fp, "set xrange [*:%.9g]\n", (double)(2 * r->wall / r->time_reached));
+    fprintf(fp, "set arrow from %.9g, graph 0 to %.9g, graph 1 nohead lc rgb 'red'\nset label 'yarn-level' at %.9g, graph 0.95 right offset -0.5,0 tc rgb 'red'\n", (double)yls, (double)yls, (double)yls);
+    fprintf(fp, "set xrange [*:%.9g]\n", (double)(2 * yls));
   }
   fprintf(fp, "$points << EOD\n");
   for (PetscInt i = 0; i < r->nruns; i++) fprintf(fp, "%.9g %.9g \"%s\"\n", (double)PetscMax(r->run[i].wall_per_second, 1e-9), (double)PetscMax(r->run[i].rel, 1e-9), r->run[i].label);
   fprintf(fp, "EOD\nset datafile separator whitespace\nplot $points using 1:2 with points pt 7 ps 1.5 notitle, '' using 1:2:3 with labels offset 1,1 left notitle\n");
-  fclose(fp);
-  PetscCall(PetscSNPrintf(cmd, sizeof(cmd), "gnuplot '%s' > /dev/null 2>&1", script));
-  st = system(cmd);
-  (void)remove(script);
-  for (int k = 0; k < 2; k++) {
-    if (st) (void)remove(png[k]);
-    else PetscCheck(!rename(png[k], fin[k]), PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "Cannot rename %s to %s", png[k], fin[k]);
-  }
-  if (st) PetscCall(PetscPrintf(PETSC_COMM_SELF, "volknit report: gnuplot failed (status %d), the plots are not drawn\n", st));
   PetscFunctionReturn(0);
 }
 
@@ -164,7 +143,11 @@ PetscErrorCode VKReportWrite(VKReport r, const char dir[])
     if (!ierr) ierr = VKOutputWrite(path, PETSC_TRUE, WriteJSON, r);
     if (!ierr) ierr = VKPathJoin(dir, "report.md", path, sizeof(path));
     if (!ierr) ierr = VKOutputWrite(path, PETSC_TRUE, WriteMarkdown, r);
-    if (!ierr) ierr = Plots(r, dir);
+    if (!ierr) {
+      const char *const names[] = {"report_error.png", "report_tradeoff.png"};
+      r->outdir = dir;
+      ierr      = VKGnuplot("volknit report", dir, 2, names, PlotScript, r);
+    }
     PetscCall(PetscPopErrorHandler());
   }
   PetscCall(VKCollective(r->comm, ierr, "Writing the report"));

@@ -18,6 +18,7 @@ struct _n_VKReport {
   PetscInt  ny, nseg;
   PetscReal *mass, *x0, *n1; /* yarn vertex masses, frame 0, normals (work) */
   PetscReal radius, wall, time_reached;
+  const char *outdir; /* where VKReportWrite writes (for the plot script) */
 };
 
 /* The shape-fit floor on one run's mesh. */
