@@ -1,8 +1,11 @@
 /* vkmaterial.h: the homogenized material (DESIGN §6, paper Eq. 7-8, 26).
  * Per tet  E_e = V_e psi(F_e),  psi = g_s |F - R(F)|^2 + g_v |F - V(F)|^2
  * with F = U Sigma W^T the signed SVD (U, W rotations, s1 >= s2 >= |s3|,
- * s3 < 0 for an inverted tet), R = U W^T and V = U diag(shat) W^T, shat the
- * closest point to Sigma on {s1 s2 s3 = 1, s_i >= 0.01}.  Point kernels
+ * s3 < 0 for an inverted tet), R = U diag(c) W^T with c_i = clamp(s_i, lo,
+ * hi) for the stretch band [lo, hi] (the paper's R = U W^T for the default
+ * band [1, 1]; a wider band lets a tet stretch or shrink freely inside it,
+ * strain limiting after Bouaziz et al. 2014 §5) and V = U diag(shat) W^T,
+ * shat the closest point to Sigma on {s1 s2 s3 = 1, s_i >= 0.01}.  Point kernels
  * (one F), element kernels (one tet) and assembly over the distributed
  * mesh into PETSc Vec/Mat objects.  Matrices are row-major, vec(F) index
  * 3 r + c. */
@@ -36,19 +39,27 @@ PETSC_EXTERN PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProject
 /* The same without J (the PD local step). */
 PETSC_EXTERN PetscErrorCode VKProjectVolumeValue(const PetscReal s[], VKVolumeProjection *);
 
+/* The stretch band: 0 < lo <= 1 <= hi.  Kernels take a pointer, NULL for
+ * the paper's [1, 1]. */
+typedef struct {
+  PetscReal lo, hi;
+} VKStretchBand;
+
 /* Everything psi needs at one F. */
 typedef struct {
   VKSVD3             svd;
   VKVolumeProjection proj;
+  PetscReal          c[3];      /* singular values of R: s clamped into the band */
+  PetscBool          inband[3]; /* lo < s_i < hi (dc_i/ds_i = 1) */
   PetscReal          R[9], V[9];
   PetscReal          psi_s, psi_v; /* |F - R|^2, |F - V|^2 */
 } VKPsiState;
-PETSC_EXTERN PetscErrorCode VKPsiEvaluate(const PetscReal F[], VKPsiState *);
+PETSC_EXTERN PetscErrorCode VKPsiEvaluate(const PetscReal F[], const VKStretchBand *, VKPsiState *);
 /* The same without d shat/ds (enough for psi, R, V and the gradient), the
  * SVD warm-started from W0 (NULL: cold). */
-PETSC_EXTERN PetscErrorCode VKPsiProject(const PetscReal F[], const PetscReal W0[], VKPsiState *);
+PETSC_EXTERN PetscErrorCode VKPsiProject(const PetscReal F[], const PetscReal W0[], const VKStretchBand *, VKPsiState *);
 /* n <= VK_SVD3_BATCH of them at once (F, W0: 9 n entries; W0 may be NULL). */
-PETSC_EXTERN PetscErrorCode VKPsiProjectBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKPsiState st[]);
+PETSC_EXTERN PetscErrorCode VKPsiProjectBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], const VKStretchBand *, VKPsiState st[]);
 /* dpsi/dF = 2 g_s (F - R) + 2 g_v (F - V) */
 PETSC_EXTERN void VKPsiGradient(const VKPsiState *, const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[]);
 /* d2psi/dF2 (81 entries) from the analytic eigensystem of isotropic
@@ -61,7 +72,7 @@ PETSC_EXTERN void VKTetDeformation(const PetscReal G[], const PetscReal X[], Pet
 /* Element energy V psi, gradient (12: node a, coordinate r at 3 a + r),
  * Hessian (144, optional), and the gradient's derivatives by g_s and g_v
  * (12 x 2, column-major: dgdg[0..11] for g_s, [12..23] for g_v; optional). */
-PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[]);
+PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], const VKStretchBand *, PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[]);
 
 /* The local step of projective dynamics (DESIGN §7) for n <= VK_SVD3_BATCH
  * consecutive tets (their G, vol, gamma and W as stored per tet, X and rhs
@@ -69,7 +80,7 @@ PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, co
  * side, rhs[3a + r] = 2 V sum_c (g_s R + g_v V)_rc G_ca, and det F.
  * gamma holds g_s, g_v per tet.  W (optional, in and out) is each tet's
  * right singular rotation from the last call, the warm start of the SVD. */
-PETSC_EXTERN PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal gamma[], PetscReal W[], PetscReal E[], PetscReal rhs[], PetscReal det[]);
+PETSC_EXTERN PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const VKStretchBand *, const PetscReal gamma[], PetscReal W[], PetscReal E[], PetscReal rhs[], PetscReal det[]);
 
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;
@@ -77,18 +88,23 @@ struct _n_VKMaterial {
   MPI_Comm  comm;
   VKMesh    mesh;
   PetscReal gamma_s, gamma_v;            /* uniform values */
+  VKStretchBand band;                    /* one for the whole mesh (-mat_band) */
+  PetscBool     band_set;                /* given as an option: a file's band must agree */
   char      file[PETSC_MAX_PATH_LEN];    /* per-element values (-mat_file) */
   PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v */
   PetscBool setup;
 };
 PETSC_EXTERN PetscErrorCode VKMaterialCreate(VKMesh, VKMaterial *);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUniform(VKMaterial, PetscReal gs, PetscReal gv);
+/* The stretch band, 0 < lo <= 1 <= hi (default [1, 1]: the paper's ARAP). */
+PETSC_EXTERN PetscErrorCode VKMaterialSetStretchBand(VKMaterial, PetscReal lo, PetscReal hi);
 PETSC_EXTERN PetscErrorCode VKMaterialSetFromOptions(VKMaterial);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUp(VKMaterial);
 PETSC_EXTERN PetscErrorCode VKMaterialView(VKMaterial, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKMaterialDestroy(VKMaterial *);
 /* material.h5: g_s, g_v per tet with the tet's voxel and Kuhn index, so a
- * file written for one partition reads into any other. */
+ * file written for one partition reads into any other, and the stretch
+ * band (files without one: [1, 1]). */
 PETSC_EXTERN PetscErrorCode VKMaterialWriteH5(VKMaterial, const char path[]);
 PETSC_EXTERN PetscErrorCode VKMaterialLoadH5(VKMaterial, const char path[]);
 

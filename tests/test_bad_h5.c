@@ -174,6 +174,9 @@ int main(int argc, char **argv)
     {"material.h5", "/material/kuhn",   NULL,       SET_INT,     0,  -1,         "which this mesh does not have"         },
     {"material.h5", "/material/gamma",  NULL,       RESHAPE,     2,  0,          "holds 4 tets"                          },
     {"material.h5", "/material/voxel",  NULL,       DROP,        0,  0,          "dataset /material/voxel is missing"    },
+    {"material.h5", "/material/band",   NULL,       SET_REAL,    1,  0.5,        "must be one pair lo,hi"                },
+    {"material.h5", "/material/band",   NULL,       SET_REAL,    0,  NAN,        "must be one pair lo,hi"                },
+    {"material.h5", "/material/band",   NULL,       RESHAPE,     2,  0,          "got 4 rows"                            },
     {"material.h5", "/material",        "format",   ATTR_STRING, 0,  0,          "expected 'volknit-material 1'"         }
   };
 

@@ -9,7 +9,11 @@
  * exactly degenerate, inverted, clamped and strongly inflated F; H
  * symmetric; the PSD projection leaves a PSD H alone and makes any H PSD;
  * P is linear in (g_s, g_v); the batched kernel of the PD local step
- * equals the one-tet path lane by lane. */
+ * equals the one-tet path lane by lane.  The stretch band [lo, hi]: the
+ * band [1, 1] is the paper's material exactly, R = F and psi_s = 0 while
+ * every singular value lies in the band, psi_s known for one outside it,
+ * and the same Taylor, symmetry, PSD and batch checks with singular values
+ * inside, above and below the band. */
 #include <vkmaterial.h>
 #include "vktest.h"
 
@@ -160,10 +164,10 @@ static PetscErrorCode TestProjection(void)
     PetscReal  F[9], a = 0.6 + 0.8 * (Rand() + 1), b = 0.5 + Rand() * 0.3 + 0.5;
     VKPsiState st;
     WithSingularValues(a, b, 1 / (a * b), F);
-    PetscCall(VKPsiEvaluate(F, &st));
+    PetscCall(VKPsiEvaluate(F, NULL, &st));
     for (int i = 0; i < 9; i++) repro = PetscMax(repro, PetscAbsReal(st.V[i] - F[i]));
     WithSingularValues(1, 1, 1, F);
-    PetscCall(VKPsiEvaluate(F, &st));
+    PetscCall(VKPsiEvaluate(F, NULL, &st));
     for (int i = 0; i < 9; i++) rot = PetscMax(rot, PetscAbsReal(st.R[i] - F[i]) + PetscAbsReal(st.V[i] - F[i]));
     rot = PetscMax(rot, st.psi_s + st.psi_v);
   }
@@ -196,17 +200,20 @@ static PetscErrorCode TestProjection(void)
   PetscFunctionReturn(0);
 }
 
+/* The stretch band of the derivative and batch checks (NULL: [1, 1]). */
+static const VKStretchBand *band;
+
 static PetscReal Psi(const PetscReal F[], PetscReal gs, PetscReal gv)
 {
   VKPsiState st;
-  VKPsiEvaluate(F, &st);
+  VKPsiEvaluate(F, band, &st);
   return gs * st.psi_s + gv * st.psi_v;
 }
 
 static void Grad(const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[])
 {
   VKPsiState st;
-  VKPsiEvaluate(F, &st);
+  VKPsiEvaluate(F, band, &st);
   VKPsiGradient(&st, F, gs, gv, P);
 }
 
@@ -222,7 +229,7 @@ static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal
     dF[i] = Rand();
     Fn    = PetscMax(Fn, PetscAbsReal(F[i]));
   }
-  PetscCall(VKPsiEvaluate(F, &st));
+  PetscCall(VKPsiEvaluate(F, band, &st));
   VKPsiGradient(&st, F, gs, gv, P);
   VKPsiHessian(&st, gs, gv, PETSC_FALSE, H);
   for (int i = 0; i < 9; i++) dpsi += P[i] * dF[i];
@@ -290,7 +297,7 @@ static PetscErrorCode TestBatch(void)
       if (t % 50 == 7 && l == n - 1) f[4] = (t % 100 == 7) ? PETSC_INFINITY : (PetscReal)NAN;
       RandomRotation(W0 + 9 * l);
     }
-    PetscCall(VKPsiProjectBatch(n, F, t % 2 ? W0 : NULL, st));
+    PetscCall(VKPsiProjectBatch(n, F, t % 2 ? W0 : NULL, band, st));
     for (PetscInt l = 0; l < n; l++) {
       VKPsiState one;
       PetscReal  scale = 1;
@@ -299,14 +306,14 @@ static PetscErrorCode TestBatch(void)
         nan_lanes += PetscIsNanReal(st[l].psi_v) && PetscIsNanReal(st[l].R[0]) && PetscIsNanReal(st[l].V[8]);
         continue;
       }
-      PetscCall(VKPsiEvaluate(F + 9 * l, &one));
+      PetscCall(VKPsiEvaluate(F + 9 * l, band, &one));
       for (int i = 0; i < 9; i++) scale = PetscMax(scale, PetscAbsReal(F[9 * l + i]));
       for (int i = 0; i < 9; i++) diff = PetscMax(diff, (PetscAbsReal(st[l].R[i] - one.R[i]) + PetscAbsReal(st[l].V[i] - one.V[i])) / scale);
       diff = PetscMax(diff, PetscAbsReal(st[l].psi_s - one.psi_s) / (scale * scale) + PetscAbsReal(st[l].psi_v - one.psi_v) / (scale * scale));
     }
   }
-  PetscCall(VKTestClose(diff, 0, 1e-12, "batched SVD + projection (warm and cold, 1-4 lanes, mixed kinds) equal one tet at a time"));
-  PetscCall(VKTestCheck((PetscBool)(nan_expected > 0 && nan_lanes == nan_expected), NULL, "batched kernel: a non-finite F gives NaN in its lane only (%d of %d)", (int)nan_lanes, (int)nan_expected));
+  PetscCall(VKTestCheck((PetscBool)(diff <= 1e-12), NULL, "batched SVD + projection (warm and cold, 1-4 lanes, mixed kinds) equal one tet at a time%s: %.1e", band ? ", stretch band" : "", (double)diff));
+  PetscCall(VKTestCheck((PetscBool)(nan_expected > 0 && nan_lanes == nan_expected), NULL, "batched kernel: a non-finite F gives NaN in its lane only (%d of %d)%s", (int)nan_lanes, (int)nan_expected, band ? ", stretch band" : ""));
   PetscFunctionReturn(0);
 }
 
@@ -335,7 +342,7 @@ static PetscErrorCode TestDerivatives(void)
     PetscReal  H[81], Hp[81], d = 0, n = 0;
     VKPsiState st;
     WithSingularValues(1.3, 1.2, 1.1, F);
-    PetscCall(VKPsiEvaluate(F, &st));
+    PetscCall(VKPsiEvaluate(F, NULL, &st));
     VKPsiHessian(&st, gs, gv, PETSC_FALSE, H);
     VKPsiHessian(&st, gs, gv, PETSC_TRUE, Hp);
     for (int i = 0; i < 81; i++) {
@@ -348,12 +355,66 @@ static PetscErrorCode TestDerivatives(void)
     PetscReal  P0[9], P1[9], err = 0, dgs = 0.37, dgv = -0.21, h = 10;
     VKPsiState st;
     WithSingularValues(1.4, 0.8, 0.6, F);
-    PetscCall(VKPsiEvaluate(F, &st));
+    PetscCall(VKPsiEvaluate(F, NULL, &st));
     VKPsiGradient(&st, F, gs, gv, P0);
     VKPsiGradient(&st, F, gs + h * dgs, gv + h * dgv, P1);
     for (int i = 0; i < 9; i++) err = PetscMax(err, PetscAbsReal(P1[i] - P0[i] - h * (dgs * 2 * (F[i] - st.R[i]) + dgv * 2 * (F[i] - st.V[i]))));
     PetscCall(VKTestClose(err, 0, 1e-12 * (gs + gv), "P(g + h dg) - P(g) = h dP/dg dg exactly (P linear in g_s, g_v)"));
   }
+  PetscFunctionReturn(0);
+}
+
+/* The stretch band [0.9, 1.5] (psi.c). */
+static PetscErrorCode TestStretchBand(void)
+{
+  const VKStretchBand arap = {1, 1}, wide = {0.9, 1.5};
+  PetscReal           F[9], gs = 1.3e3, gv = 0.7e3, same = 0, inside = 0;
+
+  PetscFunctionBegin;
+  for (int t = 0; t < 100; t++) { /* [1, 1] is the paper's material; inside the band nothing is stretched */
+    VKPsiState a, b;
+    for (int i = 0; i < 9; i++) F[i] = (i % 4 == 0) + 0.4 * Rand();
+    PetscCall(VKPsiEvaluate(F, NULL, &a));
+    PetscCall(VKPsiEvaluate(F, &arap, &b));
+    for (int i = 0; i < 9; i++) same = PetscMax(same, PetscAbsReal(a.R[i] - b.R[i]));
+    same = PetscMax(same, PetscAbsReal(a.psi_s - b.psi_s));
+    WithSingularValues(0.92 + 0.27 * (Rand() + 1), 0.92 + 0.27 * (Rand() + 1), 0.92 + 0.27 * (Rand() + 1), F); /* in [0.92, 1.46] */
+    PetscCall(VKPsiEvaluate(F, &wide, &b));
+    for (int i = 0; i < 9; i++) inside = PetscMax(inside, PetscAbsReal(b.R[i] - F[i]));
+    inside = PetscMax(inside, b.psi_s);
+  }
+  PetscCall(VKTestClose(same, 0, 0, "stretch band [1, 1]: R and psi_s identical to the paper's R = U W^T"));
+  PetscCall(VKTestClose(inside, 0, 1e-12, "stretch band [0.9, 1.5]: R = F and psi_s = 0 for singular values inside it"));
+  { /* s = (1.7, 1.2, 0.6): psi_s = (1.7 - 1.5)^2 + (0.6 - 0.9)^2 = 0.13, R's singular values (1.5, 1.2, 0.9) */
+    VKPsiState st;
+    PetscReal  RtR[9], tr = 0, want = 1.5 * 1.5 + 1.2 * 1.2 + 0.9 * 0.9;
+    WithSingularValues(1.7, 1.2, 0.6, F);
+    PetscCall(VKPsiEvaluate(F, &wide, &st));
+    for (int a = 0; a < 3; a++)
+      for (int b = 0; b < 3; b++) RtR[3 * a + b] = st.R[a] * st.R[b] + st.R[3 + a] * st.R[3 + b] + st.R[6 + a] * st.R[6 + b];
+    for (int a = 0; a < 3; a++) tr += RtR[4 * a];
+    PetscCall(VKTestClose(st.psi_s, 0.13, 1e-12, "stretch band [0.9, 1.5] at s = (1.7, 1.2, 0.6): psi_s = 0.13"));
+    PetscCall(VKTestClose(tr, want, 1e-12, "stretch band [0.9, 1.5] at s = (1.7, 1.2, 0.6): |R|^2 = 1.5^2 + 1.2^2 + 0.9^2"));
+  }
+  band = &wide;
+  WithSingularValues(1.7, 1.2, 0.6, F);
+  PetscCall(TaylorAt("band: s above, inside, below", F, gs, gv, 1e-3));
+  WithSingularValues(1.3, 1.1, 0.95, F);
+  PetscCall(TaylorAt("band: every s inside", F, gs, gv, 1e-3));
+  WithSingularValues(1.2, 1.2, 1.2, F);
+  PetscCall(TaylorAt("band: degenerate inside (s1 = s2 = s3)", F, gs, gv, 1e-3));
+  WithSingularValues(1.8, 1.8, 0.5, F);
+  PetscCall(TaylorAt("band: degenerate outside (s1 = s2 above)", F, gs, gv, 1e-3));
+  WithSingularValues(1.1, 0.95, -0.4, F);
+  PetscCall(TaylorAt("band: inverted F (s3 < 0)", F, gs, gv, 1e-3));
+  WithSingularValues(30, 20, 0.002, F);
+  PetscCall(TaylorAt("band: crushed F (projection clamp active)", F, gs, gv, 1e-3));
+  for (int t = 0; t < 3; t++) {
+    for (int i = 0; i < 9; i++) F[i] = (i % 4 == 0) + 0.3 * Rand();
+    PetscCall(TaylorAt("band: random F", F, gs, gv, 1e-3));
+  }
+  PetscCall(TestBatch());
+  band = NULL;
   PetscFunctionReturn(0);
 }
 
@@ -368,6 +429,7 @@ int main(int argc, char **argv)
   PetscCall(TestProjection());
   PetscCall(TestBatch());
   PetscCall(TestDerivatives());
+  PetscCall(TestStretchBand());
   PetscCall(PetscRandomDestroy(&rnd));
   {
     int rc = VKTestFinish();

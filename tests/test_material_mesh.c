@@ -8,7 +8,9 @@
  * zero energy and zero force; internal forces sum to zero (momentum); the
  * PSD-projected Hessian has no negative direction; energy and gradient
  * norm equal those of a one-rank, one-domain build; material.h5 written
- * from this partition reads back tet by tet into the one-rank mesh. */
+ * from this partition reads back tet by tet into the one-rank mesh; with a
+ * stretch band the same partition independence, exact J and a round trip
+ * of the band through material.h5. */
 #include <vkmaterial.h>
 #include <vkio.h>
 #include "vktest.h"
@@ -72,13 +74,52 @@ static PetscErrorCode Build(MPI_Comm comm, PetscInt domains, VKYarn *y, VKMesh *
   PetscFunctionReturn(0);
 }
 
+/* g(gamma + t dgamma) - g(gamma) = t J dgamma to round-off (g is linear in
+ * gamma) for the gradient g at x; J is created if *J is NULL. */
+static PetscErrorCode MaterialCheckGammaJacobian(VKMaterial mat, Vec x, Vec g, Mat *J)
+{
+  Vec       dgam, Jd, gt;
+  PetscReal err, gn, *save;
+  VKLayout *L = &mat->mesh->layout;
+
+  PetscFunctionBegin;
+  if (!*J) PetscCall(VKMaterialCreateGammaJacobian(mat, J));
+  PetscCall(VKMaterialGammaJacobian(mat, x, *J));
+  PetscCall(MatCreateVecs(*J, &dgam, &Jd));
+  PetscCall(VecDuplicate(g, &gt));
+  PetscCall(VecNorm(g, NORM_2, &gn));
+  PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &save));
+  {
+    PetscScalar *d;
+    PetscCall(VecGetArray(dgam, &d));
+    for (PetscInt e = 0; e < 2 * (L->eEnd - L->eStart); e++) {
+      d[e]    = 100 * PetscSinReal(0.37 * (PetscReal)(e + 2 * L->eStart));
+      save[e] = mat->gamma[e];
+      mat->gamma[e] += 3 * d[e];
+    }
+    PetscCall(VecRestoreArray(dgam, &d));
+  }
+  PetscCall(VKMaterialGradient(mat, x, gt));
+  PetscCall(PetscArraycpy(mat->gamma, save, 2 * (L->eEnd - L->eStart)));
+  PetscCall(MatMult(*J, dgam, Jd));
+  PetscCall(VecAXPY(gt, -1, g));
+  PetscCall(VecAXPY(gt, -3, Jd));
+  PetscCall(VecNorm(gt, NORM_INFINITY, &err));
+  PetscCall(VKTestCheck((PetscBool)(err <= 1e-12 * gn), NULL, "g(gamma + t dgamma) - g(gamma) = t (dg/dgamma) dgamma to round-off (%.1e |g|), stretch band [%g, %g]", (double)(err / gn), (double)mat->band.lo, (double)mat->band.hi));
+  PetscCall(PetscFree(save));
+  PetscCall(VecDestroy(&dgam));
+  PetscCall(VecDestroy(&Jd));
+  PetscCall(VecDestroy(&gt));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   VKYarn      y, ys;
   VKMesh      m, ms;
   VKMaterial  mat, mats;
   Vec         x, dx, xt, g, gt, Hdx, xs, gs;
-  Mat         H, J;
+  Mat         H, J = NULL;
   PetscReal   E, Et, gdx, re[8], rg[8], order, Es, gn, gsn, Escale;
   PetscMPIInt size;
   int         pairs;
@@ -121,35 +162,7 @@ int main(int argc, char **argv)
   order = VKTestTaylorOrder(8, rg, 1e-12 * gn, &pairs);
   PetscCall(VKTestCheck((PetscBool)(pairs >= 4 && order > 1.8), NULL, "assembled Taylor g -> H (exact Hessian): remainder order %.2f (%d pairs)", (double)order, pairs));
 
-  { /* gamma -> dg/dgamma: exact, g is linear in gamma */
-    Vec       dgam, Jd;
-    PetscReal err, *save;
-    VKLayout *L = &m->layout;
-    PetscCall(VKMaterialCreateGammaJacobian(mat, &J));
-    PetscCall(VKMaterialGammaJacobian(mat, x, J));
-    PetscCall(MatCreateVecs(J, &dgam, &Jd));
-    PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &save));
-    {
-      PetscScalar *d;
-      PetscCall(VecGetArray(dgam, &d));
-      for (PetscInt e = 0; e < 2 * (L->eEnd - L->eStart); e++) {
-        d[e]    = 100 * PetscSinReal(0.37 * (PetscReal)(e + 2 * L->eStart));
-        save[e] = mat->gamma[e];
-        mat->gamma[e] += 3 * d[e];
-      }
-      PetscCall(VecRestoreArray(dgam, &d));
-    }
-    PetscCall(VKMaterialGradient(mat, x, gt));
-    PetscCall(PetscArraycpy(mat->gamma, save, 2 * (L->eEnd - L->eStart)));
-    PetscCall(MatMult(J, dgam, Jd));
-    PetscCall(VecAXPY(gt, -1, g));
-    PetscCall(VecAXPY(gt, -3, Jd));
-    PetscCall(VecNorm(gt, NORM_INFINITY, &err));
-    PetscCall(VKTestCheck((PetscBool)(err <= 1e-12 * gn), NULL, "g(gamma + t dgamma) - g(gamma) = t (dg/dgamma) dgamma to round-off (%.1e |g|)", (double)(err / gn)));
-    PetscCall(PetscFree(save));
-    PetscCall(VecDestroy(&dgam));
-    PetscCall(VecDestroy(&Jd));
-  }
+  PetscCall(MaterialCheckGammaJacobian(mat, x, g, &J));
   { /* internal forces sum to zero: no momentum from elasticity */
     const PetscScalar *a;
     PetscReal          sum[3] = {0, 0, 0}, all[3], abs = 0, absall;
@@ -211,6 +224,40 @@ int main(int argc, char **argv)
       bad = PetscMax(bad, PetscAbsReal(ref[0] - mats->gamma[2 * ms->tet_of_kuhn[k]]) + PetscAbsReal(ref[1] - mats->gamma[2 * ms->tet_of_kuhn[k] + 1]));
     }
     PetscCall(VKTestCheck((PetscBool)(bad == 0), NULL, "material.h5 written with %d domains reads back tet by tet into a one-domain mesh", (int)m->ndomains));
+  }
+  { /* the stretch band [0.95, 1.1], which the deformation crosses: energy
+     * and |g| still partition-independent, J still exact, and material.h5
+     * carries the band into a material that has none, but not into one
+     * given another band */
+    PetscReal      Eb, Ebs, gb, gbs;
+    PetscErrorCode ierr;
+    VKMaterial     other;
+    PetscCall(VKMaterialSetStretchBand(mat, 0.95, 1.1));
+    PetscCall(VKMaterialEnergy(mat, x, &Eb));
+    PetscCall(VKMaterialGradient(mat, x, g));
+    PetscCall(VecNorm(g, NORM_2, &gb));
+    PetscCall(MaterialCheckGammaJacobian(mat, x, g, &J));
+    PetscCall(VKPathJoin(dir, "material_band.h5", path, sizeof(path)));
+    PetscCall(VKMaterialWriteH5(mat, path));
+    PetscCall(VKMaterialLoadH5(mats, path));
+    PetscCall(VKMaterialEnergy(mats, xs, &Ebs));
+    PetscCall(VKMaterialGradient(mats, xs, gs));
+    PetscCall(VecNorm(gs, NORM_2, &gbs));
+    PetscCall(VKTestCheck((PetscBool)(mats->band.lo == 0.95 && mats->band.hi == 1.1), NULL, "material.h5 carries the stretch band (read back [%g, %g])", (double)mats->band.lo, (double)mats->band.hi));
+    PetscCall(VKTestCheck((PetscBool)(Eb < E && PetscAbsReal(Eb - Ebs) <= 1e-12 * Ebs && PetscAbsReal(gb - gbs) <= 1e-12 * gbs), NULL, "stretch band: energy below the paper material's (%.6g < %.6g), energy and |g| equal one rank's after the round trip", (double)Eb, (double)E));
+    PetscCall(VKMaterialCreate(ms, &other));
+    PetscCall(VKMaterialSetStretchBand(other, 0.9, 1.2));
+    other->band_set = PETSC_TRUE; /* as -mat_band would */
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = VKMaterialLoadH5(other, path);
+    PetscCall(PetscPopErrorHandler());
+    {
+      const char *text;
+      char       *spec = NULL;
+      if (ierr) PetscErrorMessage(ierr, &text, &spec);
+      PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, "conflicts with the band")), spec, "a material.h5 fitted with one band is refused where -mat_band gives another"));
+    }
+    PetscCall(VKMaterialDestroy(&other));
   }
   PetscCall(VecDestroy(&xs));
   PetscCall(VecDestroy(&gs));

@@ -52,7 +52,7 @@ PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], Ee;
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, &Ee, NULL, NULL, NULL));
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, &Ee, NULL, NULL, NULL));
     VKSumAdd(&sum, Ee);
   }
   PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
@@ -77,7 +77,7 @@ PetscErrorCode VKMaterialGradient(VKMaterial m, Vec x, Vec g)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], ge[12];
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, ge, NULL, NULL));
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, ge, NULL, NULL));
     VKLayoutAddTet(L, e, ge, ga);
   }
   PetscCall(VecRestoreArray(glocal, &ga));
@@ -101,7 +101,7 @@ PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], He[144];
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], psd, NULL, NULL, He, NULL));
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], psd, NULL, NULL, He, NULL));
     PetscCall(MatSetValuesBlockedLocal(H, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, He, ADD_VALUES));
   }
   PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
@@ -153,7 +153,7 @@ PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
     PetscReal X[12], dgdg[24], vals[24];
     PetscInt  rows[12], cols[2] = {2 * (L->eStart + e), 2 * (L->eStart + e) + 1};
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
+    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
     for (int k = 0; k < 4; k++)
       for (int r = 0; r < 3; r++) {
         rows[3 * k + r]         = 3 * mesh->tet[4 * (L->eStart + e) + k] + r;

@@ -4,6 +4,7 @@
  *   /material/gamma   n_E x 2   g_s, g_v (Pa) in mesh.h5's tet order
  *   /material/voxel   n_E x 3   grid coordinates of the tet's voxel
  *   /material/kuhn    n_E x 1   Kuhn tet 0..5 inside the voxel
+ *   /material/band    1 x 2     stretch band lo, hi (-mat_band; absent: 1, 1)
  * Tets are matched through (voxel, Kuhn index), so a file written with one
  * partition reads into a mesh with any other. */
 #include <vkmaterial.h>
@@ -23,6 +24,7 @@ PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
   m->mesh    = mesh;
   m->gamma_s = NOMINAL_GAMMA;
   m->gamma_v = NOMINAL_GAMMA;
+  m->band.lo = m->band.hi = 1;
   *mat       = m;
   PetscFunctionReturn(0);
 }
@@ -46,9 +48,19 @@ PetscErrorCode VKMaterialSetUniform(VKMaterial m, PetscReal gs, PetscReal gv)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKMaterialSetStretchBand(VKMaterial m, PetscReal lo, PetscReal hi)
+{
+  PetscFunctionBegin;
+  PetscCheck(lo > 0 && lo <= 1 && hi >= 1 && hi < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_band %g,%g: the stretch band needs 0 < lo <= 1 <= hi < inf (1,1 is the paper's ARAP)", (double)lo, (double)hi);
+  m->band.lo = lo;
+  m->band.hi = hi;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
 {
-  PetscReal gs = m->gamma_s, gv = m->gamma_v;
+  PetscReal gs = m->gamma_s, gv = m->gamma_v, band[2] = {m->band.lo, m->band.hi};
+  PetscInt  nband = 2;
   PetscBool set;
 
   PetscFunctionBegin;
@@ -56,6 +68,9 @@ PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
   PetscCall(PetscOptionsReal("-mat_gamma_s", "Uniform stretch stiffness g_s of psi = g_s |F-R|^2 + g_v |F-V|^2, Pa", "VKMaterialSetUniform", gs, &gs, NULL));
   PetscCall(PetscOptionsReal("-mat_gamma_v", "Uniform volume stiffness g_v, Pa", "VKMaterialSetUniform", gv, &gv, NULL));
   PetscCall(VKMaterialSetUniform(m, gs, gv));
+  PetscCall(PetscOptionsRealArray("-mat_band", "Stretch band lo,hi: singular values of F inside it cost no g_s energy (1,1: the paper's |F - R|^2 with R a rotation)", "VKMaterialSetStretchBand", band, &nband, &m->band_set));
+  PetscCheck(!m->band_set || nband == 2, m->comm, PETSC_ERR_ARG_WRONG, "-mat_band takes two values lo,hi; got %d", (int)nband);
+  PetscCall(VKMaterialSetStretchBand(m, band[0], band[1]));
   PetscCall(PetscOptionsString("-mat_file", "Per-element material (material.h5 of volknit fit)", "VKMaterialLoadH5", m->file, m->file, sizeof(m->file), &set));
   PetscOptionsEnd();
   PetscFunctionReturn(0);
@@ -94,6 +109,8 @@ PetscErrorCode VKMaterialView(VKMaterial m, PetscViewer viewer)
   PetscCallMPI(MPI_Allreduce(lo, glo, 2, MPIU_REAL, MPI_MIN, m->comm));
   PetscCallMPI(MPI_Allreduce(hi, ghi, 2, MPIU_REAL, MPI_MAX, m->comm));
   PetscCall(PetscViewerASCIIPrintf(viewer, "Material: psi = g_s |F - R|^2 + g_v |F - V|^2, %s\n", m->file[0] ? m->file : "uniform"));
+  if (m->band.lo == 1 && m->band.hi == 1) PetscCall(PetscViewerASCIIPrintf(viewer, "  R = U W^T (stretch band [1, 1], the paper's ARAP)\n"));
+  else PetscCall(PetscViewerASCIIPrintf(viewer, "  R = U diag(clamp(s, %g, %g)) W^T (stretch band)\n", (double)m->band.lo, (double)m->band.hi));
   PetscCall(PetscViewerASCIIPrintf(viewer, "  g_s in [%g, %g] Pa, g_v in [%g, %g] Pa\n", (double)glo[0], (double)ghi[0], (double)glo[1], (double)ghi[1]));
   PetscFunctionReturn(0);
 }
@@ -113,6 +130,7 @@ static PetscErrorCode TetVoxels(VKMesh mesh, PetscInt voxel[], PetscInt kuhn[])
 typedef struct {
   VKMesh           mesh;
   const PetscReal *gamma; /* all tets, rank 0 */
+  VKStretchBand    band;
 } WriteCtx;
 
 static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
@@ -138,6 +156,10 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
   }
   if (!ierr) ierr = VKH5WriteInt(&h, "/material/voxel", w->mesh->ne, 3, voxel);
   if (!ierr) ierr = VKH5WriteInt(&h, "/material/kuhn", w->mesh->ne, 1, kuhn);
+  if (!ierr) {
+    PetscReal band[2] = {w->band.lo, w->band.hi};
+    ierr              = VKH5WriteReal(&h, "/material/band", 1, 2, band);
+  }
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "units", "Pa");
   if (!ierr) ierr = VKH5WriteAttrReal(&h, "/material", "h", w->mesh->grid.h);
@@ -170,7 +192,7 @@ PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
   }
   PetscCallMPI(MPI_Gatherv(m->gamma, n, MPIU_REAL, all, counts, displs, MPIU_REAL, 0, m->comm));
   if (rank == 0) {
-    WriteCtx w = {mesh, all};
+    WriteCtx w = {mesh, all, m->band};
     ierr       = VKOutputWrite(path, PETSC_FALSE, WriteMaterial, &w);
     PetscCall(PetscFree2(counts, displs));
     PetscCall(PetscFree(all));
@@ -185,7 +207,8 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   VKLayout  *L    = &mesh->layout;
   VKH5       h;
   PetscInt   n, nv = 0, nk = 0, *voxel = NULL, *kuhn = NULL, *seen = NULL;
-  PetscReal *gamma = NULL;
+  PetscReal *gamma = NULL, *band = NULL;
+  PetscBool  hasband = PETSC_FALSE;
   char       format[64];
   PetscErrorCode ierr;
 
@@ -196,7 +219,19 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   if (!ierr) ierr = VKH5ReadReal(&h, "/material/gamma", 2, &n, &gamma);
   if (!ierr) ierr = VKH5ReadInt(&h, "/material/voxel", 3, &nv, &voxel);
   if (!ierr) ierr = VKH5ReadInt(&h, "/material/kuhn", 1, &nk, &kuhn);
+  if (!ierr) ierr = VKH5HasDataset(&h, "/material/band", &hasband);
+  if (!ierr && hasband) {
+    PetscInt nb;
+    ierr = VKH5ReadReal(&h, "/material/band", 2, &nb, &band);
+    if (!ierr && !(nb == 1 && band[0] > 0 && band[0] <= 1 && band[1] >= 1 && band[1] < PETSC_INFINITY)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/band must be one pair lo,hi with 0 < lo <= 1 <= hi, got %d rows starting %g,%g", path, (int)nb, nb > 0 ? (double)band[0] : 0.0, nb > 0 ? (double)band[1] : 0.0);
+  }
   VKH5Close(&h);
+  if (!ierr) {
+    PetscReal lo = band ? band[0] : 1, hi = band ? band[1] : 1;
+    if (m->band_set && (lo != m->band.lo || hi != m->band.hi)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_band %g,%g conflicts with the band %g,%g of %s (the band the material was fitted with; leave -mat_band out)", (double)m->band.lo, (double)m->band.hi, (double)lo, (double)hi, path);
+    m->band.lo = lo;
+    m->band.hi = hi;
+  }
   if (!ierr && !(n == mesh->ne && nv == n && nk == n)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s holds %d tets (voxels %d, Kuhn indices %d); the mesh has %d", path, (int)n, (int)nv, (int)nk, (int)mesh->ne);
   if (!ierr) ierr = PetscCalloc1(mesh->ne, &seen);
   for (PetscInt i = 0; i < n && !ierr; i++) {
@@ -221,6 +256,7 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   }
   PetscCall(PetscFree(seen));
   PetscCall(PetscFree(gamma));
+  PetscCall(PetscFree(band));
   PetscCall(PetscFree(voxel));
   PetscCall(PetscFree(kuhn));
   PetscCall(ierr);

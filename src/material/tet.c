@@ -5,7 +5,8 @@
  *   dE/dX_ar = V sum_c P_rc G_ca   (P = dpsi/dF),
  *   d2E/dX_ar dX_bq = V sum_cd H_(rc)(qd) G_ca G_db,
  * and the columns of dg/dgamma (paper Eq. 15-16): the gradient with
- * P replaced by 2 (F - R) for g_s and by 2 (F - V) for g_v. */
+ * P replaced by 2 (F - R) for g_s and by 2 (F - V) for g_v.  R is the
+ * stretch band's target (psi.c). */
 #include <vkmaterial.h>
 
 void VKTetDeformation(const PetscReal G[], const PetscReal X[], PetscReal F[])
@@ -21,15 +22,15 @@ static void NodalForce(const PetscReal G[], PetscReal vol, const PetscReal P[], 
     for (int r = 0; r < 3; r++) out[3 * a + r] = vol * (P[3 * r] * G[a] + P[3 * r + 1] * G[4 + a] + P[3 * r + 2] * G[8 + a]);
 }
 
-PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[])
+PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], const VKStretchBand *band, PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[])
 {
   PetscReal  F[9], P[9];
   VKPsiState st;
 
   PetscFunctionBegin;
   VKTetDeformation(G, X, F);
-  if (H) PetscCall(VKPsiEvaluate(F, &st));
-  else PetscCall(VKPsiProject(F, NULL, &st)); /* d shat/ds only for the Hessian */
+  if (H) PetscCall(VKPsiEvaluate(F, band, &st));
+  else PetscCall(VKPsiProject(F, NULL, band, &st)); /* d shat/ds only for the Hessian */
   if (E) *E = vol * (gs * st.psi_s + gv * st.psi_v);
   if (g) {
     VKPsiGradient(&st, F, gs, gv, P);
@@ -57,7 +58,7 @@ PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal gamma[], PetscReal W[], PetscReal E[], PetscReal rhs[], PetscReal det[])
+PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const VKStretchBand *band, const PetscReal gamma[], PetscReal W[], PetscReal E[], PetscReal rhs[], PetscReal det[])
 {
   PetscReal  F[9 * VK_SVD3_BATCH] = {0}, P[9];
   VKPsiState st[VK_SVD3_BATCH];
@@ -65,7 +66,7 @@ PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol
   PetscFunctionBegin;
   PetscCheck(n >= 0 && n <= VK_SVD3_BATCH, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "At most %d tets at once, got %d", VK_SVD3_BATCH, (int)n);
   for (PetscInt l = 0; l < n; l++) VKTetDeformation(G + 12 * l, X + 12 * l, F + 9 * l);
-  PetscCall(VKPsiProjectBatch(n, F, W, st));
+  PetscCall(VKPsiProjectBatch(n, F, W, band, st));
   for (PetscInt l = 0; l < n; l++) {
     PetscReal gs = gamma[2 * l], gv = gamma[2 * l + 1];
     if (W)
