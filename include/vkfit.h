@@ -130,6 +130,7 @@ struct _n_VKFit {
   Mat       JJT;  /* J J^T, the reduced KKT form's (2,2) block */
   PetscBool kkt_reduced; /* -fit_kkt_reduced */
   KSP       kkkt; /* prefix -fit_kkt_ */
+  PetscInt  kkt_workspace; /* MUMPS ICNTL(14) of its factorization, percent (raised after a failure, kkt.c) */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
   PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2];
@@ -231,6 +232,8 @@ PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec g
 /* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
  * g_v in gamma. */
 PETSC_EXTERN PetscErrorCode VKFitSetGammaFloor(VKFit, Vec gamma);
+/* The fractions of the tets whose g_s and whose g_v sit on the floor. */
+PETSC_EXTERN PetscErrorCode VKFitGammaAtFloor(VKFit, Vec gamma, PetscReal fraction[2]);
 
 /* ---- yarn-level data (data.c) ------------------------------------------- */
 typedef enum { VK_FIT_SAMPLE_BY_ENERGY, VK_FIT_SAMPLE_BY_EVEN } VKFitSampleBy;

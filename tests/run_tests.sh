@@ -184,8 +184,9 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
   ok
   for n in 1 2; do
     fit_dir "n$n"
-    if fit_run "n$n" "$n" && [ -s "$fd/n$n/material.h5" ] && [ -s "$fd/n$n/fit.csv" ] && [ -s "$fd/n$n/fit.json" ] && [ ! -e "$fd/n$n/fit_checkpoint.h5" ]; then ok
-    else not_ok "volknit fit -n $n: failed, an output missing, or the checkpoint left behind (see $fd/n$n.log)"; fi
+    if fit_run "n$n" "$n" && [ -s "$fd/n$n/material.h5" ] && [ -s "$fd/n$n/fit.csv" ] && [ -s "$fd/n$n/fit.json" ] && [ ! -e "$fd/n$n/fit_checkpoint.h5" ] \
+       && grep -q '"fraction_of_g_v_on_it"' "$fd/n$n/fit.json" && grep -q 'on the parameter floor: [0-9]*% of g_s' "$fd/n$n.log"; then ok
+    else not_ok "volknit fit -n $n: failed, an output or the parameter-floor report missing, or the checkpoint left behind (see $fd/n$n.log)"; fi
   done
   compare_material "$fd/ref/material.h5" "$fd/n1/material.h5" 1e-7 "volknit run -run_fit vs volknit fit"
   compare_material "$fd/n1/material.h5" "$fd/n2/material.h5" 1e-5 "1 vs 2 ranks"
@@ -193,6 +194,17 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
   fit_dir "uniform"
   if fit_run "uniform" 2 -fit_best_uniform && grep -q 'best uniform material g_s = g_v' "$fd/uniform.log" && grep -q '"best_uniform"' "$fd/uniform/fit.json" && [ -s "$fd/uniform/material.h5" ]; then ok
   else not_ok "volknit fit -fit_best_uniform: expected the search's line and best_uniform in fit.json (see $fd/uniform.log)"; fi
+  # the stretch band material (-mat_band): fitted, carried by material.h5 into
+  # volknit sim, and refused there beside another -mat_band
+  fit_dir "band"
+  if fit_run "band" 2 -mat_band 0.9,1.1 && [ -s "$fd/band/material.h5" ] \
+     && timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$fd/band" -mat_file "$fd/band/material.h5" -scene_duration 0.02 -sim_view > "$fd/band.sim.log" 2>&1 \
+     && grep -q 'clamp(s, 0.9, 1.1)' "$fd/band.sim.log"; then ok
+  else not_ok "volknit fit -mat_band 0.9,1.1 then sim -mat_file: expected the band in the sim's material (see $fd/band.log, $fd/band.sim.log)"; fi
+  rm -rf "$fd/band.conflict"; mkdir -p "$fd/band.conflict"; cp "$fd/ref/mesh.h5" "$fd/band.conflict/"
+  if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/band.conflict" -mat_file "$fd/band/material.h5" -mat_band 0.8,1.2 -scene_duration 0.02 > "$fd/band.conflict.log" 2>&1 \
+     && grep -q 'conflicts with the band 0.9,1.1' "$fd/band.conflict.log" && [ "$(ls "$fd/band.conflict")" = "mesh.h5" ]; then ok
+  else not_ok "volknit sim -mat_band 0.8,1.2 with a material fitted at 0.9,1.1: expected a refusal and no output (see $fd/band.conflict.log)"; fi
   # stopped, then restarted: with the same rank count, and with the other
   # (the restart re-converges its equilibria from the checkpoint, so even on
   # the same ranks it agrees to solver tolerance, not bit for bit: 1.4e-7

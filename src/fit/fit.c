@@ -33,6 +33,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->gn_its        = 30;
   fit->gd_step       = 0.01;
   fit->kappa         = 1e-3;
+  fit->kkt_workspace = 20; /* MUMPS's default ICNTL(14) */
   fit->rtol          = 1e-6;
   fit->max_halvings  = 12;
   fit->step_memory   = PETSC_TRUE;

@@ -72,6 +72,7 @@ typedef struct {
   PetscInt  ns, *samples;
   PetscReal *loss0, *loss1, *floor;
   PetscLogDouble total;
+  PetscReal  at_floor[2]; /* of the final material */
 } Summary;
 
 static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
@@ -99,6 +100,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "yarn_vertices", fit->mesh->ny));
   PetscCall(VKJSONReal(&j, "frame_interval", fit->dt));
   PetscCall(VKJSONInt(&j, "equilibrium_fallbacks", fit->eq_fallbacks));
+  if (fit->kkt_workspace != 20) PetscCall(VKJSONInt(&j, "kkt_mumps_workspace_percent", fit->kkt_workspace)); /* raised after a failed factorization (kkt.c) */
   if (fit->uniform_g > 0) { /* searched in this run (not after a restart) */
     PetscCall(VKJSONObjectBegin(&j, "best_uniform"));
     PetscCall(VKJSONReal(&j, "gamma_Pa", fit->uniform_g));
@@ -106,6 +108,12 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONReal(&j, "alpha", fit->sf->alpha));
+  PetscCall(VKJSONObjectBegin(&j, "parameter_floor"));
+  PetscCall(VKJSONReal(&j, "g_s_Pa", fit->gamma_min[0]));
+  PetscCall(VKJSONReal(&j, "g_v_Pa", fit->gamma_min[1]));
+  PetscCall(VKJSONReal(&j, "fraction_of_g_s_on_it", c->at_floor[0]));
+  PetscCall(VKJSONReal(&j, "fraction_of_g_v_on_it", c->at_floor[1]));
+  PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONArrayBegin(&j, "samples"));
   for (PetscInt s = 0; s < c->ns; s++) {
     PetscCall(VKJSONObjectBegin(&j, NULL));
@@ -269,7 +277,8 @@ static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *
   PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
   PetscCall(VKMaterialWriteH5(fit->mat, path));
   PetscCall(PetscStrncpy(fit->mat->file, path, sizeof(fit->mat->file))); /* the material is now that file's (VKMaterialView) */
-  sum = (Summary){fit, data, st->ns, (PetscInt *)st->samples, loss0, loss1, (PetscReal *)st->floor, total};
+  sum = (Summary){fit, data, st->ns, (PetscInt *)st->samples, loss0, loss1, (PetscReal *)st->floor, total, {0, 0}};
+  PetscCall(VKFitGammaAtFloor(fit, st->avg, sum.at_floor));
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));
     ierr = VKOutputWrite(path, PETSC_TRUE, WriteXdmf, fit->mesh);
@@ -321,7 +330,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
   if (st->sample < st->ns) PetscCall(PetscPrintf(fit->comm, "volknit fit: %d sample frame%s of %s (frame interval %g s), %d parameters\n", (int)st->ns, st->ns > 1 ? "s" : "", data->path, (double)dt, (int)(2 * fit->mesh->ne)));
   for (; st->sample < st->ns && !fit->stopped; st->sample++) {
     PetscInt   frame = st->samples[st->sample], its;
-    PetscReal  l0, l1, w = st->weight;
+    PetscReal  l0, l1, w = st->weight, atfloor[2];
     VKFitFrame f;
     fit->sample = frame;
     PetscCall(SampleFrame(fit, data, frame, &f));
@@ -343,7 +352,8 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
       else PetscCall(VecAXPBY(st->avg, f.weight / (w + f.weight), w / (w + f.weight), st->gamma));
       st->weight = PetscMax(w, f.weight);
       SampleLosses(fit, frame, &l0, &l1, &its);
-      PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e (of its excess over the floor eps(xhat) = %.4e, %.1f%% remains) in %d iterations (%.1f s)\n", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (double)f.eps_hat, l0 > f.eps_hat ? 100 * (double)((l1 - f.eps_hat) / (l0 - f.eps_hat)) : 0.0, (int)its, VKWallTime() - fit->wall0));
+      PetscCall(VKFitGammaAtFloor(fit, st->gamma, atfloor));
+      PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e (of its excess over the floor eps(xhat) = %.4e, %.1f%% remains) in %d iterations (%.1f s); on the parameter floor: %.0f%% of g_s, %.0f%% of g_v\n", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (double)f.eps_hat, l0 > f.eps_hat ? 100 * (double)((l1 - f.eps_hat) / (l0 - f.eps_hat)) : 0.0, (int)its, VKWallTime() - fit->wall0, 100 * (double)atfloor[0], 100 * (double)atfloor[1]));
       PetscCall(Checkpoint(fit, -1, 0, &c)); /* the next sample from its start */
     }
     PetscCall(VKFitFrameDestroy(&f));

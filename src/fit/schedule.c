@@ -73,6 +73,22 @@ PetscErrorCode VKFitSetGammaFloor(VKFit fit, Vec gamma)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKFitGammaAtFloor(VKFit fit, Vec gamma, PetscReal fraction[2])
+{
+  const PetscScalar *g;
+  PetscInt           n;
+  PetscReal          c[2] = {0, 0}, all[2];
+
+  PetscFunctionBegin;
+  PetscCall(VecGetLocalSize(gamma, &n));
+  PetscCall(VecGetArrayRead(gamma, &g));
+  for (PetscInt i = 0; i < n; i++) c[i % 2] += g[i] <= fit->gamma_min[i % 2] * (1 + 1e-9);
+  PetscCall(VecRestoreArrayRead(gamma, &g));
+  PetscCallMPI(MPI_Allreduce(c, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
+  for (int k = 0; k < 2; k++) fraction[k] = all[k] / fit->mesh->ne;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitAppendIterate(VKFit fit, const VKFitIterate *it)
 {
   PetscFunctionBegin;

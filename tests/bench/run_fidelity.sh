@@ -12,7 +12,10 @@
 # Sizes from the environment: FID_PATTERNS (rib1x1), FID_WALES x FID_COURSES
 # (8 x 7, about 2K yarn vertices), FID_SCENES (hang stretch drape twist),
 # FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
-# about 8 minutes on 2 cores, the others about 1.5), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS.
+# about 8 minutes on 2 cores, the others about 1.5), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS,
+# FID_MAT_OPTS (material options of the uniform runs and the fits, e.g.
+# "-mat_band 0.7,1.5") and FID_TAG (a suffix of the homogenized runs'
+# directories, so runs with other material options sit beside them).
 # Outputs in out/fidelity (outside tests/out, which make check clears).
 # Cost: the 4 x 4 rib with hang and stretch took 14 min on 2 cores (the hang
 # fit 10 of them); at the defaults expect a few hours, mostly the fits.
@@ -29,6 +32,8 @@ SCENES=${FID_SCENES:-hang stretch drape twist}
 T=${FID_DURATION:-0.2}
 UNIFORM=${FID_UNIFORM:-10 100 1000 10000}
 FIT_OPTS=${FID_FIT_OPTS:-}
+MAT_OPTS=${FID_MAT_OPTS:-}
+TAG=${FID_TAG:-}
 top=out/fidelity
 mkdir -p "$top"
 cmds="$top/commands"
@@ -63,38 +68,39 @@ for pat in $PATTERNS; do
       echo "(yarn-level $pat $s: $(( $(date +%s) - t0 )) s)" >&2
     fi
     # the fit on this scene's own frames
-    fit="$d/$s/fit"; mkdir -p "$fit"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$fit/"
+    fit="$d/$s/fit$TAG"; mkdir -p "$fit"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$fit/"
     if [ ! -s "$fit/material.h5" ] || [ "$ref/yls.h5" -nt "$fit/material.h5" ]; then
-      run $MPIEXEC -n "$NP" bin/volknit fit -o "$fit" -options_file "options/$s.opts" $FIT_OPTS > "$fit/fit.log" 2>&1 || echo "    (fit failed: see $fit/fit.log)" >> "$cmds"
+      run $MPIEXEC -n "$NP" bin/volknit fit -o "$fit" -options_file "options/$s.opts" $MAT_OPTS $FIT_OPTS > "$fit/fit.log" 2>&1 || echo "    (fit failed: see $fit/fit.log)" >> "$cmds"
     fi
   done
   for s in $SCENES; do
     runs=""; labels=""
     for g in $UNIFORM; do
-      sim_run "$d/$s/u$g" -options_file "options/$s.opts" -scene_duration "$T" -mat_gamma_s "$g" -mat_gamma_v "$g"
-      runs="$runs,$d/$s/u$g"; labels="$labels,uniform_${g}Pa"
+      sim_run "$d/$s/u$g$TAG" -options_file "options/$s.opts" -scene_duration "$T" $MAT_OPTS -mat_gamma_s "$g" -mat_gamma_v "$g"
+      runs="$runs,$d/$s/u$g$TAG"; labels="$labels,uniform_${g}Pa"
     done
     for f in $SCENES; do
-      [ -s "$d/$f/fit/material.h5" ] || continue
-      sim_run "$d/$s/fit_$f" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$f/fit/material.h5"
-      runs="$runs,$d/$s/fit_$f"; labels="$labels,fitted_on_$f"
+      [ -s "$d/$f/fit$TAG/material.h5" ] || continue
+      sim_run "$d/$s/fit_$f$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$f/fit$TAG/material.h5"
+      runs="$runs,$d/$s/fit_$f$TAG"; labels="$labels,fitted_on_$f"
     done
-    run bin/volknit report -report_yls "$d/$s/yls" -report_runs "${runs#,}" -report_labels "${labels#,}" -o "$d/$s/report" > "$d/$s/report.log" 2>&1 \
-      || echo "    (report failed: see $d/$s/report.log)" >> "$cmds"
+    run bin/volknit report -report_yls "$d/$s/yls" -report_runs "${runs#,}" -report_labels "${labels#,}" -o "$d/$s/report$TAG" > "$d/$s/report$TAG.log" 2>&1 \
+      || echo "    (report failed: see $d/$s/report$TAG.log)" >> "$cmds"
   done
 done
 
 echo "REL = RMS distance of the embedded yarns from the yarn-level ones / RMS displacement of the latter from rest, over"
 echo "the frames (1: no better than leaving the patch at rest); floor: the best any mesh shape can do on the mesh."
 echo "Speed-up: yarn-level wall time per simulated second / the homogenized run's, both on $NP ranks."
+[ -n "$MAT_OPTS" ] && echo "Material options of the uniform runs and the fits: $MAT_OPTS"
 echo
 echo "| pattern | scene | material | REL | floor REL | max error (r) | s per simulated s | speed-up |"
 echo "|---|---|---|---|---|---|---|---|"
 for pat in $PATTERNS; do
   d="$top/${pat}_${W}x${C}"
   for s in $SCENES; do
-    j="$d/$s/report/report.json"
-    [ -s "$j" ] || { echo "| $pat | $s | (no report: see $d/$s/report.log) | | | | | |"; continue; }
+    j="$d/$s/report$TAG/report.json"
+    [ -s "$j" ] || { echo "| $pat | $s | (no report: see $d/$s/report$TAG.log) | | | | | |"; continue; }
     n=$(grep -c '"label"' "$j")
     best=""; bestrel=""
     for i in $(seq 1 "$n"); do
