@@ -89,14 +89,15 @@ struct _n_VKMaterial {
   VKMesh    mesh;
   PetscReal gamma_s, gamma_v;            /* uniform values */
   VKStretchBand band;                    /* one for the whole mesh (-mat_band) */
-  PetscBool     band_set;                /* given as an option: a file's band must agree */
+  PetscBool     band_set;                /* set by VKMaterialSetStretchBand (-mat_band): a file's band must agree */
   char      file[PETSC_MAX_PATH_LEN];    /* per-element values (-mat_file) */
   PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v */
   PetscBool setup;
 };
 PETSC_EXTERN PetscErrorCode VKMaterialCreate(VKMesh, VKMaterial *);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUniform(VKMaterial, PetscReal gs, PetscReal gv);
-/* The stretch band, 0 < lo <= 1 <= hi (default [1, 1]: the paper's ARAP). */
+/* The stretch band, 0 < lo <= 1 <= hi (default [1, 1]: the paper's ARAP);
+ * once set, VKMaterialLoadH5 refuses a file with another band. */
 PETSC_EXTERN PetscErrorCode VKMaterialSetStretchBand(VKMaterial, PetscReal lo, PetscReal hi);
 PETSC_EXTERN PetscErrorCode VKMaterialSetFromOptions(VKMaterial);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUp(VKMaterial);

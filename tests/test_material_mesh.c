@@ -247,7 +247,6 @@ int main(int argc, char **argv)
     PetscCall(VKTestCheck((PetscBool)(Eb < E && PetscAbsReal(Eb - Ebs) <= 1e-12 * Ebs && PetscAbsReal(gb - gbs) <= 1e-12 * gbs), NULL, "stretch band: energy below the paper material's (%.6g < %.6g), energy and |g| equal one rank's after the round trip", (double)Eb, (double)E));
     PetscCall(VKMaterialCreate(ms, &other));
     PetscCall(VKMaterialSetStretchBand(other, 0.9, 1.2));
-    other->band_set = PETSC_TRUE; /* as -mat_band would */
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
     ierr = VKMaterialLoadH5(other, path);
     PetscCall(PetscPopErrorHandler());

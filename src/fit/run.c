@@ -100,7 +100,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "yarn_vertices", fit->mesh->ny));
   PetscCall(VKJSONReal(&j, "frame_interval", fit->dt));
   PetscCall(VKJSONInt(&j, "equilibrium_fallbacks", fit->eq_fallbacks));
-  if (fit->kkt_workspace != 20) PetscCall(VKJSONInt(&j, "kkt_mumps_workspace_percent", fit->kkt_workspace)); /* raised after a failed factorization (kkt.c) */
+  if (fit->kkt_workspace > 20 && fit->kkt_workspace < PETSC_MAX_INT) PetscCall(VKJSONInt(&j, "kkt_mumps_workspace_percent", fit->kkt_workspace)); /* raised after a failed factorization (kkt.c) */
   if (fit->uniform_g > 0) { /* searched in this run (not after a restart) */
     PetscCall(VKJSONObjectBegin(&j, "best_uniform"));
     PetscCall(VKJSONReal(&j, "gamma_Pa", fit->uniform_g));

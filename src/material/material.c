@@ -52,8 +52,9 @@ PetscErrorCode VKMaterialSetStretchBand(VKMaterial m, PetscReal lo, PetscReal hi
 {
   PetscFunctionBegin;
   PetscCheck(lo > 0 && lo <= 1 && hi >= 1 && hi < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_band %g,%g: the stretch band needs 0 < lo <= 1 <= hi < inf (1,1 is the paper's ARAP)", (double)lo, (double)hi);
-  m->band.lo = lo;
-  m->band.hi = hi;
+  m->band.lo    = lo;
+  m->band.hi    = hi;
+  m->band_set   = PETSC_TRUE; /* a material.h5 with another band is then refused */
   PetscFunctionReturn(0);
 }
 
@@ -68,9 +69,11 @@ PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
   PetscCall(PetscOptionsReal("-mat_gamma_s", "Uniform stretch stiffness g_s of psi = g_s |F-R|^2 + g_v |F-V|^2, Pa", "VKMaterialSetUniform", gs, &gs, NULL));
   PetscCall(PetscOptionsReal("-mat_gamma_v", "Uniform volume stiffness g_v, Pa", "VKMaterialSetUniform", gv, &gv, NULL));
   PetscCall(VKMaterialSetUniform(m, gs, gv));
-  PetscCall(PetscOptionsRealArray("-mat_band", "Stretch band lo,hi: singular values of F inside it cost no g_s energy (1,1: the paper's |F - R|^2 with R a rotation)", "VKMaterialSetStretchBand", band, &nband, &m->band_set));
-  PetscCheck(!m->band_set || nband == 2, m->comm, PETSC_ERR_ARG_WRONG, "-mat_band takes two values lo,hi; got %d", (int)nband);
-  PetscCall(VKMaterialSetStretchBand(m, band[0], band[1]));
+  PetscCall(PetscOptionsRealArray("-mat_band", "Stretch band lo,hi: singular values of F inside it cost no g_s energy (1,1: the paper's |F - R|^2 with R a rotation)", "VKMaterialSetStretchBand", band, &nband, &set));
+  if (set) {
+    PetscCheck(nband == 2, m->comm, PETSC_ERR_ARG_WRONG, "-mat_band takes two values lo,hi; got %d", (int)nband);
+    PetscCall(VKMaterialSetStretchBand(m, band[0], band[1]));
+  }
   PetscCall(PetscOptionsString("-mat_file", "Per-element material (material.h5 of volknit fit)", "VKMaterialLoadH5", m->file, m->file, sizeof(m->file), &set));
   PetscOptionsEnd();
   PetscFunctionReturn(0);
