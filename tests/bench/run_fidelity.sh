@@ -15,7 +15,8 @@
 # about 8 minutes on 2 cores, the others about 1.5), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS,
 # FID_MAT_OPTS (material options of the uniform runs and the fits, e.g.
 # "-mat_band 0.7,1.5") and FID_TAG (a suffix of the homogenized runs'
-# directories, so runs with other material options sit beside them).
+# directories, so runs with other material or fit options sit beside them:
+# a fit is redone only when its yarn-level data is newer than its material).
 # Outputs in out/fidelity (outside tests/out, which make check clears).
 # Cost: the 4 x 4 rib with hang and stretch took 14 min on 2 cores (the hang
 # fit 10 of them); at the defaults expect a few hours, mostly the fits.
