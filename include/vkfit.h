@@ -131,6 +131,7 @@ struct _n_VKFit {
   PetscBool kkt_reduced; /* -fit_kkt_reduced */
   KSP       kkkt; /* prefix -fit_kkt_ */
   PetscInt  kkt_workspace; /* MUMPS ICNTL(14) of its factorization, percent (raised after a failure, kkt.c) */
+  char      kkt_workspace_option[256]; /* the option the fit set to raise it ("" if none) */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
   PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2];

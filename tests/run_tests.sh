@@ -235,14 +235,16 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
   if fit_run "$d" 1 -fit_restart; then compare_material "$fd/n1/material.h5" "$fd/$d/material.h5" 1e-5 "killed, restarted"
   else not_ok "fit -fit_restart after a kill failed (see $fd/$d.log)"; fi
   # broken checkpoints: refused with a message, no material.h5
-  for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint"; do
-    kind=${case%%:*}; expect=${case#*:}
+  for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint" "band:this one has 0.9,1.1 (give the same -mat_band)"; do
+    kind=${case%%:*}; expect=${case#*:}; extra=""
     d="broken.$kind"; fit_dir "$d"
     case "$kind" in
       truncated) head -c 3000 "$fd/checkpoint.stop.n1.n1.h5" > "$fd/$d/fit_checkpoint.h5" ;;
       other) cp "$fd/ref/yls.h5" "$fd/$d/fit_checkpoint.h5" ;;
+      band) cp "$fd/checkpoint.stop.n1.n1.h5" "$fd/$d/fit_checkpoint.h5"; extra="-mat_band 0.9,1.1" ;; # written without a band
     esac
-    fit_run "$d" 2 -fit_restart
+    # shellcheck disable=SC2086
+    fit_run "$d" 2 -fit_restart $extra
     rc=$?
     if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q "$expect" "$fd/$d.log" && [ ! -e "$fd/$d/material.h5" ] && ! grep -qiE 'segmentation|caught signal' "$fd/$d.log"; then ok
     else not_ok "fit -fit_restart with a $kind checkpoint: status $rc, message '$expect', no material.h5 expected (see $fd/$d.log)"; fi

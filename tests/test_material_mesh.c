@@ -244,7 +244,7 @@ int main(int argc, char **argv)
     PetscCall(VKMaterialGradient(mats, xs, gs));
     PetscCall(VecNorm(gs, NORM_2, &gbs));
     PetscCall(VKTestCheck((PetscBool)(mats->band.lo == 0.95 && mats->band.hi == 1.1), NULL, "material.h5 carries the stretch band (read back [%g, %g])", (double)mats->band.lo, (double)mats->band.hi));
-    PetscCall(VKTestCheck((PetscBool)(Eb < E && PetscAbsReal(Eb - Ebs) <= 1e-12 * Ebs && PetscAbsReal(gb - gbs) <= 1e-12 * gbs), NULL, "stretch band: energy below the paper material's (%.6g < %.6g), energy and |g| equal one rank's after the round trip", (double)Eb, (double)E));
+    PetscCall(VKTestCheck((PetscBool)(Eb > 0.05 * E && Eb < 0.95 * E && PetscAbsReal(Eb - Ebs) <= 1e-12 * Ebs && PetscAbsReal(gb - gbs) <= 1e-12 * gbs), NULL, "stretch band: energy between 5 %% and 95 %% of the paper material's (%.6g of %.6g: the band is crossed), energy and |g| equal one rank's after the round trip", (double)Eb, (double)E));
     PetscCall(VKMaterialCreate(ms, &other));
     PetscCall(VKMaterialSetStretchBand(other, 0.9, 1.2));
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));

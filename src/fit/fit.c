@@ -70,6 +70,7 @@ PetscErrorCode VKFitDestroy(VKFit *p)
   PetscCall(VKPDDestroy(&fit->pd));
   PetscCall(KSPDestroy(&fit->kadj));
   PetscCall(KSPDestroy(&fit->kkkt));
+  if (fit->kkt_workspace_option[0]) PetscCall(PetscOptionsClearValue(NULL, fit->kkt_workspace_option));
   PetscCall(MatDestroy(&fit->H));
   PetscCall(MatDestroy(&fit->J));
   PetscCall(MatDestroy(&fit->G));

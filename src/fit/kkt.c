@@ -201,8 +201,8 @@ static PetscErrorCode RenewKKTSolver(VKFit);
 
 /* MUMPS's workspace relaxation ICNTL(14) of the KKT factorization, 20 %
  * by default: raised 4x (to 80, 320, 1280 and at most 1600 %) through the
- * options database under the factor's prefix, unless the user set it, and
- * a new solver that reads it. */
+ * options database under the factor's prefix (removed again when the fit
+ * is destroyed), unless the user set it, and a new solver that reads it. */
 static PetscErrorCode RaiseKKTWorkspace(VKFit fit)
 {
   char        name[256], value[32];
@@ -215,13 +215,14 @@ static PetscErrorCode RaiseKKTWorkspace(VKFit fit)
   PetscCall(KSPGetOptionsPrefix(fit->kkkt, &prefix));
   PetscCall(PetscSNPrintf(name, sizeof(name), "-%s%smat_mumps_icntl_14", prefix ? prefix : "", size > 1 ? "redundant_" : ""));
   PetscCall(PetscOptionsHasName(NULL, NULL, name, &set));
-  if (set && fit->kkt_workspace == 20) { /* the user's own value: leave it */
+  if (set && !fit->kkt_workspace_option[0]) { /* the user's own value: leave it */
     fit->kkt_workspace = PETSC_MAX_INT;
     PetscFunctionReturn(0);
   }
   fit->kkt_workspace = PetscMin(4 * fit->kkt_workspace, 1600);
   PetscCall(PetscSNPrintf(value, sizeof(value), "%d", (int)fit->kkt_workspace));
   PetscCall(PetscOptionsSetValue(NULL, name, value));
+  PetscCall(PetscStrncpy(fit->kkt_workspace_option, name, sizeof(fit->kkt_workspace_option))); /* cleared by VKFitDestroy */
   PetscCall(PetscInfo(fit->kkkt, "KKT: factorization failed; MUMPS workspace relaxation %s %s\n", name, value));
   PetscCall(RenewKKTSolver(fit));
   PetscFunctionReturn(0);
@@ -361,7 +362,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
   }
   PetscCall(VecPointwiseMult(sol, sol, scale));
-  PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Gauss-Newton KKT solve of sample frame %d failed (KSP reason %s, MUMPS workspace relaxation ICNTL(14) %s); raise -fit_kappa or see -fit_kkt_ksp_view", (int)f->index, KSPConvergedReasons[reason], fit->kkt_workspace == PETSC_MAX_INT ? "as given" : "raised to 1600 %");
+  PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Gauss-Newton KKT solve of sample frame %d failed (KSP reason %s, MUMPS workspace relaxation ICNTL(14) %s %d %%); raise -fit_kappa or see -fit_kkt_ksp_view", (int)f->index, KSPConvergedReasons[reason], fit->kkt_workspace == PETSC_MAX_INT ? "as given, not" : "at", fit->kkt_workspace == PETSC_MAX_INT ? 0 : (int)fit->kkt_workspace);
   PetscCall(VecGetArrayRead(sol, &sa));
   if (reduced) { /* d = -(grad + J^T nu) / kappa, 0 where frozen */
     PetscScalar *nu;

@@ -60,8 +60,8 @@ PetscErrorCode VKMaterialSetStretchBand(VKMaterial m, PetscReal lo, PetscReal hi
 
 PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
 {
-  PetscReal gs = m->gamma_s, gv = m->gamma_v, band[2] = {m->band.lo, m->band.hi};
-  PetscInt  nband = 2;
+  PetscReal gs = m->gamma_s, gv = m->gamma_v, band[3] = {m->band.lo, m->band.hi, 0};
+  PetscInt  nband = 3; /* room for one too many, so a third value is caught */
   PetscBool set;
 
   PetscFunctionBegin;
@@ -232,8 +232,10 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   if (!ierr) {
     PetscReal lo = band ? band[0] : 1, hi = band ? band[1] : 1;
     if (m->band_set && (lo != m->band.lo || hi != m->band.hi)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_band %g,%g conflicts with the band %g,%g of %s (the band the material was fitted with; leave -mat_band out)", (double)m->band.lo, (double)m->band.hi, (double)lo, (double)hi, path);
-    m->band.lo = lo;
-    m->band.hi = hi;
+    else {
+      m->band.lo = lo;
+      m->band.hi = hi;
+    }
   }
   if (!ierr && !(n == mesh->ne && nv == n && nk == n)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s holds %d tets (voxels %d, Kuhn indices %d); the mesh has %d", path, (int)n, (int)nv, (int)nk, (int)mesh->ne);
   if (!ierr) ierr = PetscCalloc1(mesh->ne, &seen);

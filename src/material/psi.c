@@ -34,7 +34,10 @@ static PetscErrorCode FromSVD(PetscBool jacobian, const VKStretchBand *band, VKP
   if (PetscIsInfOrNanReal(st->svd.s[0] + st->svd.s[1] + st->svd.s[2])) { /* a non-finite F: NaN for everything */
     PetscReal nan = (PetscReal)NAN;
     for (int i = 0; i < 9; i++) st->R[i] = st->V[i] = st->proj.J[i] = nan;
-    for (int i = 0; i < 3; i++) st->proj.shat[i] = st->c[i] = nan;
+    for (int i = 0; i < 3; i++) {
+      st->proj.shat[i] = st->c[i] = nan;
+      st->inband[i]                 = PETSC_FALSE;
+    }
     st->proj.lambda = st->psi_s = st->psi_v = nan;
     PetscFunctionReturn(0);
   }
