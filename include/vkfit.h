@@ -88,9 +88,17 @@ typedef struct {
   PetscReal dt;     /* h = t_i - t_{i-1}: the step of its equilibrium */
   PetscReal weight; /* yarn elastic energy (sample averaging, Eq. 22) */
   PetscReal eps_hat, scale; /* eps(xhat); force scale of the equilibrium tolerance */
+  PetscReal scale_min;      /* the scale is at least this (0: none; a trajectory step, trajectory.c) */
   Vec       xhat, xprev, y, x; /* xprev = xhat_{i-1}: start of the step (friction) */
   Vec       fext; /* inertia data: M (g - a_data) = M (y - xhat)/dt^2; none: M g; implicit: NULL */
 } VKFitFrame;
+
+/* What the fit's loss compares (DESIGN §8): frames, one implicit Euler
+ * step from the yarn-level data at each sample frame, fitted sample by
+ * sample (the paper's §6); trajectory, the homogenized model rolled out
+ * from rest as volknit sim runs it, compared at every frame (trajectory.c). */
+typedef enum { VK_FIT_LOSS_FRAMES, VK_FIT_LOSS_TRAJECTORY } VKFitLoss;
+PETSC_EXTERN const char *const VKFitLosses[];
 
 typedef struct {
   PetscInt  pd_its, newton_its, fail_iteration;
@@ -119,6 +127,9 @@ struct _n_VKFit {
   PetscReal    eq_rtol; /* |g| <= eq_rtol x force scale */
   PetscInt     eq_newton_its;
   VKFitInertia inertia;
+  VKFitLoss    loss;
+  PetscReal    traj_dt; /* the rollout's time step (0: volknit sim's default) */
+  PetscReal    traj_max_factor; /* largest change of a parameter in one trajectory iteration */
   /* adjoint */
   Mat       H, J;
   KSP       kadj; /* prefix -fit_adjoint_ */
@@ -299,3 +310,43 @@ PETSC_EXTERN PetscErrorCode VKFitAppendIterate(VKFit, const VKFitIterate *);
  * fit stopped by -fit_max_iterations returns with fit->stopped set and
  * writes no material. */
 PETSC_EXTERN PetscErrorCode VKFitRun(VKFit, VKFitData, const char dir[]);
+
+/* ---- the trajectory loss (trajectory.c) ----------------------------------- */
+/* The homogenized model rolled out from rest at zero velocity, as volknit
+ * sim runs it (implicit Euler at the step VKFitTrajectoryStep, handles at
+ * their times, each step's equilibrium to -fit_eq_rtol), compared with the
+ * targets xhat_k at the frame times t_k:
+ *   L(gamma) = sum_k eps_k(x(t_k)),  eps_k(x) = eps_hat_k + (x - xhat_k)^T (A x I3) (x - xhat_k).
+ * Its derivatives in the log-harmonic parametrization above the floor g0,
+ * gamma(q) = g0 + (gamma - g0) o exp(B_r q) (B_r the r lowest harmonics
+ * on g_s and on g_v, 2r columns),
+ * come from forward sensitivities S = dx/dq along the rollout,
+ *   H_{n+1} S_{n+1} = M/h^2 ((1 + h/h') S_n - (h/h') S_{n-1}) - J_{n+1} diag(gamma - g0) B_r,
+ * H the exact Hessian of Phi at the step's equilibrium, J = dg/dgamma:
+ *   grad_q L = 2 sum_k S_k^T A (x_k - xhat_k),  P = 2 sum_k S_k^T A S_k (Gauss-Newton).
+ * (Friction's dependence on the previous position is left out of S.) */
+typedef struct _n_VKFitTrajectory *VKFitTrajectory;
+/* nf frames at times 0 < t[0] < ... < t[nf-1] with targets xhat[k] (node
+ * Vecs, copied) and eps(xhat_k). */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryCreate(VKFit, PetscInt nf, const PetscReal t[], Vec xhat[], const PetscReal eps_hat[], VKFitTrajectory *);
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryDestroy(VKFitTrajectory *);
+/* The rollout's step: -fit_trajectory_dt, or volknit sim's default
+ * min(1/150 s, the scene's output interval). */
+PETSC_EXTERN PetscReal VKFitTrajectoryStep(VKFit);
+/* Roll out the material gamma: the loss, per frame (lossf, optional), and
+ * with r > 0 grad_q L (2r) and P (2r x 2r, row-major) at q = 0; r <= the
+ * fit's harmonic basis.  *ok is false when a step's equilibrium was not
+ * reached (nothing else is then valid). */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory, Vec gamma, PetscInt r, PetscReal *loss, PetscReal lossf[], PetscReal grad[], PetscReal P[], PetscBool *ok);
+/* The rolled-out positions at frame k of the last evaluation. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory, PetscInt k, Vec x);
+/* g0 + (gamma - g0) o exp(B_r q): never below the floor g0. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryMove(VKFit, PetscInt r, Vec gamma, const PetscReal q[], Vec out);
+/* Gauss-Newton (Levenberg-Marquardt) on L over q in each harmonic stage
+ * r = -fit_harmonic, gamma in and out (a parameter on the floor first
+ * lifted 0.1 % of the floor above it); iterations appended to fit->hist
+ * (sample -1). */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma);
+/* The whole fitting with -fit_loss trajectory (VKFitRun calls it): every
+ * frame of the yarn-level run after the rest frame compared. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryRun(VKFit, VKFitData, const char dir[]);

@@ -129,6 +129,7 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
   PetscCall(VKPDSetTimeStep(pd, f->dt)); /* a frame spaced unlike the one before: K is refactored */
   PetscCall(PetscLogEventBegin(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));
   PetscCall(ForceScale(fit, f, &f->scale));
+  f->scale        = PetscMax(f->scale, f->scale_min);
   tol             = fit->eq_rtol * f->scale;
   /* the fit's own force scale, not PD's: PD to 1e-2 of its initial
    * residual or to tol, then Newton, whose quadratic last step usually

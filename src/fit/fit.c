@@ -11,6 +11,7 @@
 
 const char *const VKFitInertias[] = {"implicit", "data", "none", "VKFitInertia", "VK_FIT_INERTIA_", NULL};
 const char *const VKFitMethods[]  = {"GD", "GN", "VKFitMethod", "VK_FIT_", NULL};
+const char *const VKFitLosses[]   = {"frames", "trajectory", "VKFitLoss", "VK_FIT_LOSS_", NULL};
 
 PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
 {
@@ -29,6 +30,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->uniform_range[0] = 1;
   fit->uniform_range[1] = 1e5;
   fit->inertia       = VK_FIT_INERTIA_IMPLICIT;
+  fit->traj_max_factor = 10;
   fit->gd_its        = 15;
   fit->gn_its        = 30;
   fit->gd_step       = 0.01;
@@ -126,6 +128,9 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   }
   PetscCall(PetscOptionsBool("-fit_restart", "Go on from DIR/fit_checkpoint.h5 (sample frames and stages as the checkpoint has them)", "VKFitRun", fit->restart, &fit->restart, NULL));
   PetscCall(PetscOptionsBool("-fit_monitor", "Print every iteration of the schedule", "VKFitOptimize", fit->monitor, &fit->monitor, NULL));
+  PetscCall(PetscOptionsEnum("-fit_loss", "What the loss compares: frames, one implicit Euler step from the yarn-level data at each sample frame, fitted sample by sample (paper section 6); trajectory, the model rolled out from rest as volknit sim runs it, at every frame, fitted in the harmonic stages only", "VKFitRun", VKFitLosses, (PetscEnum)fit->loss, (PetscEnum *)&fit->loss, NULL));
+  PetscCall(PetscOptionsReal("-fit_trajectory_dt", "Time step of the trajectory loss's rollout (0: volknit sim's default, min(1/150 s, -scene_output_interval)); give the -ts_dt the simulation will use", "VKFitTrajectoryStep", fit->traj_dt, &fit->traj_dt, NULL));
+  PetscCall(PetscOptionsReal("-fit_trajectory_max_factor", "Largest factor by which one trajectory Gauss-Newton iteration changes a parameter's excess over the floor", "VKFitTrajectoryOptimize", fit->traj_max_factor, &fit->traj_max_factor, NULL));
   PetscCall(PetscOptionsEnum("-fit_inertia", "Inertia in the equilibrium of a frame: implicit, M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2; data, the data acceleration as a force; none, static", "VKFitEquilibrium", VKFitInertias, (PetscEnum)fit->inertia, (PetscEnum *)&fit->inertia, NULL));
   PetscOptionsEnd();
   PetscCheck(fit->eq_rtol > 0 && fit->eq_rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_rtol must be in (0, 1), got %g", (double)fit->eq_rtol);
@@ -137,6 +142,9 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->max_halvings >= 0 && fit->max_pivots >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_max_halvings and -fit_max_pivots must be >= 0");
   PetscCheck(fit->checkpoint_every >= 0 && fit->max_iterations >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_checkpoint_every and -fit_max_iterations must be >= 0, got %d and %d", (int)fit->checkpoint_every, (int)fit->max_iterations);
   PetscCheck(fit->uniform_range[0] > 0 && fit->uniform_range[1] > fit->uniform_range[0] && fit->uniform_range[1] < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_uniform_range must be lo,hi with 0 < lo < hi, got %g,%g", (double)fit->uniform_range[0], (double)fit->uniform_range[1]);
+  PetscCheck(fit->traj_dt >= 0 && fit->traj_dt < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_dt must be positive (or 0 for volknit sim's default), got %g", (double)fit->traj_dt);
+  PetscCheck(fit->traj_max_factor > 1 && fit->traj_max_factor < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_max_factor must be > 1, got %g", (double)fit->traj_max_factor);
+  PetscCheck(fit->loss != VK_FIT_LOSS_TRAJECTORY || fit->inertia == VK_FIT_INERTIA_IMPLICIT, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory rolls the model out as volknit sim does, with implicit inertia; -fit_inertia %s applies to -fit_loss frames only", VKFitInertias[fit->inertia]);
   PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
   if (set) {
     PetscCheck(nharm >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_harmonic needs a list of basis sizes, e.g. 1,10,30 (or 0 for none)");
@@ -175,7 +183,8 @@ PetscErrorCode VKFitSetUp(VKFit fit)
 PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
 {
   PetscFunctionBegin;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting: frame interval %g s, inertia %s, equilibrium to %g relative (PD, then up to %d Newton iterations)\n", (double)fit->dt, VKFitInertias[fit->inertia], (double)fit->eq_rtol, (int)fit->eq_newton_its));
+  if (fit->loss == VK_FIT_LOSS_TRAJECTORY) PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting the trajectory: rolled out from rest at dt %g s, compared at every frame; equilibrium of each step to %g relative (PD, then up to %d Newton iterations)\n", (double)VKFitTrajectoryStep(fit), (double)fit->eq_rtol, (int)fit->eq_newton_its));
+  else PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting sample frames: frame interval %g s, inertia %s, equilibrium to %g relative (PD, then up to %d Newton iterations)\n", (double)fit->dt, VKFitInertias[fit->inertia], (double)fit->eq_rtol, (int)fit->eq_newton_its));
   PetscCall(PetscViewerASCIIPushTab(viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), steps accepted above %g relative decrease, up to %d halvings%s; floor %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, fit->step_memory ? " from the last accepted step" : " from the full step", (double)fit->gamma_min_rel));
   PetscCall(PetscViewerASCIIUseTabs(viewer, PETSC_FALSE));

@@ -3,10 +3,12 @@
  * r = -fit_harmonic and then every parameter (schedule.c), the samples
  * averaged convexly by their yarn elastic energy,
  *   gamma <- (w gamma + w_k gamma_k) / (w + w_k),  w <- max(w, w_k),
- * each sample starting from the average so far.  Outputs in DIR:
+ * each sample starting from the average so far; with -fit_loss trajectory
+ * VKFitRun hands over to trajectory.c.  Outputs in DIR (both losses):
  *   material.h5    g_s, g_v per tet (VKMaterialWriteH5; volknit sim -mat_file)
  *   material.xdmf  the mesh of mesh.h5 coloured by g_s and g_v (ParaView)
- *   fit.csv        one row per iteration (sample frame, harmonic stage,
+ *   fit.csv        one row per iteration (sample frame, -1 for the
+ *                  trajectory, harmonic stage,
  *                  method, iteration, loss, gradient norm, step,
  *                  equilibrium residual, wall time)
  *   fit.json       samples, losses, iterations and the split of time
@@ -15,13 +17,12 @@
  * and, while the fit runs, fit_checkpoint.h5 (checkpoint.c): written after
  * each sample and every -fit_checkpoint_every iterations, read by
  * -fit_restart, removed once material.h5 is written. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkio.h>
 #include <vkutil.h>
 #include <vklog.h>
 
-/* xhat and eps(xhat) of yarn frame k. */
-static PetscErrorCode FrameTarget(VKFit fit, VKFitData data, PetscInt k, PetscReal xy[], PetscReal n1[], PetscReal Fhat[], Vec xhat, PetscReal *eps)
+PetscErrorCode VKFitFrameTarget_Private(VKFit fit, VKFitData data, PetscInt k, PetscReal xy[], PetscReal n1[], PetscReal Fhat[], Vec xhat, PetscReal *eps)
 {
   PetscFunctionBegin;
   PetscCall(VKFitDataReadFrame(data, k, fit->mesh->ny, fit->sf->nseg, xy, n1));
@@ -40,7 +41,7 @@ static PetscErrorCode SampleFrame(VKFit fit, VKFitData data, PetscInt k, VKFitFr
   PetscCall(PetscMalloc3(3 * fit->mesh->ny, &xy, 3 * fit->sf->nseg, &n1, 9 * (fit->mesh->layout.eEnd - fit->mesh->layout.eStart) + 1, &Fhat));
   for (int j = 0; j < 3; j++) {
     PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &xh[j]));
-    PetscCall(FrameTarget(fit, data, PetscMax(k - j, 0), xy, n1, Fhat, xh[j], j ? NULL : &eps));
+    PetscCall(VKFitFrameTarget_Private(fit, data, PetscMax(k - j, 0), xy, n1, Fhat, xh[j], j ? NULL : &eps));
   }
   {
     PetscReal h = data->time[k] - data->time[k - 1], hprev = k > 1 ? data->time[k - 1] - data->time[k - 2] : h;
@@ -67,18 +68,17 @@ static PetscErrorCode WriteCSV(void *ctx, VKOutput *out)
 }
 
 typedef struct {
-  VKFit     fit;
-  VKFitData data;
-  PetscInt  ns, *samples;
-  PetscReal *loss0, *loss1, *floor;
-  PetscLogDouble total;
-  PetscReal  at_floor[2]; /* of the final material */
+  VKFit              fit;
+  VKFitData          data;
+  const VKFitResult *res;
+  PetscReal          at_floor[2]; /* of the final material */
 } Summary;
 
 static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
 {
-  Summary    *c   = (Summary *)ctx;
-  VKFit       fit = c->fit;
+  Summary           *c   = (Summary *)ctx;
+  VKFit              fit = c->fit;
+  const VKFitResult *res = c->res;
   VKJSON      j;
   PetscMPIInt size;
   PetscInt    ngd = 0, ngn = 0;
@@ -114,27 +114,36 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "fraction_of_g_s_on_it", c->at_floor[0]));
   PetscCall(VKJSONReal(&j, "fraction_of_g_v_on_it", c->at_floor[1]));
   PetscCall(VKJSONObjectEnd(&j));
-  PetscCall(VKJSONArrayBegin(&j, "samples"));
-  for (PetscInt s = 0; s < c->ns; s++) {
+  PetscCall(VKJSONString(&j, "loss", VKFitLosses[fit->loss]));
+  if (res->trajectory) {
+    PetscCall(VKJSONObjectBegin(&j, "trajectory"));
+    PetscCall(VKJSONReal(&j, "time_step", res->traj_dt));
+    PetscCall(VKJSONInt(&j, "steps", res->traj_steps));
+    PetscCall(VKJSONReal(&j, "loss_start", res->traj_loss0));
+    PetscCall(VKJSONReal(&j, "loss_end", res->traj_loss1));
+    PetscCall(VKJSONObjectEnd(&j));
+  }
+  PetscCall(VKJSONArrayBegin(&j, res->trajectory ? "frames" : "samples"));
+  for (PetscInt s = 0; s < res->ns; s++) {
     PetscCall(VKJSONObjectBegin(&j, NULL));
-    PetscCall(VKJSONInt(&j, "frame", c->samples[s]));
-    PetscCall(VKJSONReal(&j, "time", c->data->time[c->samples[s]]));
-    PetscCall(VKJSONReal(&j, "weight", VKFitDataElasticEnergy(c->data, c->samples[s])));
-    PetscCall(VKJSONReal(&j, "loss_start", c->loss0[s]));
-    PetscCall(VKJSONReal(&j, "loss_end", c->loss1[s]));
-    PetscCall(VKJSONReal(&j, "loss_floor", c->floor[s]));
+    PetscCall(VKJSONInt(&j, "frame", res->frames[s]));
+    PetscCall(VKJSONReal(&j, "time", c->data->time[res->frames[s]]));
+    if (!res->trajectory) PetscCall(VKJSONReal(&j, "weight", VKFitDataElasticEnergy(c->data, res->frames[s])));
+    PetscCall(VKJSONReal(&j, "loss_start", res->loss0[s]));
+    PetscCall(VKJSONReal(&j, "loss_end", res->loss1[s]));
+    PetscCall(VKJSONReal(&j, "loss_floor", res->floor[s]));
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONArrayEnd(&j));
   PetscCall(VKJSONInt(&j, "gd_iterations", ngd));
   PetscCall(VKJSONInt(&j, "gn_iterations", ngn));
   PetscCall(VKJSONObjectBegin(&j, "time"));
-  PetscCall(VKJSONReal(&j, "total", c->total));
+  PetscCall(VKJSONReal(&j, "total", res->total));
   PetscCall(VKJSONReal(&j, "equilibrium", fit->time_eq));
   PetscCall(VKJSONReal(&j, "adjoint", fit->time_adjoint));
   PetscCall(VKJSONReal(&j, "kkt", fit->time_kkt));
   PetscCall(VKJSONReal(&j, "eigensolves", fit->time_eigen));
-  PetscCall(VKJSONReal(&j, "other", c->total - fit->time_eq - fit->time_adjoint - fit->time_kkt - fit->time_eigen));
+  PetscCall(VKJSONReal(&j, "other", res->total - fit->time_eq - fit->time_adjoint - fit->time_kkt - fit->time_eigen));
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONEnd(&j));
   PetscFunctionReturn(0);
@@ -262,23 +271,19 @@ static PetscErrorCode Resume(VKFit fit, VKFitData data, VKFitState *st, const ch
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *st, const char dir[], PetscLogDouble total)
+PetscErrorCode VKFitWriteOutputs_Private(VKFit fit, VKFitData data, const VKFitResult *res, const char dir[])
 {
   char           path[PETSC_MAX_PATH_LEN];
-  PetscReal      loss0[VK_FIT_MAX_SAMPLES], loss1[VK_FIT_MAX_SAMPLES];
-  PetscInt       its;
-  Summary        sum;
+  Summary        sum = {fit, data, res, {0, 0}};
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
-  for (PetscInt s = 0; s < st->ns; s++) SampleLosses(fit, st->samples[s], &loss0[s], &loss1[s], &its);
   PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
   PetscCall(VKMaterialWriteH5(fit->mat, path));
   PetscCall(PetscStrncpy(fit->mat->file, path, sizeof(fit->mat->file))); /* the material is now that file's (VKMaterialView) */
-  sum = (Summary){fit, data, st->ns, (PetscInt *)st->samples, loss0, loss1, (PetscReal *)st->floor, total, {0, 0}};
-  PetscCall(VKFitGammaAtFloor(fit, st->avg, sum.at_floor));
+  PetscCall(VKFitGammaAtFloor(fit, res->gamma, sum.at_floor));
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));
     ierr = VKOutputWrite(path, PETSC_TRUE, WriteXdmf, fit->mesh);
@@ -296,6 +301,25 @@ static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *
   PetscFunctionReturn(0);
 }
 
+static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *st, const char dir[], PetscLogDouble total)
+{
+  PetscReal   loss0[VK_FIT_MAX_SAMPLES], loss1[VK_FIT_MAX_SAMPLES];
+  PetscInt    its;
+  VKFitResult res = {0};
+
+  PetscFunctionBegin;
+  for (PetscInt s = 0; s < st->ns; s++) SampleLosses(fit, st->samples[s], &loss0[s], &loss1[s], &its);
+  res.ns     = st->ns;
+  res.frames = st->samples;
+  res.loss0  = loss0;
+  res.loss1  = loss1;
+  res.floor  = st->floor;
+  res.gamma  = st->avg;
+  res.total  = total;
+  PetscCall(VKFitWriteOutputs_Private(fit, data, &res, dir));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
 {
   PetscInt       rmax = 0;
@@ -307,6 +331,10 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
   PetscMPIInt    rank;
 
   PetscFunctionBegin;
+  if (fit->loss == VK_FIT_LOSS_TRAJECTORY) {
+    PetscCall(VKFitTrajectoryRun(fit, data, dir));
+    PetscFunctionReturn(0);
+  }
   PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
   PetscCall(VKFitDataTimeStep(data, &dt));
   PetscCall(VKFitSetTimeStep(fit, dt));

@@ -1,0 +1,511 @@
+/* trajectory.c: the trajectory loss of the fitting (-fit_loss trajectory,
+ * DESIGN §8) and its Gauss-Newton in the harmonic stages.
+ *
+ * The frames loss (paper Eq. 15-22) compares one implicit Euler step,
+ * started from the yarn-level data, at each sample frame.  Measured on the
+ * rib patches (docs/FIDELITY.md) it does not rank materials the way the
+ * trajectory error of volknit report does: on a force-free stretch it is
+ * lowest with no material at all.  This loss compares what volknit sim
+ * computes: the model rolled out from rest at zero velocity by implicit
+ * Euler at the simulation's step, handles at their times,
+ *   M (x_{n+1} - y_n)/h^2 + grad E(x_{n+1}; gamma) = 0,
+ *   y_n = x_n + (h/h') (x_n - x_{n-1}) + h^2 g,
+ * against the shape-fit targets xhat_k at every frame time t_k:
+ *   L(gamma) = sum_k eps_k(x(t_k)).
+ * The parameters move in the span of the r lowest harmonics of the tet
+ * graph (paper Eq. 23-24), multiplicatively above the floor g0,
+ * gamma(q) = g0 + (gamma - g0) o exp(B_r q): stiffness spans decades, a
+ * log step can neither cross the floor nor favour the stiff end, and a
+ * parameter that sinks towards the floor stops pulling the step (with a
+ * clamp at the floor it kept asking for more, and the largest-change cap
+ * then froze every other parameter).  Forward sensitivities S = dx/dq
+ * (2r columns) follow the rollout,
+ *   H_{n+1} S_{n+1} = M/h^2 ((1 + h/h') S_n - (h/h') S_{n-1}) - J_{n+1} diag(gamma - g0) B_r,
+ * one factorization of the exact Hessian H per step (the adjoint solver,
+ * prefix -fit_adjoint_), and give grad_q L = 2 sum_k S_k^T A (x_k - xhat_k)
+ * and the Gauss-Newton matrix P = 2 sum_k S_k^T A S_k.  Levenberg-Marquardt
+ * on q: (P + lambda I) dq = -grad, lambda raised tenfold on a rejected
+ * step and lowered threefold on an accepted one, every parameter's
+ * excess over the floor changed by at most a factor
+ * -fit_trajectory_max_factor per iteration. */
+#include "fitimpl.h"
+#include <vkutil.h>
+#include <vklog.h>
+
+#define FLOOR_LIFT 1e-3 /* of the floor, for a parameter that starts a stage on it */
+
+struct _n_VKFitTrajectory {
+  VKFit      fit;
+  PetscInt   nf;
+  PetscReal *t, *eps_hat, *lossf;
+  Vec       *xhat, *xk;          /* targets, and the rollout at the frames */
+  PetscReal  force_min;          /* the data's inertial force scale: a floor of each step's */
+  PetscInt   steps;              /* of the last rollout */
+  PetscReal  eq_worst;           /* largest |g|/tolerance of its steps */
+  VKFitFrame f;                  /* the step being solved */
+  Vec        xold, xcur, grad, As;
+  PetscInt   rmax;               /* sensitivity storage: 2 rmax columns, three generations */
+  Vec       *S[3], *Gb;
+};
+
+PetscReal VKFitTrajectoryStep(VKFit fit)
+{
+  PetscReal dt = 0;
+  PetscBool set;
+
+  if (fit->traj_dt > 0) return fit->traj_dt;
+  if (PetscOptionsGetReal(NULL, NULL, "-ts_dt", &dt, &set) || !set || !(dt > 0)) dt = PetscMin(1.0 / 150, fit->scene->output_interval);
+  return dt;
+}
+
+/* max_k |M (xhat_k - 2 xhat_{k-1} + xhat_{k-2})| / dh^2 (rest before t_0) */
+static PetscErrorCode DataForceScale(VKFitTrajectory T, Vec rest)
+{
+  VKFit           fit = T->fit;
+  const VKLayout *L   = &fit->mesh->layout;
+
+  PetscFunctionBegin;
+  T->force_min = 0;
+  for (PetscInt k = 0; k < T->nf; k++) {
+    Vec                a = k ? T->xhat[k - 1] : rest, b = k > 1 ? T->xhat[k - 2] : rest;
+    PetscReal          h = T->t[k] - (k ? T->t[k - 1] : 0), s = 0, all;
+    const PetscScalar *x0, *x1, *x2;
+    PetscCall(VecGetArrayRead(T->xhat[k], &x0));
+    PetscCall(VecGetArrayRead(a, &x1));
+    PetscCall(VecGetArrayRead(b, &x2));
+    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) s += PetscSqr(fit->mesh->mass[L->nStart + i / 3] * (x0[i] - 2 * x1[i] + x2[i]));
+    PetscCall(VecRestoreArrayRead(T->xhat[k], &x0));
+    PetscCall(VecRestoreArrayRead(a, &x1));
+    PetscCall(VecRestoreArrayRead(b, &x2));
+    PetscCallMPI(MPI_Allreduce(&s, &all, 1, MPIU_REAL, MPIU_SUM, fit->comm));
+    T->force_min = PetscMax(T->force_min, PetscSqrtReal(all) / (h * h));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryCreate(VKFit fit, PetscInt nf, const PetscReal t[], Vec xhat[], const PetscReal eps_hat[], VKFitTrajectory *out)
+{
+  VKFitTrajectory T;
+  Vec             rest;
+
+  PetscFunctionBegin;
+  PetscCheck(nf >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "The trajectory loss needs at least one frame after the rest frame");
+  for (PetscInt k = 0; k < nf; k++) PetscCheck(t[k] > (k ? t[k - 1] : 0) && t[k] < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Trajectory frame %d: time %g s does not follow %g s", (int)k, (double)t[k], k ? (double)t[k - 1] : 0.0);
+  PetscCall(VKFitSetUp(fit));
+  PetscCall(PetscNew(&T));
+  T->fit = fit;
+  T->nf  = nf;
+  PetscCall(PetscMalloc3(nf, &T->t, nf, &T->eps_hat, nf, &T->lossf));
+  PetscCall(PetscMalloc2(nf, &T->xhat, nf, &T->xk));
+  for (PetscInt k = 0; k < nf; k++) {
+    T->t[k]       = t[k];
+    T->eps_hat[k] = eps_hat[k];
+    PetscCall(VecDuplicate(xhat[k], &T->xhat[k]));
+    PetscCall(VecCopy(xhat[k], T->xhat[k]));
+    PetscCall(VecDuplicate(xhat[k], &T->xk[k]));
+  }
+  PetscCall(VecDuplicate(xhat[0], &T->xold));
+  PetscCall(VecDuplicate(xhat[0], &T->xcur));
+  PetscCall(VecDuplicate(xhat[0], &T->grad));
+  PetscCall(VecDuplicate(xhat[0], &T->As));
+  PetscCall(VecDuplicate(xhat[0], &T->f.xhat));
+  PetscCall(VecDuplicate(xhat[0], &T->f.xprev));
+  PetscCall(VecDuplicate(xhat[0], &T->f.y));
+  PetscCall(VecDuplicate(xhat[0], &T->f.x));
+  PetscCall(VecDuplicate(xhat[0], &rest));
+  PetscCall(VKMeshGetRestPositions(fit->mesh, rest));
+  PetscCall(DataForceScale(T, rest));
+  PetscCall(VecDestroy(&rest));
+  *out = T;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode FreeSensitivities(VKFitTrajectory T)
+{
+  PetscFunctionBegin;
+  if (!T->rmax) PetscFunctionReturn(0);
+  for (int g = 0; g < 3; g++) PetscCall(VecDestroyVecs(2 * T->rmax, &T->S[g]));
+  PetscCall(VecDestroyVecs(2 * T->rmax, &T->Gb));
+  T->rmax = 0;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryDestroy(VKFitTrajectory *p)
+{
+  VKFitTrajectory T = *p;
+
+  PetscFunctionBegin;
+  if (!T) PetscFunctionReturn(0);
+  for (PetscInt k = 0; k < T->nf; k++) {
+    PetscCall(VecDestroy(&T->xhat[k]));
+    PetscCall(VecDestroy(&T->xk[k]));
+  }
+  PetscCall(PetscFree2(T->xhat, T->xk));
+  PetscCall(PetscFree3(T->t, T->eps_hat, T->lossf));
+  PetscCall(VecDestroy(&T->xold));
+  PetscCall(VecDestroy(&T->xcur));
+  PetscCall(VecDestroy(&T->grad));
+  PetscCall(VecDestroy(&T->As));
+  PetscCall(VKFitFrameDestroy(&T->f));
+  PetscCall(FreeSensitivities(T));
+  PetscCall(PetscFree(*p));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory T, PetscInt k, Vec x)
+{
+  PetscFunctionBegin;
+  PetscCheck(k >= 0 && k < T->nf, T->fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Trajectory frame %d of %d", (int)k, (int)T->nf);
+  PetscCall(VecCopy(T->xk[k], x));
+  PetscFunctionReturn(0);
+}
+
+/* gamma - floor, per parameter (the part the log-harmonic step scales) */
+static PetscErrorCode GammaExcess(VKFit fit, Vec gamma, Vec excess)
+{
+  PetscInt           n;
+  const PetscScalar *g;
+  PetscScalar       *e;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetLocalSize(gamma, &n));
+  PetscCall(VecGetArrayRead(gamma, &g));
+  PetscCall(VecGetArray(excess, &e));
+  for (PetscInt i = 0; i < n; i++) e[i] = PetscMax(g[i] - fit->gamma_min[i % 2], 0);
+  PetscCall(VecRestoreArrayRead(gamma, &g));
+  PetscCall(VecRestoreArray(excess, &e));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryMove(VKFit fit, PetscInt r, Vec gamma, const PetscReal q[], Vec out)
+{
+  PetscInt     n;
+  PetscScalar *a;
+  const PetscScalar *g;
+
+  PetscFunctionBegin;
+  PetscCall(VecSet(out, 0));
+  PetscCall(VKFitHarmonicApply(fit, r, q, out));
+  PetscCall(VecGetLocalSize(out, &n));
+  PetscCall(VecGetArray(out, &a));
+  PetscCall(VecGetArrayRead(gamma, &g));
+  for (PetscInt i = 0; i < n; i++) {
+    PetscReal lo = fit->gamma_min[i % 2];
+    a[i]         = lo + PetscMax(g[i] - lo, 0) * PetscExpReal(PetscMin(a[i], 700));
+  }
+  PetscCall(VecRestoreArrayRead(gamma, &g));
+  PetscCall(VecRestoreArray(out, &a));
+  PetscFunctionReturn(0);
+}
+
+/* S_new = H^-1 (M/h^2 ((1 + a) S_n - a S_{n-1}) - J Gb), a = h/h', at the
+ * equilibrium just reached (T->f.x), handle rows zero. */
+static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, PetscReal a)
+{
+  VKFit              fit = T->fit;
+  const VKLayout    *L   = &fit->mesh->layout;
+  KSPConvergedReason reason;
+  Vec               *Sn = T->S[1], *Sp = T->S[2], *Snew = T->S[0];
+  PetscLogDouble     t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_FitAdjoint, 0, 0, 0, 0));
+  PetscCall(VKPDHessian(fit->pd, T->f.x, fit->H));
+  PetscCall(KSPSetOperators(fit->kadj, fit->H, fit->H));
+  PetscCall(VKMaterialGammaJacobian(fit->mat, T->f.x, fit->J));
+  for (PetscInt j = 0; j < 2 * r; j++) {
+    const PetscScalar *sn, *sp;
+    PetscScalar       *b;
+    PetscCall(MatMult(fit->J, T->Gb[j], fit->rhs));
+    PetscCall(VecGetArray(fit->rhs, &b));
+    PetscCall(VecGetArrayRead(Sn[j], &sn));
+    PetscCall(VecGetArrayRead(Sp[j], &sp));
+    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) b[i] = fit->mesh->mass[L->nStart + i / 3] / (h * h) * ((1 + a) * sn[i] - a * sp[i]) - b[i];
+    PetscCall(VecRestoreArrayRead(Sp[j], &sp));
+    PetscCall(VecRestoreArrayRead(Sn[j], &sn));
+    PetscCall(VecRestoreArray(fit->rhs, &b));
+    PetscCall(VKPDZeroEliminatedRows(fit->pd, fit->rhs));
+    PetscCall(KSPSolve(fit->kadj, fit->rhs, Snew[j]));
+    PetscCall(KSPGetConvergedReason(fit->kadj, &reason));
+    PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory sensitivity solve at t = %g s failed (KSP reason %s); see -fit_adjoint_ksp_view", (double)T->f.t, KSPConvergedReasons[reason]);
+  }
+  /* the generations move on: new -> n -> n-1 */
+  T->S[2] = Sn;
+  T->S[1] = Snew;
+  T->S[0] = Sp;
+  fit->time_adjoint += VKWallTime() - t0;
+  PetscCall(PetscLogEventEnd(VK_EVENT_FitAdjoint, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* Frame k reached at xcur: its loss, and with r > 0 its share of grad and P. */
+static PetscErrorCode AddFrame(VKFitTrajectory T, PetscInt k, PetscInt r, PetscReal *loss, PetscReal grad[], PetscReal P[])
+{
+  VKFit      fit = T->fit;
+  PetscInt   n   = 2 * r;
+  PetscReal *row;
+
+  PetscFunctionBegin;
+  PetscCall(VecCopy(T->xcur, T->xk[k]));
+  PetscCall(VKShapeFitQuadraticLoss(fit->sf, T->xhat[k], T->eps_hat[k], T->xcur, &T->lossf[k], r ? T->grad : NULL));
+  *loss += T->lossf[k];
+  if (!r) PetscFunctionReturn(0);
+  PetscCall(PetscMalloc1(n, &row));
+  PetscCall(VecMDot(T->grad, n, T->S[1], row));
+  for (PetscInt j = 0; j < n; j++) grad[j] += row[j];
+  for (PetscInt j = 0; j < n; j++) {
+    PetscCall(MatMult(fit->sf->A3, T->S[1][j], T->As));
+    PetscCall(VecMDot(T->As, n, T->S[1], row));
+    for (PetscInt i = 0; i < n; i++) P[j * n + i] += 2 * row[i];
+  }
+  PetscCall(PetscFree(row));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r, PetscReal *loss, PetscReal lossf[], PetscReal grad[], PetscReal P[], PetscBool *ok)
+{
+  VKFit           fit = T->fit;
+  const VKLayout *L   = &fit->mesh->layout;
+  PetscReal       dt  = VKFitTrajectoryStep(fit), t = 0, hprev = dt;
+  const PetscReal *g  = fit->scene->gravity;
+
+  PetscFunctionBegin;
+  PetscCheck(r >= 0 && r <= fit->rbasis, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Trajectory sensitivities in %d harmonics; the basis has %d (VKFitHarmonicSetUp)", (int)r, (int)fit->rbasis);
+  PetscCall(VKFitSetGamma(fit, gamma));
+  if (r > T->rmax) {
+    PetscCall(FreeSensitivities(T));
+    for (int s = 0; s < 3; s++) PetscCall(VecDuplicateVecs(T->xcur, 2 * r, &T->S[s]));
+    PetscCall(VecDuplicateVecs(gamma, 2 * r, &T->Gb));
+    T->rmax = r;
+  }
+  if (r) { /* dgamma/dq_j = (gamma - floor) o b_j; S = 0 at rest */
+    PetscReal *e;
+    Vec        excess;
+    PetscCall(VecDuplicate(gamma, &excess));
+    PetscCall(GammaExcess(fit, gamma, excess));
+    PetscCall(PetscCalloc1(2 * r, &e));
+    for (PetscInt j = 0; j < 2 * r; j++) {
+      e[j] = 1;
+      PetscCall(VecSet(T->Gb[j], 0));
+      PetscCall(VKFitHarmonicApply(fit, r, e, T->Gb[j]));
+      PetscCall(VecPointwiseMult(T->Gb[j], T->Gb[j], excess));
+      e[j] = 0;
+      for (int s = 0; s < 3; s++) PetscCall(VecSet(T->S[s][j], 0));
+    }
+    PetscCall(PetscFree(e));
+    PetscCall(VecDestroy(&excess));
+    for (PetscInt j = 0; j < 4 * r * r; j++) P[j] = 0;
+    for (PetscInt j = 0; j < 2 * r; j++) grad[j] = 0;
+  }
+  *loss = 0;
+  *ok   = PETSC_TRUE;
+  T->steps    = 0;
+  T->eq_worst = 0;
+  PetscCall(VKMeshGetRestPositions(fit->mesh, T->xcur));
+  PetscCall(VecCopy(T->xcur, T->xold));
+  T->f.scale_min = T->force_min;
+  for (PetscInt k = 0; k < T->nf && *ok; k++) {
+    while (t < T->t[k] - 1e-9 * dt && *ok) {
+      PetscReal    h = PetscMin(dt, T->t[k] - t), a;
+      PetscScalar *ya;
+      VKFitEqStats st;
+      if (T->t[k] - (t + h) < 1e-6 * dt) h = T->t[k] - t; /* no sliver of a step before the frame */
+      a = h / hprev;
+      T->f.index = ++T->steps;
+      T->f.t     = t + h;
+      T->f.dt    = h;
+      PetscCall(VecCopy(T->xcur, T->f.xhat)); /* the step's force scale about where it starts */
+      PetscCall(VecCopy(T->xcur, T->f.xprev));
+      PetscCall(VecAXPBYPCZ(T->f.y, 1 + a, -a, 0, T->xcur, T->xold));
+      PetscCall(VecGetArray(T->f.y, &ya));
+      for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) ya[i] += h * h * g[i % 3];
+      PetscCall(VecRestoreArray(T->f.y, &ya));
+      PetscCall(VecCopy(T->f.y, T->f.x));
+      PetscCall(VKFitEquilibriumTry(fit, &T->f, &st, ok));
+      T->eq_worst = PetscMax(T->eq_worst, st.residual / st.tolerance);
+      if (!*ok) break;
+      if (r) PetscCall(Sensitivities(T, r, h, a));
+      PetscCall(VecCopy(T->xcur, T->xold));
+      PetscCall(VecCopy(T->f.x, T->xcur));
+      hprev = h;
+      t += h;
+    }
+    if (*ok) PetscCall(AddFrame(T, k, r, loss, grad, P));
+  }
+  if (!*ok) *loss = PETSC_INFINITY;
+  if (lossf)
+    for (PetscInt k = 0; k < T->nf; k++) lossf[k] = *ok ? T->lossf[k] : PETSC_INFINITY;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Record(VKFitTrajectory T, PetscInt r, PetscInt it, PetscReal loss, PetscReal gnorm, PetscReal change)
+{
+  VKFit        fit = T->fit;
+  VKFitIterate rec = {-1, r, it, VK_FIT_GN, loss, gnorm, change, T->eq_worst * fit->eq_rtol, VKWallTime() - fit->wall0};
+
+  PetscFunctionBegin;
+  PetscCall(VKFitAppendIterate(fit, &rec));
+  if (it > 0) fit->nits++;
+  if (fit->monitor) PetscCall(PetscPrintf(fit->comm, "  fit trajectory r=%-3d GN %3d loss %.6e |grad| %.3e largest change x%.3g (%d steps, worst |g|/tol %.2f)\n", (int)r, (int)it, (double)loss, (double)gnorm, (double)PetscExpReal(change), (int)T->steps, (double)T->eq_worst));
+  PetscFunctionReturn(0);
+}
+
+/* dq = -(P + lambda I)^+ grad from P = Q diag(l) Q^T, scaled so that no
+ * parameter changes by more than the factor e^cap; returns that change. */
+static PetscErrorCode LMStep(VKFit fit, PetscInt r, const PetscReal Q[], const PetscReal l[], const PetscReal grad[], PetscReal lambda, PetscReal cap, PetscReal dq[], Vec work, PetscReal *change)
+{
+  PetscInt  n = 2 * r;
+  PetscReal big;
+
+  PetscFunctionBegin;
+  for (PetscInt j = 0; j < n; j++) dq[j] = 0;
+  for (PetscInt k = 0; k < n; k++) {
+    PetscReal c = 0, lk = PetscMax(l[k], 0) + lambda;
+    for (PetscInt i = 0; i < n; i++) c += Q[n * i + k] * grad[i];
+    if (lk > 0)
+      for (PetscInt j = 0; j < n; j++) dq[j] -= Q[n * j + k] * c / lk;
+  }
+  PetscCall(VecSet(work, 0));
+  PetscCall(VKFitHarmonicApply(fit, r, dq, work));
+  PetscCall(VecNorm(work, NORM_INFINITY, &big));
+  if (big > cap)
+    for (PetscInt j = 0; j < n; j++) dq[j] *= cap / big;
+  *change = PetscMin(big, cap);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma)
+{
+  VKFit      fit = T->fit;
+  PetscInt   n   = 2 * r, it;
+  PetscReal *grad, *P, *gt, *Pt, *l, *Q, *dq, *work, loss, lt, lambda = -1, cap = PetscLogReal(fit->traj_max_factor), gnorm = 0;
+  Vec        trial, work_v;
+  PetscBool  ok;
+
+  PetscFunctionBegin;
+  PetscCheck(r >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The trajectory fit moves in a harmonic basis of size r >= 1, got %d", (int)r);
+  PetscCall(PetscMalloc4(n, &grad, n * n, &P, n, &gt, n * n, &Pt));
+  PetscCall(PetscMalloc4(n, &l, n * n, &Q, n, &dq, n * n, &work));
+  PetscCall(VecDuplicate(gamma, &trial));
+  PetscCall(VecDuplicate(gamma, &work_v));
+  { /* a parameter on the floor has no excess to scale: lift it a little above */
+    PetscScalar *g;
+    PetscInt     m;
+    PetscCall(VecGetLocalSize(gamma, &m));
+    PetscCall(VecGetArray(gamma, &g));
+    for (PetscInt i = 0; i < m; i++) g[i] = PetscMax(g[i], (1 + FLOOR_LIFT) * fit->gamma_min[i % 2]);
+    PetscCall(VecRestoreArray(gamma, &g));
+  }
+  PetscCall(VKFitTrajectoryEvaluate(T, gamma, r, &loss, NULL, grad, P, &ok));
+  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit, stage r = %d: the starting material's rollout did not converge at step %d (t = %g s): |g| %.3g x the tolerance; raise -fit_eq_newton_its or -pd_max_it", (int)r, (int)T->steps, (double)T->f.t, (double)T->eq_worst);
+  for (PetscInt j = 0; j < n; j++) gnorm += grad[j] * grad[j];
+  PetscCall(Record(T, r, 0, loss, PetscSqrtReal(gnorm), 0));
+  for (it = 1; it <= fit->gn_its; it++) {
+    PetscBool accepted = PETSC_FALSE;
+    PetscReal change   = 0, lmax = 0;
+    VKSymEigN(n, P, l, Q, work);
+    for (PetscInt k = 0; k < n; k++) lmax = PetscMax(lmax, l[k]);
+    if (lambda < 0) lambda = fit->kappa * lmax;
+    for (PetscInt tries = 0; tries <= fit->max_halvings && !accepted; tries++) {
+      PetscCall(LMStep(fit, r, Q, l, grad, lambda, cap, dq, work_v, &change));
+      PetscCall(VKFitTrajectoryMove(fit, r, gamma, dq, trial));
+      PetscCall(VKFitTrajectoryEvaluate(T, trial, r, &lt, NULL, gt, Pt, &ok));
+      if (ok && lt < loss * (1 - fit->rtol)) accepted = PETSC_TRUE;
+      else lambda = PetscMax(10 * lambda, 1e-12 * lmax);
+    }
+    if (!accepted) break;
+    lambda /= 3;
+    PetscCall(VecCopy(trial, gamma));
+    PetscCall(PetscArraycpy(grad, gt, n));
+    PetscCall(PetscArraycpy(P, Pt, n * n));
+    gnorm = 0;
+    for (PetscInt j = 0; j < n; j++) gnorm += grad[j] * grad[j];
+    {
+      PetscReal prev = loss;
+      loss           = lt;
+      PetscCall(Record(T, r, it, loss, PetscSqrtReal(gnorm), change));
+      if (prev - loss <= fit->rtol * prev) break;
+    }
+  }
+  PetscCall(VKFitSetGamma(fit, gamma));
+  PetscCall(VecDestroy(&trial));
+  PetscCall(VecDestroy(&work_v));
+  PetscCall(PetscFree4(grad, P, gt, Pt));
+  PetscCall(PetscFree4(l, Q, dq, work));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryRun(VKFit fit, VKFitData data, const char dir[])
+{
+  PetscInt        nf = data->nframes - 1, rmax = 0, *frames, *stages, nst = 0;
+  PetscReal      *xy, *n1, *Fhat, *eps, *loss0, *loss1, l0, l1;
+  Vec            *xhat, gamma;
+  VKFitTrajectory T;
+  VKFitResult     res = {0};
+  PetscBool       ok;
+
+  PetscFunctionBegin;
+  PetscCheck(!fit->restart, fit->comm, PETSC_ERR_SUP, "-fit_restart: the trajectory fit (-fit_loss trajectory) writes no checkpoints; run it again");
+  PetscCheck(fit->max_iterations == 0, fit->comm, PETSC_ERR_SUP, "-fit_max_iterations: the trajectory fit (-fit_loss trajectory) cannot stop and go on; use -fit_gn_its to bound each stage");
+  PetscCheck(nf >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "%s has no frame after the rest frame to fit", data->path);
+  PetscCheck(PetscAbsReal(data->time[0]) <= 1e-9 * (data->time[1] - data->time[0]), fit->comm, PETSC_ERR_FILE_UNEXPECTED, "%s starts at t = %g s; the trajectory loss rolls the model out from rest at t = 0, as volknit sim does", data->path, (double)data->time[0]);
+  fit->wall0 = VKWallTime();
+  fit->nhist = fit->nits = 0;
+  PetscCall(VKFitSetUp(fit));
+  PetscCall(VKMakeDirectory(fit->comm, dir));
+  PetscCall(PetscMalloc2(fit->nharm, &stages, nf, &frames));
+  for (PetscInt h = 0; h < fit->nharm; h++)
+    if (fit->harm_r[h] < fit->mesh->ne) stages[nst++] = fit->harm_r[h];
+  PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)fit->mesh->ne);
+  rmax = stages[nst - 1];
+  PetscCall(PetscMalloc4(nf, &eps, nf, &loss0, nf, &loss1, nf, &xhat));
+  PetscCall(PetscMalloc3(3 * fit->mesh->ny, &xy, 3 * fit->sf->nseg, &n1, 9 * (fit->mesh->layout.eEnd - fit->mesh->layout.eStart) + 1, &Fhat));
+  for (PetscInt k = 0; k < nf; k++) {
+    frames[k] = k + 1;
+    PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &xhat[k]));
+    PetscCall(VKFitFrameTarget_Private(fit, data, k + 1, xy, n1, Fhat, xhat[k], &eps[k]));
+  }
+  PetscCall(PetscFree3(xy, n1, Fhat));
+  PetscCall(VKFitTrajectoryCreate(fit, nf, data->time + 1, xhat, eps, &T));
+  for (PetscInt k = 0; k < nf; k++) PetscCall(VecDestroy(&xhat[k]));
+  PetscCall(VKFitHarmonicSetUp(fit, rmax));
+  PetscCall(VKFitCreateGammaVec(fit, &gamma));
+  PetscCall(VKFitGetGamma(fit, gamma));
+  PetscCall(VKFitSetGammaFloor(fit, gamma));
+  PetscCall(PetscPrintf(fit->comm, "volknit fit: the trajectory of %s, %d frames to t = %g s, rolled out at dt %g s; %d parameters in harmonic stages r =", data->path, (int)nf, (double)data->time[nf], (double)VKFitTrajectoryStep(fit), (int)(2 * fit->mesh->ne)));
+  for (PetscInt s = 0; s < nst; s++) PetscCall(PetscPrintf(fit->comm, " %d", (int)stages[s]));
+  PetscCall(PetscPrintf(fit->comm, "\n"));
+  PetscCall(VKFitTrajectoryEvaluate(T, gamma, 0, &l0, loss0, NULL, NULL, &ok));
+  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the starting material's rollout did not converge at step %d (t = %g s); raise -fit_eq_newton_its or -pd_max_it", (int)T->steps, (double)T->f.t);
+  for (PetscInt s = 0; s < nst; s++) {
+    PetscReal before = fit->nhist ? fit->hist[fit->nhist - 1].loss : l0;
+    PetscInt  its0   = fit->nits;
+    PetscCall(VKFitTrajectoryOptimize(T, stages[s], gamma));
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)(fit->nits - its0), VKWallTime() - fit->wall0));
+  }
+  PetscCall(VKFitTrajectoryEvaluate(T, gamma, 0, &l1, loss1, NULL, NULL, &ok));
+  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the final material's rollout did not converge");
+  res.ns         = nf;
+  res.frames     = frames;
+  res.loss0      = loss0;
+  res.loss1      = loss1;
+  res.floor      = eps;
+  res.gamma      = gamma;
+  res.total      = VKWallTime() - fit->wall0;
+  res.trajectory = PETSC_TRUE;
+  res.traj_dt    = VKFitTrajectoryStep(fit);
+  res.traj_steps = T->steps;
+  res.traj_loss0 = l0;
+  res.traj_loss1 = l1;
+  PetscCall(VKFitWriteOutputs_Private(fit, data, &res, dir));
+  {
+    PetscReal floor = 0;
+    for (PetscInt k = 0; k < nf; k++) floor += eps[k];
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: trajectory loss %.4e -> %.4e (of its excess over the floor %.4e, %.1f%% remains); %d iterations, equilibria %.1f s, sensitivities %.1f s, total %.1f s -> %s/material.h5\n", (double)l0, (double)l1, (double)floor, l0 > floor ? 100 * (double)((l1 - floor) / (l0 - floor)) : 0.0, (int)fit->nits, fit->time_eq, fit->time_adjoint, VKWallTime() - fit->wall0, dir));
+  }
+  PetscCall(VKFitTrajectoryDestroy(&T));
+  PetscCall(VecDestroy(&gamma));
+  PetscCall(PetscFree4(eps, loss0, loss1, xhat));
+  PetscCall(PetscFree2(stages, frames));
+  PetscFunctionReturn(0);
+}
