@@ -344,9 +344,10 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory, PetscIn
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryMove(VKFit, PetscInt r, Vec gamma, const PetscReal q[], Vec out);
 /* Gauss-Newton (Levenberg-Marquardt) on L over q in each harmonic stage
  * r = -fit_harmonic, gamma in and out (a parameter on the floor first
- * lifted 0.1 % of the floor above it); iterations appended to fit->hist
+ * lifted 0.1 % of the floor above it) and the per-frame losses of the
+ * result out (lossf, optional); iterations appended to fit->hist
  * (sample -1). */
-PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma);
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma, PetscReal lossf[]);
 /* The whole fitting with -fit_loss trajectory (VKFitRun calls it): every
  * frame of the yarn-level run after the rest frame compared. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryRun(VKFit, VKFitData, const char dir[]);

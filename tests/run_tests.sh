@@ -9,7 +9,7 @@
 #  3. `volknit mesh` on the demo scene with 1 and 2 ranks, compared by
 #     tests/tool_compare_mesh (same mesh, masses, embedding, partition);
 #  4. the example programs;
-#  5. `volknit fit` with 1 and 2 ranks, stopped and restarted, killed and
+#  5. `volknit fit` with 1 and 2 ranks (both losses), stopped and restarted, killed and
 #     restarted, and with broken checkpoints (tests/tool_compare_material).
 # Ends with the line "N passed, M failed"; exit status 1 if M > 0.
 set -u
@@ -194,6 +194,15 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
   fit_dir "uniform"
   if fit_run "uniform" 2 -fit_best_uniform && grep -q 'best uniform material g_s = g_v' "$fd/uniform.log" && grep -q '"best_uniform"' "$fd/uniform/fit.json" && [ -s "$fd/uniform/material.h5" ]; then ok
   else not_ok "volknit fit -fit_best_uniform: expected the search's line and best_uniform in fit.json (see $fd/uniform.log)"; fi
+  # the trajectory loss (-fit_loss trajectory): the rollout's loss falls by a quarter or more, the
+  # outputs say which loss, and 1 and 2 ranks give the same material
+  for n in 1 2; do
+    fit_dir "traj$n"
+    if fit_run "traj$n" "$n" -fit_loss trajectory && [ -s "$fd/traj$n/material.h5" ] && grep -q '"loss": "trajectory"' "$fd/traj$n/fit.json" \
+       && sed -n 's/^volknit fit: trajectory loss \([^ ]*\) -> \([^ ]*\) .*/\1 \2/p' "$fd/traj$n.log" | awk 'NF == 2 && $2 < 0.75 * $1 { found = 1 } END { exit !found }'; then ok
+    else not_ok "volknit fit -n $n -fit_loss trajectory: failed, no material.h5, or the loss did not fall by a quarter (see $fd/traj$n.log; measured: by half)"; fi
+  done
+  compare_material "$fd/traj1/material.h5" "$fd/traj2/material.h5" 1e-5 "trajectory, 1 vs 2 ranks"
   # the stretch band material (-mat_band): fitted, carried by material.h5 into
   # volknit sim, and refused there beside another -mat_band
   fit_dir "band"

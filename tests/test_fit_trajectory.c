@@ -253,8 +253,8 @@ static PetscErrorCode TestRecovery(PetscBool uniform)
   PetscCall(VecDuplicate(p.gamma0, &gamma));
   PetscCall(VecCopy(p.gamma0, gamma));
   PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L0, NULL, NULL, NULL, &ok));
-  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma));
-  if (!uniform) PetscCall(VKFitTrajectoryOptimize(p.T, 3, gamma));
+  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma, NULL));
+  if (!uniform) PetscCall(VKFitTrajectoryOptimize(p.T, 3, gamma, NULL));
   PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L1, NULL, NULL, NULL, &ok));
   PetscCall(RelDiff(gamma, p.gstar, &err));
   PetscCall(PetscSNPrintf(d, sizeof(d), "loss %.3e -> %.3e, max |gamma/gamma* - 1| %.3e, %d iterations", (double)L0, (double)L1, (double)err, (int)p.fit->nits));

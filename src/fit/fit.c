@@ -130,7 +130,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsBool("-fit_monitor", "Print every iteration of the schedule", "VKFitOptimize", fit->monitor, &fit->monitor, NULL));
   PetscCall(PetscOptionsEnum("-fit_loss", "What the loss compares: frames, one implicit Euler step from the yarn-level data at each sample frame, fitted sample by sample (paper section 6); trajectory, the model rolled out from rest as volknit sim runs it, at every frame, fitted in the harmonic stages only", "VKFitRun", VKFitLosses, (PetscEnum)fit->loss, (PetscEnum *)&fit->loss, NULL));
   PetscCall(PetscOptionsReal("-fit_trajectory_dt", "Time step of the trajectory loss's rollout (0: volknit sim's default, min(1/150 s, -scene_output_interval)); give the -ts_dt the simulation will use", "VKFitTrajectoryStep", fit->traj_dt, &fit->traj_dt, NULL));
-  PetscCall(PetscOptionsReal("-fit_trajectory_max_factor", "Largest factor by which one trajectory Gauss-Newton iteration changes a parameter's excess over the floor", "VKFitTrajectoryOptimize", fit->traj_max_factor, &fit->traj_max_factor, NULL));
+  PetscCall(PetscOptionsReal("-fit_trajectory_max_factor", "Largest factor by which one trajectory Gauss-Newton iteration changes a parameter", "VKFitTrajectoryOptimize", fit->traj_max_factor, &fit->traj_max_factor, NULL));
   PetscCall(PetscOptionsEnum("-fit_inertia", "Inertia in the equilibrium of a frame: implicit, M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2; data, the data acceleration as a force; none, static", "VKFitEquilibrium", VKFitInertias, (PetscEnum)fit->inertia, (PetscEnum *)&fit->inertia, NULL));
   PetscOptionsEnd();
   PetscCheck(fit->eq_rtol > 0 && fit->eq_rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_rtol must be in (0, 1), got %g", (double)fit->eq_rtol);
@@ -151,6 +151,11 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
     fit->nharm = nharm;
     if (nharm == 1 && fit->harm_r[0] == 0) fit->nharm = 0;
     for (PetscInt i = 0; i < fit->nharm; i++) PetscCheck(fit->harm_r[i] >= 1 && (i == 0 || fit->harm_r[i] > fit->harm_r[i - 1]), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_harmonic: the basis sizes must be positive and increasing, got %d after %d", (int)fit->harm_r[i], i ? (int)fit->harm_r[i - 1] : 0);
+  }
+  if (fit->loss == VK_FIT_LOSS_TRAJECTORY) {
+    PetscCheck(fit->nharm > 0, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... (not 0)");
+    PetscCheck(!fit->restart && fit->max_iterations == 0, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory writes no checkpoint: -fit_restart and -fit_max_iterations apply to -fit_loss frames only (bound each stage with -fit_gn_its)");
+    PetscCheck(!fit->best_uniform, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_best_uniform searches on the frames loss; with -fit_loss trajectory the first stage, -fit_harmonic 1, is the best uniform material");
   }
   PetscCall(KSPSetFromOptions(fit->kadj));
   PetscCall(KSPSetFromOptions(fit->kkkt));
