@@ -130,6 +130,7 @@ struct _n_VKFit {
   VKFitLoss    loss;
   PetscReal    traj_dt; /* the rollout's time step (0: volknit sim's default) */
   PetscReal    traj_max_factor; /* largest change of a parameter in one trajectory iteration */
+  PetscReal    traj_prior;      /* weight of the log-distance from the start material, x the start's loss */
   /* adjoint */
   Mat       H, J;
   KSP       kadj; /* prefix -fit_adjoint_ */
@@ -342,7 +343,17 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory, Vec gamma, 
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory, PetscInt k, Vec x);
 /* g0 + (gamma - g0) o exp(B_r q): never below the floor g0. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryMove(VKFit, PetscInt r, Vec gamma, const PetscReal q[], Vec out);
-/* Gauss-Newton (Levenberg-Marquardt) on L over q in each harmonic stage
+/* The prior (-fit_trajectory_prior mu > 0) keeps parameters the frames do
+ * not determine near a reference material gref with loss L_ref:
+ *   R(gamma) = mu L_ref mean_i log^2((gamma_i - g0)/(gref_i - g0)),
+ * over all 2 ne parameters.  SetPriorReference records gref and L_ref
+ * (VKFitTrajectoryOptimize does so at its first call when none is set);
+ * AddPrior adds R to *obj and, with grad and P (2r, 2r x 2r) given, its
+ * gradient and Hessian in q (exact: R is quadratic in q); nothing when
+ * mu = 0. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectorySetPriorReference(VKFitTrajectory, Vec gref, PetscReal lref);
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory, PetscInt r, Vec gamma, PetscReal *obj, PetscReal grad[], PetscReal P[]);
+/* Gauss-Newton (Levenberg-Marquardt) on L (+ R) over q in each harmonic stage
  * r = -fit_harmonic, gamma in and out (a parameter on the floor first
  * lifted 0.1 % of the floor above it) and the per-frame losses of the
  * result out (lossf, optional); iterations appended to fit->hist

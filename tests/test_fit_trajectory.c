@@ -10,14 +10,17 @@
  *    and its frames are the implicit Euler trajectory built here step by
  *    step with VKFitEquilibrium;
  *  - the sensitivity gradient grad_q L passes a Taylor test (order 2) in the
- *    log-harmonic parametrization gamma o exp(B q), from a start away from
+ *    log-harmonic parametrization g0 + (gamma - g0) o exp(B q), from a start away from
  *    gamma*; at gamma* the gradient vanishes and the loss along B h dq is
  *    h^2/2 dq^T P dq to third order (P the Gauss-Newton matrix, exact where
  *    the residual is zero); P is symmetric;
  *  - Gauss-Newton in the stages r = 1, 3 from the uniform mean recovers
  *    gamma* to 1e-3 with the loss down by 1e8; with uniform data the stage
  *    r = 1 alone recovers that uniform material (the automatic uniform
- *    search of issue 21 on the trajectory loss).
+ *    search of issue 21 on the trajectory loss);
+ *  - the prior (-fit_trajectory_prior) vanishes at its reference, its
+ *    gradient and Hessian reproduce it exactly (it is quadratic in q), and
+ *    a heavy one holds the optimizer at the reference.
  * ranks: 1 2
  */
 #include <vkfit.h>
@@ -265,6 +268,58 @@ static PetscErrorCode TestRecovery(PetscBool uniform)
   PetscFunctionReturn(0);
 }
 
+/* The prior R = mu L_ref mean log^2((gamma - g0)/(gref - g0)) is exactly
+ * quadratic in q: its gradient and Hessian reproduce it along a direction
+ * to round-off; and a heavy prior holds the optimizer at the reference. */
+static PetscErrorCode TestPrior(void)
+{
+  Problem   p;
+  PetscReal q1[6] = {0.3, -0.2, 0.5, 0.4, -0.6, 0.1}, dq[6] = {0.7, -0.4, 1.1, -0.9, 0.5, 0.8}, q[6], g[6], P[36], R0 = 0, Rref = 0, worst = 0, gd = 0, quad = 0, err, L1;
+  Vec       base, trial, gamma;
+  PetscBool ok;
+  char      d[256];
+
+  PetscFunctionBegin;
+  PetscCall(Build(&p, PETSC_FALSE));
+  PetscCall(VecDuplicate(p.gamma0, &base));
+  PetscCall(VecDuplicate(p.gamma0, &trial));
+  PetscCall(VecDuplicate(p.gamma0, &gamma));
+  p.fit->traj_prior = 0.3;
+  PetscCall(VKFitTrajectorySetPriorReference(p.T, p.gamma0, 2.0));
+  PetscCall(VKFitTrajectoryAddPrior(p.T, 3, p.gamma0, &Rref, NULL, NULL));
+  PetscCall(VKFitTrajectoryMove(p.fit, 3, p.gamma0, q1, base));
+  for (int j = 0; j < 36; j++) P[j] = 0;
+  for (int j = 0; j < 6; j++) g[j] = 0;
+  PetscCall(VKFitTrajectoryAddPrior(p.T, 3, base, &R0, g, P));
+  for (int i = 0; i < 6; i++) {
+    gd += g[i] * dq[i];
+    for (int j = 0; j < 6; j++) quad += 0.5 * dq[i] * P[6 * i + j] * dq[j];
+  }
+  for (int k = 0; k < 4; k++) {
+    PetscReal h = PetscPowReal(2, -k), Rh = 0;
+    for (int j = 0; j < 6; j++) q[j] = h * dq[j];
+    PetscCall(VKFitTrajectoryMove(p.fit, 3, base, q, trial));
+    PetscCall(VKFitTrajectoryAddPrior(p.T, 3, trial, &Rh, NULL, NULL));
+    worst = PetscMax(worst, PetscAbsReal(Rh - (R0 + h * gd + h * h * quad)) / R0);
+  }
+  PetscCall(PetscSNPrintf(d, sizeof(d), "R(gref) %.3e, R %.3e, g.dq %.3e, dq^T P dq / 2 %.3e, largest relative misfit of the quadratic model %.3e", (double)Rref, (double)R0, (double)gd, (double)quad, (double)worst));
+  PetscCall(VKTestCheck((PetscBool)(Rref == 0 && R0 > 0 && PetscAbsReal(gd) > 1e-3 * R0 && worst < 1e-10), d, "trajectory: the prior is zero at its reference and its gradient and Hessian reproduce it exactly (misfit %.1e)", (double)worst));
+  /* with the heavy prior the fit stays at the reference; without it, it left (TestRecovery) */
+  p.fit->traj_prior = 1e6;
+  PetscCall(VecCopy(p.gamma0, gamma));
+  PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L1, NULL, NULL, NULL, &ok));
+  PetscCall(VKFitTrajectorySetPriorReference(p.T, p.gamma0, L1));
+  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma, NULL));
+  PetscCall(RelDiff(gamma, p.gamma0, &err));
+  PetscCall(PetscSNPrintf(d, sizeof(d), "max |gamma/gamma0 - 1| %.3e after %d iterations", (double)err, (int)p.fit->nits));
+  PetscCall(VKTestCheck((PetscBool)(ok && err < 1e-3), d, "trajectory: a prior of weight 1e6 holds the fit at its reference (change %.1e)", (double)err));
+  PetscCall(VecDestroy(&base));
+  PetscCall(VecDestroy(&trial));
+  PetscCall(VecDestroy(&gamma));
+  PetscCall(Destroy(&p));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL));
@@ -272,6 +327,7 @@ int main(int argc, char **argv)
   PetscCall(TestRolloutAndDerivatives());
   PetscCall(TestRecovery(PETSC_TRUE));
   PetscCall(TestRecovery(PETSC_FALSE));
+  PetscCall(TestPrior());
   {
     int rc = VKTestFinish();
     PetscCall(SlepcFinalize());
