@@ -339,6 +339,9 @@ PETSC_EXTERN PetscReal VKFitTrajectoryStep(VKFit);
  * fit's harmonic basis.  *ok is false when a step's equilibrium was not
  * reached (nothing else is then valid). */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory, Vec gamma, PetscInt r, PetscReal *loss, PetscReal lossf[], PetscReal grad[], PetscReal P[], PetscBool *ok);
+/* The loss of staying at rest, sum_k eps_k(X): a joint fit divides each
+ * trajectory's loss by it. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetRestLoss(VKFitTrajectory, PetscReal *);
 /* The rolled-out positions at frame k of the last evaluation. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory, PetscInt k, Vec x);
 /* g0 + (gamma - g0) o exp(B_r q): never below the floor g0. */
@@ -359,6 +362,16 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory, PetscInt r,
  * result out (lossf, optional); iterations appended to fit->hist
  * (sample -1). */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma, PetscReal lossf[]);
+/* The same on sum_i L_i / L_i(rest) over nt trajectories, e.g. of several scenes:
+ * each with its own VKFit (scene, PD) on one shared VKMaterial, the same
+ * harmonic basis and floor; the first's fit records the iterations and
+ * holds the prior; lossf[i] (optional) per frame of trajectory i.  A
+ * parameter one scene leaves free is held by another. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[]);
 /* The whole fitting with -fit_loss trajectory (VKFitRun calls it): every
  * frame of the yarn-level run after the rest frame compared. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryRun(VKFit, VKFitData, const char dir[]);
+/* The same on nt yarn-level runs at once (volknit fit -fit_joint): fits[i]
+ * on scene i, all on one VKMaterial and mesh, data[i] that scene's run;
+ * outputs through the first. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data[], const char dir[]);

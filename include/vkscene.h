@@ -47,6 +47,7 @@ typedef struct {
 typedef struct _n_VKScene *VKScene;
 struct _n_VKScene {
   MPI_Comm   comm;
+  char       prefix[64];      /* of its options, e.g. fit_joint1_ for -fit_joint1_scene_gravity */
   char       name[64];
   PetscReal  gravity[3];      /* m/s^2 */
   PetscReal  duration;        /* s */
@@ -61,6 +62,10 @@ struct _n_VKScene {
 };
 
 PETSC_EXTERN PetscErrorCode VKSceneCreate(MPI_Comm, VKScene *);
+/* Options read as -<prefix>scene_...; set before VKSceneSetFromOptions.
+ * PETSc's -prefix_push P -options_file F -prefix_pop reads a scene file
+ * under a prefix. */
+PETSC_EXTERN PetscErrorCode VKSceneSetOptionsPrefix(VKScene, const char prefix[]);
 PETSC_EXTERN PetscErrorCode VKSceneSetFromOptions(VKScene);
 /* Fix scene units to metres with the rest bounding box [lo, hi] of the
  * yarn model (both simulators pass the same box). */

@@ -203,6 +203,26 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
     else not_ok "volknit fit -n $n -fit_loss trajectory: failed, no material.h5, or the loss did not fall by a quarter (see $fd/traj$n.log; measured: by half)"; fi
   done
   compare_material "$fd/traj1/material.h5" "$fd/traj2/material.h5" 1e-5 "trajectory, 1 vs 2 ranks"
+  # one material on two scenes (-fit_joint): a hang run of the same yarn beside
+  # the stretch; both trajectories' losses fall, 1 and 2 ranks agree
+  if timeout "$TIMEOUT" bin/volknit yls -o "$fd/hang" -yarn_h5 "$fd/ref/yarn.h5" -options_file options/hang.opts -scene_duration 0.1 > "$fd/hang.log" 2>&1; then
+    for n in 1 2; do
+      fit_dir "joint$n"
+      if fit_run "joint$n" "$n" -fit_loss trajectory -fit_joint "$fd/hang" -prefix_push fit_joint1_ -options_file options/hang.opts -prefix_pop \
+         && [ -s "$fd/joint$n/material.h5" ] && grep -q '"joint_data"' "$fd/joint$n/fit.json" \
+         && sed -n 's/^volknit fit: trajectory of .*: loss \([^ ]*\) -> \([^ ]*\) (at rest.*/\1 \2/p' "$fd/joint$n.log" | awk 'NF == 2 && $2 < $1 { down++ } END { exit down != 2 }'; then ok
+      else not_ok "volknit fit -n $n -fit_joint: failed, no material.h5, no joint_data in fit.json, or a trajectory's loss did not fall (see $fd/joint$n.log)"; fi
+    done
+    compare_material "$fd/joint1/material.h5" "$fd/joint2/material.h5" 1e-5 "joint, 1 vs 2 ranks"
+    for case in "frames:-fit_joint fits trajectories of several scenes: give -fit_loss trajectory" "missing:/nonexistent/yls.h5"; do
+      kind=${case%%:*}; expect=${case#*:}
+      fit_dir "joint.$kind"
+      if [ "$kind" = frames ]; then fit_run "joint.$kind" 1 -fit_joint "$fd/hang"; else fit_run "joint.$kind" 1 -fit_loss trajectory -fit_joint /nonexistent; fi
+      rc=$?
+      if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q -- "$expect" "$fd/joint.$kind.log" && [ ! -e "$fd/joint.$kind/material.h5" ]; then ok
+      else not_ok "volknit fit -fit_joint ($kind): status $rc, expected '$expect' and no material.h5 (see $fd/joint.$kind.log)"; fi
+    done
+  else not_ok "the hang run for the -fit_joint tests failed (see $fd/hang.log)"; fi
   # the stretch band material (-mat_band): fitted, carried by material.h5 into
   # volknit sim, and refused there beside another -mat_band
   fit_dir "band"

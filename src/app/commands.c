@@ -350,33 +350,83 @@ static PetscErrorCode FitView(void *f, PetscViewer v)
   return VKFitView((VKFit)f, v);
 }
 
-/* The fitting stage: frames from DIR/yls.h5, the fit's own -fit_view. */
-static PetscErrorCode FitStage(VKFit fit, const char dir[])
+/* Further scenes fitted with the first (volknit fit -fit_joint). */
+#define MAX_JOINT 4
+typedef struct {
+  PetscInt n;
+  char    *dir[MAX_JOINT];
+  VKScene  scene[MAX_JOINT];
+  VKFit    fit[MAX_JOINT];
+} FitJoint;
+
+static PetscErrorCode FitJointDestroy(FitJoint *J)
+{
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < J->n; i++) {
+    PetscCall(VKFitDestroy(&J->fit[i]));
+    PetscCall(VKSceneDestroy(&J->scene[i]));
+    PetscCall(PetscFree(J->dir[i]));
+  }
+  J->n = 0;
+  PetscFunctionReturn(0);
+}
+
+/* The fitting stage: frames from DIR/yls.h5 (and each -fit_joint
+ * directory's), the fit's own -fit_view. */
+static PetscErrorCode FitStage(VKFit fit, const FitJoint *J, const char dir[])
 {
   char      ypath[PETSC_MAX_PATH_LEN];
-  VKFitData data = NULL;
+  VKFitData data[1 + MAX_JOINT] = {NULL};
+  VKFit     fits[1 + MAX_JOINT];
+  PetscInt  nj = J ? J->n : 0;
 
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_FIT));
-  PetscCall(VKPathJoin(dir, "yls.h5", ypath, sizeof(ypath)));
-  PetscCall(VKFitDataLoad(fit->comm, ypath, &data));
-  PetscCall(PetscPrintf(fit->comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)fit->mesh->nv, (int)fit->mesh->ne, ypath, (int)data->nframes, data->status));
-  PetscCall(VKFitSetUp(fit));
+  for (PetscInt i = 0; i <= nj; i++) {
+    fits[i] = i ? J->fit[i - 1] : fit;
+    PetscCall(VKPathJoin(i ? J->dir[i - 1] : dir, "yls.h5", ypath, sizeof(ypath)));
+    PetscCall(VKFitDataLoad(fit->comm, ypath, &data[i]));
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)fit->mesh->nv, (int)fit->mesh->ne, ypath, (int)data[i]->nframes, data[i]->status));
+    PetscCall(VKFitSetUp(fits[i]));
+  }
   PetscCall(ViewFromOptions(fit->comm, "-fit_view", FitView, fit));
-  PetscCall(VKFitRun(fit, data, dir));
-  PetscCall(VKFitDataDestroy(&data));
+  if (nj) PetscCall(VKFitTrajectoryRunJoint(1 + nj, fits, data, dir));
+  else PetscCall(VKFitRun(fit, data[0], dir));
+  for (PetscInt i = 0; i <= nj; i++) PetscCall(VKFitDataDestroy(&data[i]));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode FitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit)
+/* J: where -fit_joint goes (volknit fit); NULL refuses it (volknit run,
+ * whose mesh is of this run's own relaxed yarn). */
+static PetscErrorCode FitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, FitJoint *J)
 {
+  char     *dirs[MAX_JOINT];
+  PetscInt  n = MAX_JOINT;
+  PetscBool set;
+
   PetscFunctionBegin;
   PetscCall(VKFitCreate(mat, scene, fit));
   PetscCall(VKFitSetFromOptions(*fit));
   PetscOptionsBegin(mat->comm, NULL, "Fitting outputs", "volknit fit");
   PetscCall(PetscOptionsName("-fit_view", "Print the fitting's set-up (schedule, shape fit, solvers) before the run", "VKFitView", NULL));
+  PetscCall(PetscOptionsStringArray("-fit_joint", "Fit one material to the trajectories of these directories' yls.h5 as well (yarn-level runs of other scenes on the same yarn; up to 4); the i-th scene's options under the prefix fit_joint<i>_, e.g. -prefix_push fit_joint1_ -options_file options/stretch.opts -prefix_pop; with -fit_loss trajectory", "VKFitTrajectoryRunJoint", dirs, &n, &set));
   PetscOptionsEnd();
+  if (!set) n = 0;
+  PetscCheck(!n || J, mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint is an option of volknit fit (volknit run fits the scene it runs)");
+  PetscCheck(!set || n > 0, mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint needs a list of directories DIR1,DIR2,... (up to %d)", MAX_JOINT);
+  PetscCheck(!n || (*fit)->loss == VK_FIT_LOSS_TRAJECTORY, mat->comm, PETSC_ERR_ARG_INCOMP, "-fit_joint fits trajectories of several scenes: give -fit_loss trajectory");
+  for (PetscInt i = 0; i < n; i++) {
+    char prefix[32];
+    J->dir[i] = dirs[i];
+    J->n      = i + 1;
+    PetscCall(PetscSNPrintf(prefix, sizeof(prefix), "fit_joint%d_", (int)(i + 1)));
+    PetscCall(VKSceneCreate(mat->comm, &J->scene[i]));
+    PetscCall(VKSceneSetOptionsPrefix(J->scene[i], prefix));
+    PetscCall(VKSceneSetFromOptions(J->scene[i]));
+    PetscCall(VKFitCreate(mat, J->scene[i], &J->fit[i]));
+    PetscCall(VKFitSetFromOptions(J->fit[i]));
+  }
   PetscFunctionReturn(0);
 }
 
@@ -406,14 +456,14 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
   PetscCall(MeshFromOptions(comm, y, &m));
   PetscCall(SimFromOptions(m, dir, &p));
   if (reference) PetscCall(YLSFromOptions(y, p.scene, dir, &yls));
-  if (fitting) PetscCall(FitFromOptions(p.mat, p.scene, &fit));
+  if (fitting) PetscCall(FitFromOptions(p.mat, p.scene, &fit, NULL));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
     /* relaxed first, so yarn.h5, the reference run and the mesh share one rest state */
     PetscCall(YarnStage(y, dir, PETSC_TRUE, reference));
     if (reference) PetscCall(YLSStage(yls));
     PetscCall(MeshStage(m, dir));
-    if (fitting) PetscCall(FitStage(fit, dir));
+    if (fitting) PetscCall(FitStage(fit, NULL, dir));
     if (fitting && fit->stopped) PetscCall(PetscPrintf(comm, "volknit run: the fit stopped before the end; go on with volknit fit -o %s -fit_restart, then volknit sim -o %s -mat_file %s/material.h5\n", dir, dir, dir));
     else {
       const char *status;
@@ -442,6 +492,7 @@ PetscErrorCode VKCommandFit(MPI_Comm comm)
   VKMaterial mat = NULL;
   VKScene   scene = NULL;
   VKFit     fit = NULL;
+  FitJoint  joint = {0};
   PetscBool mexists, yexists, help;
 
   PetscFunctionBegin;
@@ -459,11 +510,12 @@ PetscErrorCode VKCommandFit(MPI_Comm comm)
   PetscCall(VKMaterialSetFromOptions(mat));
   PetscCall(VKSceneCreate(comm, &scene));
   PetscCall(VKSceneSetFromOptions(scene));
-  PetscCall(FitFromOptions(mat, scene, &fit));
+  PetscCall(FitFromOptions(mat, scene, &fit, &joint));
   if (!help) {
     PetscCall(PetscPrintf(comm, "volknit fit: mesh %s\n", mpath));
-    PetscCall(FitStage(fit, dir));
+    PetscCall(FitStage(fit, &joint, dir));
   }
+  PetscCall(FitJointDestroy(&joint));
   PetscCall(VKFitDestroy(&fit));
   PetscCall(VKSceneDestroy(&scene));
   PetscCall(VKMaterialDestroy(&mat));

@@ -21,6 +21,9 @@ typedef struct {
   PetscBool        trajectory;
   PetscReal        traj_dt, traj_loss0, traj_loss1;
   PetscInt         traj_steps;
+  PetscInt         ntraj;  /* > 1 for a joint trajectory fit: */
+  const VKFitData *joint;  /* the data of each trajectory (the first is the fit's) */
+  const PetscInt  *traj;   /* and each frame's trajectory */
 } VKFitResult;
 /* material.h5, material.xdmf, fit.csv, fit.json and fit.png in dir. */
 PETSC_INTERN PetscErrorCode VKFitWriteOutputs_Private(VKFit, VKFitData, const VKFitResult *, const char dir[]);

@@ -121,13 +121,24 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONInt(&j, "steps", res->traj_steps));
     PetscCall(VKJSONReal(&j, "loss_start", res->traj_loss0));
     PetscCall(VKJSONReal(&j, "loss_end", res->traj_loss1));
+    if (res->ntraj > 1) { /* -fit_joint: one material on several scenes */
+      PetscCall(VKJSONArrayBegin(&j, "joint_data"));
+      for (PetscInt t = 0; t < res->ntraj; t++) {
+        PetscCall(VKJSONObjectBegin(&j, NULL));
+        PetscCall(VKJSONString(&j, "data", res->joint[t]->path));
+        PetscCall(VKJSONObjectEnd(&j));
+      }
+      PetscCall(VKJSONArrayEnd(&j));
+    }
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONArrayBegin(&j, res->trajectory ? "frames" : "samples"));
   for (PetscInt s = 0; s < res->ns; s++) {
+    const VKFitData d = res->ntraj > 1 ? res->joint[res->traj[s]] : c->data;
     PetscCall(VKJSONObjectBegin(&j, NULL));
+    if (res->ntraj > 1) PetscCall(VKJSONInt(&j, "trajectory", res->traj[s]));
     PetscCall(VKJSONInt(&j, "frame", res->frames[s]));
-    PetscCall(VKJSONReal(&j, "time", c->data->time[res->frames[s]]));
+    PetscCall(VKJSONReal(&j, "time", d->time[res->frames[s]]));
     if (!res->trajectory) PetscCall(VKJSONReal(&j, "weight", VKFitDataElasticEnergy(c->data, res->frames[s])));
     PetscCall(VKJSONReal(&j, "loss_start", res->loss0[s]));
     PetscCall(VKJSONReal(&j, "loss_end", res->loss1[s]));

@@ -44,6 +44,7 @@ struct _n_VKFitTrajectory {
   PetscReal *t, *eps_hat, *lossf;
   Vec       *xhat, *xk;          /* targets, and the rollout at the frames */
   PetscReal  force_min;          /* the data's inertial force scale: a floor of each step's */
+  PetscReal  rest_loss;          /* the loss of staying at rest: a joint fit's unit for this trajectory */
   PetscInt   steps;              /* of the last rollout */
   PetscReal  eq_worst;           /* largest |g|/tolerance of its steps */
   VKFitFrame f;                  /* the step being solved */
@@ -121,6 +122,12 @@ PetscErrorCode VKFitTrajectoryCreate(VKFit fit, PetscInt nf, const PetscReal t[]
   PetscCall(VecDuplicate(xhat[0], &rest));
   PetscCall(VKMeshGetRestPositions(fit->mesh, rest));
   PetscCall(DataForceScale(T, rest));
+  T->rest_loss = 0;
+  for (PetscInt k = 0; k < nf; k++) {
+    PetscReal lk;
+    PetscCall(VKShapeFitQuadraticLoss(fit->sf, T->xhat[k], T->eps_hat[k], rest, &lk, NULL));
+    T->rest_loss += lk;
+  }
   PetscCall(VecDestroy(&rest));
   *out = T;
   PetscFunctionReturn(0);
@@ -157,6 +164,13 @@ PetscErrorCode VKFitTrajectoryDestroy(VKFitTrajectory *p)
   PetscCall(VecDestroy(&T->gref));
   PetscCall(VecDestroy(&T->dlog));
   PetscCall(PetscFree(*p));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryGetRestLoss(VKFitTrajectory T, PetscReal *loss)
+{
+  PetscFunctionBegin;
+  *loss = T->rest_loss;
   PetscFunctionReturn(0);
 }
 
@@ -471,18 +485,57 @@ PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory T, PetscInt r, Vec gamma,
   PetscFunctionReturn(0);
 }
 
+/* The loss of nt rollouts of gamma and, with r > 0, its grad and P
+ * (scratch: 2r + 4r^2 reals); *bad: the first that failed.  One
+ * trajectory: its loss.  Several: each over its loss at rest,
+ * sum_i L_i / L_i(rest), a sum of squared REL-like terms, so a scene
+ * with large motion does not drown one with small. */
+static PetscErrorCode EvaluateAll(PetscInt nt, VKFitTrajectory T[], Vec gamma, PetscInt r, PetscReal *loss, PetscReal grad[], PetscReal P[], PetscReal scratch[], PetscInt *bad, PetscBool *ok)
+{
+  PetscInt n = 2 * r;
+
+  PetscFunctionBegin;
+  *loss = 0;
+  *ok   = PETSC_TRUE;
+  *bad  = -1;
+  for (PetscInt j = 0; j < n; j++) grad[j] = 0;
+  for (PetscInt j = 0; j < n * n; j++) P[j] = 0;
+  for (PetscInt i = 0; i < nt && *ok; i++) {
+    PetscReal li, w;
+    PetscCall(VKFitTrajectoryEvaluate(T[i], gamma, r, &li, NULL, r ? scratch : NULL, r ? scratch + n : NULL, ok));
+    if (!*ok) {
+      *bad  = i;
+      *loss = PETSC_INFINITY;
+      break;
+    }
+    w = nt > 1 ? 1 / T[i]->rest_loss : 1;
+    *loss += w * li;
+    for (PetscInt j = 0; j < n; j++) grad[j] += w * scratch[j];
+    for (PetscInt j = 0; j < n * n; j++) P[j] += w * scratch[n + j];
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma, PetscReal lossf[])
 {
-  VKFit      fit = T->fit;
-  PetscInt   n   = 2 * r, it;
-  PetscReal *grad, *P, *gt, *Pt, *l, *Q, *dq, *work, loss, lt, obj, ot, lambda = -1, cap = PetscLogReal(fit->traj_max_factor), gnorm = 0;
+  PetscFunctionBegin;
+  PetscCall(VKFitTrajectoryOptimizeJoint(1, &T, r, gamma, lossf ? &lossf : NULL));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[])
+{
+  VKFit      fit = T[0]->fit;
+  PetscInt   n   = 2 * r, it, bad;
+  PetscReal *grad, *P, *gt, *Pt, *l, *Q, *dq, *work, *scratch, loss, lt, obj, ot, lambda = -1, cap = PetscLogReal(fit->traj_max_factor), gnorm = 0;
   Vec        trial, work_v;
   PetscBool  ok;
 
   PetscFunctionBegin;
   PetscCheck(r >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The trajectory fit moves in a harmonic basis of size r >= 1, got %d", (int)r);
+  for (PetscInt i = 1; i < nt; i++) PetscCheck(T[i]->fit->mat == fit->mat && T[i]->fit->rbasis >= r && T[i]->fit->gamma_min[0] == fit->gamma_min[0] && T[i]->fit->gamma_min[1] == fit->gamma_min[1], fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: trajectory %d is not fitted on the same material, basis and floor as trajectory 0", (int)i);
   PetscCall(PetscMalloc4(n, &grad, n * n, &P, n, &gt, n * n, &Pt));
-  PetscCall(PetscMalloc4(n, &l, n * n, &Q, n, &dq, n * n, &work));
+  PetscCall(PetscMalloc5(n, &l, n * n, &Q, n, &dq, n * n, &work, n + n * n, &scratch));
   PetscCall(VecDuplicate(gamma, &trial));
   PetscCall(VecDuplicate(gamma, &work_v));
   { /* a parameter on the floor has no excess to scale: lift it a little above */
@@ -493,13 +546,15 @@ PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma,
     for (PetscInt i = 0; i < m; i++) g[i] = PetscMax(g[i], (1 + FLOOR_LIFT) * fit->gamma_min[i % 2]);
     PetscCall(VecRestoreArray(gamma, &g));
   }
-  PetscCall(VKFitTrajectoryEvaluate(T, gamma, r, &loss, lossf, grad, P, &ok));
-  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit, stage r = %d: the starting material's rollout did not converge at step %d (t = %g s): |g| %.3g x the tolerance; raise -fit_eq_newton_its or -pd_max_it", (int)r, (int)T->steps, (double)T->f.t, (double)T->eq_worst);
-  if (fit->traj_prior > 0 && !T->gref) PetscCall(VKFitTrajectorySetPriorReference(T, gamma, loss));
+  PetscCall(EvaluateAll(nt, T, gamma, r, &loss, grad, P, scratch, &bad, &ok));
+  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit, stage r = %d: the starting material's rollout (trajectory %d) did not converge at step %d (t = %g s): |g| %.3g x the tolerance; raise -fit_eq_newton_its or -pd_max_it", (int)r, (int)bad, (int)T[bad]->steps, (double)T[bad]->f.t, (double)T[bad]->eq_worst);
+  if (lossf)
+    for (PetscInt i = 0; i < nt; i++) PetscCall(PetscArraycpy(lossf[i], T[i]->lossf, T[i]->nf));
+  if (fit->traj_prior > 0 && !T[0]->gref) PetscCall(VKFitTrajectorySetPriorReference(T[0], gamma, loss));
   obj = loss;
-  PetscCall(VKFitTrajectoryAddPrior(T, r, gamma, &obj, grad, P));
+  PetscCall(VKFitTrajectoryAddPrior(T[0], r, gamma, &obj, grad, P));
   for (PetscInt j = 0; j < n; j++) gnorm += grad[j] * grad[j];
-  PetscCall(Record(T, r, 0, loss, PetscSqrtReal(gnorm), 0));
+  PetscCall(Record(T[0], r, 0, loss, PetscSqrtReal(gnorm), 0));
   for (it = 1; it <= fit->gn_its; it++) {
     PetscBool accepted = PETSC_FALSE;
     PetscReal change   = 0, lmax = 0;
@@ -509,16 +564,17 @@ PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma,
     for (PetscInt tries = 0; tries <= fit->max_halvings && !accepted; tries++) {
       PetscCall(LMStep(fit, r, gamma, Q, l, grad, &lambda, cap, dq, work_v, &change));
       PetscCall(VKFitTrajectoryMove(fit, r, gamma, dq, trial));
-      PetscCall(VKFitTrajectoryEvaluate(T, trial, r, &lt, NULL, gt, Pt, &ok));
+      PetscCall(EvaluateAll(nt, T, trial, r, &lt, gt, Pt, scratch, &bad, &ok));
       ot = lt;
-      if (ok) PetscCall(VKFitTrajectoryAddPrior(T, r, trial, &ot, gt, Pt));
+      if (ok) PetscCall(VKFitTrajectoryAddPrior(T[0], r, trial, &ot, gt, Pt));
       if (ok && ot < obj * (1 - fit->rtol)) accepted = PETSC_TRUE;
       else lambda = PetscMax(10 * lambda, 1e-12 * lmax);
     }
     if (!accepted) break;
     lambda /= 3;
     PetscCall(VecCopy(trial, gamma));
-    if (lossf) PetscCall(PetscArraycpy(lossf, T->lossf, T->nf));
+    if (lossf)
+      for (PetscInt i = 0; i < nt; i++) PetscCall(PetscArraycpy(lossf[i], T[i]->lossf, T[i]->nf));
     PetscCall(PetscArraycpy(grad, gt, n));
     PetscCall(PetscArraycpy(P, Pt, n * n));
     gnorm = 0;
@@ -527,67 +583,112 @@ PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma,
       PetscReal prev = obj;
       loss           = lt;
       obj            = ot;
-      PetscCall(Record(T, r, it, loss, PetscSqrtReal(gnorm), change));
+      PetscCall(Record(T[0], r, it, loss, PetscSqrtReal(gnorm), change));
       if (prev - obj <= fit->rtol * prev) break;
     }
   }
-  PetscCall(VKFitSetGamma(fit, gamma));
+  for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitSetGamma(T[i]->fit, gamma));
   PetscCall(VecDestroy(&trial));
   PetscCall(VecDestroy(&work_v));
   PetscCall(PetscFree4(grad, P, gt, Pt));
-  PetscCall(PetscFree4(l, Q, dq, work));
+  PetscCall(PetscFree5(l, Q, dq, work, scratch));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKFitTrajectoryRun(VKFit fit, VKFitData data, const char dir[])
 {
-  PetscInt        nf = data->nframes - 1, rmax = 0, *frames, *stages, nst = 0;
-  PetscReal      *xy, *n1, *Fhat, *eps, *loss0, *loss1, l0 = 0, l1;
-  Vec            *xhat, gamma;
-  VKFitTrajectory T;
-  VKFitResult     res = {0};
-  PetscBool       ok;
+  PetscFunctionBegin;
+  PetscCall(VKFitTrajectoryRunJoint(1, &fit, &data, dir));
+  PetscFunctionReturn(0);
+}
+
+/* Trajectory i's frames 1.. of data[i]: the shape-fit targets and eps. */
+static PetscErrorCode CreateTrajectory(VKFit fit, VKFitData data, PetscReal eps[], VKFitTrajectory *T)
+{
+  PetscInt   nf = data->nframes - 1;
+  PetscReal *xy, *n1, *Fhat;
+  Vec       *xhat;
 
   PetscFunctionBegin;
-  PetscCheck(!fit->restart && fit->max_iterations == 0, fit->comm, PETSC_ERR_SUP, "The trajectory fit writes no checkpoint: -fit_restart and -fit_max_iterations apply to -fit_loss frames only");
   PetscCheck(nf >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "%s has no frame after the rest frame to fit", data->path);
   PetscCheck(PetscAbsReal(data->time[0]) <= 1e-9 * (data->time[1] - data->time[0]), fit->comm, PETSC_ERR_FILE_UNEXPECTED, "%s starts at t = %g s; the trajectory loss rolls the model out from rest at t = 0, as volknit sim does", data->path, (double)data->time[0]);
-  fit->wall0 = VKWallTime();
-  fit->nhist = fit->nits = 0;
-  PetscCall(VKFitSetUp(fit));
-  PetscCall(VKMakeDirectory(fit->comm, dir));
-  PetscCall(PetscMalloc2(fit->nharm, &stages, nf, &frames));
-  for (PetscInt h = 0; h < fit->nharm; h++)
-    if (fit->harm_r[h] < fit->mesh->ne) stages[nst++] = fit->harm_r[h];
-  PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)fit->mesh->ne);
-  rmax = stages[nst - 1];
-  PetscCall(PetscMalloc4(nf, &eps, nf, &loss0, nf, &loss1, nf, &xhat));
+  PetscCall(PetscMalloc1(nf, &xhat));
   PetscCall(PetscMalloc3(3 * fit->mesh->ny, &xy, 3 * fit->sf->nseg, &n1, 9 * (fit->mesh->layout.eEnd - fit->mesh->layout.eStart) + 1, &Fhat));
   for (PetscInt k = 0; k < nf; k++) {
-    frames[k] = k + 1;
     PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &xhat[k]));
     PetscCall(VKFitFrameTarget_Private(fit, data, k + 1, xy, n1, Fhat, xhat[k], &eps[k]));
   }
   PetscCall(PetscFree3(xy, n1, Fhat));
-  PetscCall(VKFitTrajectoryCreate(fit, nf, data->time + 1, xhat, eps, &T));
+  PetscCall(VKFitTrajectoryCreate(fit, nf, data->time + 1, xhat, eps, T));
   for (PetscInt k = 0; k < nf; k++) PetscCall(VecDestroy(&xhat[k]));
-  PetscCall(VKFitHarmonicSetUp(fit, rmax));
+  PetscCall(PetscFree(xhat));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data[], const char dir[])
+{
+  VKFit            fit = fits[0];
+  PetscInt         nf = 0, rmax = 0, *frames, *traj, *stages, nst = 0, steps = 0, off = 0;
+  PetscReal       *eps, *loss0, *loss1, **lossf, l0 = 0, l1 = 0, floor = 0;
+  Vec              gamma;
+  VKFitTrajectory *T;
+  VKFitResult      res = {0};
+  PetscBool        ok;
+  PetscLogDouble   teq = 0, tadj = 0;
+
+  PetscFunctionBegin;
+  PetscCheck(!fit->restart && fit->max_iterations == 0, fit->comm, PETSC_ERR_SUP, "The trajectory fit writes no checkpoint: -fit_restart and -fit_max_iterations apply to -fit_loss frames only");
+  for (PetscInt i = 0; i < nt; i++) {
+    PetscCheck(fits[i]->mat == fit->mat, fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: fit %d is not on the first fit's material", (int)i);
+    PetscCheck(data[i]->nframes >= 2, fit->comm, PETSC_ERR_ARG_WRONG, "%s has no frame after the rest frame to fit", data[i]->path);
+    nf += data[i]->nframes - 1;
+  }
+  fit->wall0 = VKWallTime();
+  fit->nhist = fit->nits = 0;
+  for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitSetUp(fits[i]));
+  PetscCall(VKMakeDirectory(fit->comm, dir));
+  PetscCall(PetscMalloc3(fit->nharm, &stages, nf, &frames, nf, &traj));
+  for (PetscInt h = 0; h < fit->nharm; h++)
+    if (fit->harm_r[h] < fit->mesh->ne) stages[nst++] = fit->harm_r[h];
+  PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)fit->mesh->ne);
+  rmax = stages[nst - 1];
+  PetscCall(PetscMalloc5(nf, &eps, nf, &loss0, nf, &loss1, nt, &lossf, nt, &T));
   PetscCall(VKFitCreateGammaVec(fit, &gamma));
   PetscCall(VKFitGetGamma(fit, gamma));
-  PetscCall(VKFitSetGammaFloor(fit, gamma));
-  PetscCall(PetscPrintf(fit->comm, "volknit fit: the trajectory of %s, %d frames to t = %g s, rolled out at dt %g s; %d parameters in harmonic stages r =", data->path, (int)nf, (double)data->time[nf], (double)VKFitTrajectoryStep(fit), (int)(2 * fit->mesh->ne)));
+  for (PetscInt i = 0; i < nt; i++) {
+    PetscInt n = data[i]->nframes - 1;
+    PetscCall(CreateTrajectory(fits[i], data[i], eps + off, &T[i]));
+    for (PetscInt k = 0; k < n; k++) {
+      frames[off + k] = k + 1;
+      traj[off + k]   = i;
+    }
+    lossf[i] = loss1 + off;
+    PetscCall(VKFitHarmonicSetUp(fits[i], rmax));
+    PetscCall(VKFitSetGammaFloor(fits[i], gamma));
+    PetscCall(VKFitTrajectoryEvaluate(T[i], gamma, 0, &res.traj_loss0, loss0 + off, NULL, NULL, &ok));
+    PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the starting material's rollout of %s did not converge at step %d (t = %g s); raise -fit_eq_newton_its or -pd_max_it", data[i]->path, (int)T[i]->steps, (double)T[i]->f.t);
+    PetscCheck(nt == 1 || T[i]->rest_loss > 0, fit->comm, PETSC_ERR_ARG_WRONG, "Joint trajectory fit: the yarns of %s never leave their rest state; it has nothing to fit", data[i]->path);
+    l0 += (nt > 1 ? 1 / T[i]->rest_loss : 1) * res.traj_loss0;
+    off += n;
+  }
+  PetscCall(PetscPrintf(fit->comm, "volknit fit: the trajectory of %s", data[0]->path));
+  for (PetscInt i = 1; i < nt; i++) PetscCall(PetscPrintf(fit->comm, "%s%s", i == nt - 1 ? " and " : ", ", data[i]->path));
+  PetscCall(PetscPrintf(fit->comm, ", %d frames, rolled out at dt %g s; %d parameters in harmonic stages r =", (int)nf, (double)VKFitTrajectoryStep(fit), (int)(2 * fit->mesh->ne)));
   for (PetscInt s = 0; s < nst; s++) PetscCall(PetscPrintf(fit->comm, " %d", (int)stages[s]));
   PetscCall(PetscPrintf(fit->comm, "\n"));
-  PetscCall(VKFitTrajectoryEvaluate(T, gamma, 0, &l0, loss0, NULL, NULL, &ok));
-  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the starting material's rollout did not converge at step %d (t = %g s); raise -fit_eq_newton_its or -pd_max_it", (int)T->steps, (double)T->f.t);
   for (PetscInt s = 0; s < nst; s++) {
     PetscReal before = fit->nhist ? fit->hist[fit->nhist - 1].loss : l0;
     PetscInt  its0   = fit->nits;
-    PetscCall(VKFitTrajectoryOptimize(T, stages[s], gamma, loss1));
+    PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, stages[s], gamma, lossf));
     PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)(fit->nits - its0), VKWallTime() - fit->wall0));
   }
-  l1 = 0; /* of the last accepted rollout: a rollout again could land on another side of a step's tolerance */
-  for (PetscInt k = 0; k < nf; k++) l1 += loss1[k];
+  /* of the last accepted rollouts: a rollout again could land on another side of a step's tolerance */
+  for (PetscInt k = 0; k < nf; k++) {
+    PetscReal w = nt > 1 ? 1 / T[traj[k]]->rest_loss : 1;
+    l1 += w * loss1[k];
+    floor += w * eps[k];
+  }
+  for (PetscInt i = 0; i < nt; i++) steps += T[i]->steps;
   res.ns         = nf;
   res.frames     = frames;
   res.loss0      = loss0;
@@ -597,18 +698,33 @@ PetscErrorCode VKFitTrajectoryRun(VKFit fit, VKFitData data, const char dir[])
   res.total      = VKWallTime() - fit->wall0;
   res.trajectory = PETSC_TRUE;
   res.traj_dt    = VKFitTrajectoryStep(fit);
-  res.traj_steps = T->steps;
+  res.traj_steps = steps;
   res.traj_loss0 = l0;
   res.traj_loss1 = l1;
-  PetscCall(VKFitWriteOutputs_Private(fit, data, &res, dir));
-  {
-    PetscReal floor = 0;
-    for (PetscInt k = 0; k < nf; k++) floor += eps[k];
-    PetscCall(PetscPrintf(fit->comm, "volknit fit: trajectory loss %.4e -> %.4e (of its excess over the floor %.4e, %.1f%% remains); %d iterations, equilibria %.1f s, sensitivities %.1f s, total %.1f s -> %s/material.h5\n", (double)l0, (double)l1, (double)floor, l0 > floor ? 100 * (double)((l1 - floor) / (l0 - floor)) : 0.0, (int)fit->nits, fit->time_eq, fit->time_adjoint, VKWallTime() - fit->wall0, dir));
+  res.ntraj      = nt;
+  res.joint      = data;
+  res.traj       = traj;
+  PetscCall(VKFitWriteOutputs_Private(fit, data[0], &res, dir));
+  if (nt > 1) {
+    off = 0;
+    for (PetscInt i = 0; i < nt; i++) {
+      PetscReal a = 0, b = 0;
+      for (PetscInt k = 0; k < data[i]->nframes - 1; k++) {
+        a += loss0[off + k];
+        b += loss1[off + k];
+      }
+      off += data[i]->nframes - 1;
+      PetscCall(PetscPrintf(fit->comm, "volknit fit: trajectory of %s: loss %.4e -> %.4e (at rest %.4e; sqrt of the ratio %.3f -> %.3f)\n", data[i]->path, (double)a, (double)b, (double)T[i]->rest_loss, (double)PetscSqrtReal(a / T[i]->rest_loss), (double)PetscSqrtReal(b / T[i]->rest_loss)));
+    }
   }
-  PetscCall(VKFitTrajectoryDestroy(&T));
+  for (PetscInt i = 0; i < nt; i++) {
+    teq += fits[i]->time_eq;
+    tadj += fits[i]->time_adjoint;
+  }
+  PetscCall(PetscPrintf(fit->comm, "volknit fit: trajectory loss %.4e -> %.4e (of its excess over the floor %.4e, %.1f%% remains); %d iterations, equilibria %.1f s, sensitivities %.1f s, total %.1f s -> %s/material.h5\n", (double)l0, (double)l1, (double)floor, l0 > floor ? 100 * (double)((l1 - floor) / (l0 - floor)) : 0.0, (int)fit->nits, teq, tadj, VKWallTime() - fit->wall0, dir));
+  for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitTrajectoryDestroy(&T[i]));
   PetscCall(VecDestroy(&gamma));
-  PetscCall(PetscFree4(eps, loss0, loss1, xhat));
-  PetscCall(PetscFree2(stages, frames));
+  PetscCall(PetscFree5(eps, loss0, loss1, lossf, T));
+  PetscCall(PetscFree3(stages, frames, traj));
   PetscFunctionReturn(0);
 }

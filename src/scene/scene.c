@@ -128,12 +128,23 @@ static PetscErrorCode ColliderOptions(PetscOptionItems *PetscOptionsObject, VKSc
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKSceneSetOptionsPrefix(VKScene s, const char prefix[])
+{
+  size_t len = 0;
+
+  PetscFunctionBegin;
+  PetscCall(PetscStrlen(prefix, &len));
+  PetscCheck(len < sizeof(s->prefix), s->comm, PETSC_ERR_ARG_SIZ, "Scene options prefix %s is longer than %d characters", prefix, (int)sizeof(s->prefix) - 1);
+  PetscCall(PetscStrncpy(s->prefix, prefix ? prefix : "", sizeof(s->prefix)));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKSceneSetFromOptions(VKScene s)
 {
   PetscBool absolute = s->relative ? PETSC_FALSE : PETSC_TRUE;
 
   PetscFunctionBegin;
-  PetscOptionsBegin(s->comm, NULL, "Scene options (DESIGN section 10)", "VKScene");
+  PetscOptionsBegin(s->comm, s->prefix[0] ? s->prefix : NULL, "Scene options (DESIGN section 10)", "VKScene");
   PetscCall(PetscOptionsString("-scene_name", "Scene name (recorded in the outputs)", "VKSceneSetFromOptions", s->name, s->name, sizeof(s->name), NULL));
   PetscCall(PetscOptionsBool("-scene_absolute", "Lengths in metres instead of rest bounding-box units (origin at the box centre, unit its largest extent)", "VKSceneSetFromOptions", absolute, &absolute, NULL));
   s->relative = absolute ? PETSC_FALSE : PETSC_TRUE;
