@@ -8,13 +8,16 @@
 #      log grid (the best of them is the baseline a fit must beat), and the
 #      material fitted on the scene's own frames (training error);
 #   3. the materials fitted on the other scenes (held-out error, paper §8.6);
-#   4. volknit report on all of them; a Markdown table on stdout.
+#   4. with FID_JOINT=1, one material fitted to all the scenes at once
+#      (-fit_loss trajectory -fit_joint, options FID_JOINT_OPTS) and run on
+#      each ("fitted_jointly");
+#   5. volknit report on all of them; a Markdown table on stdout.
 # Sizes from the environment: FID_PATTERNS (rib1x1), FID_WALES x FID_COURSES
 # (8 x 7, about 2K yarn vertices), FID_SCENES (hang stretch drape twist),
 # FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
 # about 8 minutes on 2 cores, the others about 1.5), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS,
 # FID_MAT_OPTS (material options of the uniform runs and the fits, e.g.
-# "-mat_band 0.7,1.5") and FID_TAG (a suffix of the homogenized runs'
+# "-mat_band 0.7,1.5"), FID_JOINT and FID_JOINT_OPTS (step 4) and FID_TAG (a suffix of the homogenized runs'
 # directories, so runs with other material or fit options sit beside them:
 # a fit is redone only when its yarn-level data is newer than its material).
 # Outputs in out/fidelity (outside tests/out, which make check clears).
@@ -35,6 +38,8 @@ UNIFORM=${FID_UNIFORM:-10 100 1000 10000}
 FIT_OPTS=${FID_FIT_OPTS:-}
 MAT_OPTS=${FID_MAT_OPTS:-}
 TAG=${FID_TAG:-}
+JOINT=${FID_JOINT:-0}
+JOINT_OPTS=${FID_JOINT_OPTS:--fit_harmonic 1,10 -fit_gn_its 15}
 top=out/fidelity
 mkdir -p "$top"
 cmds="$top/commands"
@@ -74,6 +79,18 @@ for pat in $PATTERNS; do
       run $MPIEXEC -n "$NP" bin/volknit fit -o "$fit" -options_file "options/$s.opts" $MAT_OPTS $FIT_OPTS > "$fit/fit.log" 2>&1 || echo "    (fit failed: see $fit/fit.log)" >> "$cmds"
     fi
   done
+  joint="$d/joint$TAG"
+  if [ "$JOINT" = 1 ]; then
+    # the first scene's run in the fit's directory, the others by -fit_joint, each under its prefix
+    set -- $SCENES; first=$1; shift
+    dirs=""; scene_opts=(); i=0
+    for s in "$@"; do i=$((i + 1)); dirs="$dirs,$d/$s/yls"; scene_opts+=(-prefix_push "fit_joint${i}_" -options_file "options/$s.opts" -prefix_pop); done
+    mkdir -p "$joint"; cp "$mesh/mesh.h5" "$d/$first/yls/yls.h5" "$joint/"
+    if [ ! -s "$joint/material.h5" ] || [ "$d/$first/yls/yls.h5" -nt "$joint/material.h5" ]; then
+      # shellcheck disable=SC2086
+      run $MPIEXEC -n "$NP" bin/volknit fit -o "$joint" -options_file "options/$first.opts" $MAT_OPTS $JOINT_OPTS -fit_loss trajectory -fit_joint "${dirs#,}" "${scene_opts[@]}" > "$joint/fit.log" 2>&1 || echo "    (joint fit failed: see $joint/fit.log)" >> "$cmds"
+    fi
+  fi
   for s in $SCENES; do
     runs=""; labels=""
     for g in $UNIFORM; do
@@ -85,6 +102,10 @@ for pat in $PATTERNS; do
       sim_run "$d/$s/fit_$f$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$f/fit$TAG/material.h5"
       runs="$runs,$d/$s/fit_$f$TAG"; labels="$labels,fitted_on_$f"
     done
+    if [ "$JOINT" = 1 ] && [ -s "$joint/material.h5" ]; then
+      sim_run "$d/$s/fit_joint$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$joint/material.h5"
+      runs="$runs,$d/$s/fit_joint$TAG"; labels="$labels,fitted_jointly"
+    fi
     run bin/volknit report -report_yls "$d/$s/yls" -report_runs "${runs#,}" -report_labels "${labels#,}" -o "$d/$s/report$TAG" > "$d/$s/report$TAG.log" 2>&1 \
       || echo "    (report failed: see $d/$s/report$TAG.log)" >> "$cmds"
   done
