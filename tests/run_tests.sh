@@ -214,10 +214,14 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
       else not_ok "volknit fit -n $n -fit_joint: failed, no material.h5, no joint_data in fit.json, or a trajectory's loss did not fall (see $fd/joint$n.log)"; fi
     done
     compare_material "$fd/joint1/material.h5" "$fd/joint2/material.h5" 1e-5 "joint, 1 vs 2 ranks"
-    for case in "frames:-fit_joint fits trajectories of several scenes: give -fit_loss trajectory" "missing:/nonexistent/yls.h5"; do
+    for case in "frames:-fit_joint fits trajectories of several scenes: give -fit_loss trajectory" "missing:/nonexistent/yls.h5" "five:a list of 1 to 4 directories"; do
       kind=${case%%:*}; expect=${case#*:}
       fit_dir "joint.$kind"
-      if [ "$kind" = frames ]; then fit_run "joint.$kind" 1 -fit_joint "$fd/hang"; else fit_run "joint.$kind" 1 -fit_loss trajectory -fit_joint /nonexistent; fi
+      case "$kind" in
+        frames) fit_run "joint.$kind" 1 -fit_joint "$fd/hang" ;;
+        missing) fit_run "joint.$kind" 1 -fit_loss trajectory -fit_joint /nonexistent ;;
+        five) fit_run "joint.$kind" 1 -fit_loss trajectory -fit_joint "$fd/hang,$fd/hang,$fd/hang,$fd/hang,$fd/hang" ;;
+      esac
       rc=$?
       if [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] && grep -q -- "$expect" "$fd/joint.$kind.log" && [ ! -e "$fd/joint.$kind/material.h5" ]; then ok
       else not_ok "volknit fit -fit_joint ($kind): status $rc, expected '$expect' and no material.h5 (see $fd/joint.$kind.log)"; fi

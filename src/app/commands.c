@@ -401,8 +401,8 @@ static PetscErrorCode FitStage(VKFit fit, const FitJoint *J, const char dir[])
  * whose mesh is of this run's own relaxed yarn). */
 static PetscErrorCode FitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, FitJoint *J)
 {
-  char     *dirs[MAX_JOINT];
-  PetscInt  n = MAX_JOINT;
+  char     *dirs[MAX_JOINT + 1]; /* one more, to tell a list too long */
+  PetscInt  n = MAX_JOINT + 1;
   PetscBool set;
 
   PetscFunctionBegin;
@@ -414,7 +414,7 @@ static PetscErrorCode FitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, 
   PetscOptionsEnd();
   if (!set) n = 0;
   PetscCheck(!n || J, mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint is an option of volknit fit (volknit run fits the scene it runs)");
-  PetscCheck(!set || n > 0, mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint needs a list of directories DIR1,DIR2,... (up to %d)", MAX_JOINT);
+  PetscCheck(!set || (n > 0 && n <= MAX_JOINT), mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint needs a list of 1 to %d directories DIR1,DIR2,...", MAX_JOINT);
   PetscCheck(!n || (*fit)->loss == VK_FIT_LOSS_TRAJECTORY, mat->comm, PETSC_ERR_ARG_INCOMP, "-fit_joint fits trajectories of several scenes: give -fit_loss trajectory");
   for (PetscInt i = 0; i < n; i++) {
     char prefix[32];
