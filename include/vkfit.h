@@ -222,6 +222,9 @@ PETSC_EXTERN PetscErrorCode VKFitCreateKKTSolver(VKFit);
  * shift-invert with MUMPS, options prefix -fit_harmonic_), orthonormal,
  * the first constant; kept in fit->basis (owned tets x r, column-major). */
 PETSC_EXTERN PetscErrorCode VKFitHarmonicSetUp(VKFit, PetscInt r);
+/* The basis of one fit given to another on the same mesh (a joint fit's
+ * scenes share one eigensolve). */
+PETSC_EXTERN PetscErrorCode VKFitHarmonicCopy(VKFit from, VKFit to);
 /* gamma += B dq and dq = B^T v for B = diag(H_r, H_r) in the interleaved
  * (g_s, g_v) per-tet layout; dq has 2r entries (r for g_s, then r for g_v),
  * replicated on every rank. */

@@ -149,18 +149,14 @@ static PetscErrorCode Destroy(Problem *p)
 /* max |a/b - 1| */
 static PetscErrorCode RelDiff(Vec a, Vec b, PetscReal *d)
 {
-  const PetscScalar *x, *y;
-  PetscInt           n;
-  PetscReal          m = 0;
+  Vec q;
 
   PetscFunctionBegin;
-  PetscCall(VecGetLocalSize(a, &n));
-  PetscCall(VecGetArrayRead(a, &x));
-  PetscCall(VecGetArrayRead(b, &y));
-  for (PetscInt i = 0; i < n; i++) m = PetscMax(m, PetscAbsReal(x[i] / y[i] - 1));
-  PetscCall(VecRestoreArrayRead(a, &x));
-  PetscCall(VecRestoreArrayRead(b, &y));
-  PetscCallMPI(MPI_Allreduce(&m, d, 1, MPIU_REAL, MPIU_MAX, PETSC_COMM_WORLD));
+  PetscCall(VecDuplicate(a, &q));
+  PetscCall(VecPointwiseDivide(q, a, b));
+  PetscCall(VecShift(q, -1));
+  PetscCall(VecNorm(q, NORM_INFINITY, d));
+  PetscCall(VecDestroy(&q));
   PetscFunctionReturn(0);
 }
 

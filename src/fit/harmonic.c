@@ -158,3 +158,18 @@ PetscErrorCode VKFitHarmonicApplyTranspose(VKFit fit, PetscInt r, Vec v, PetscRe
   PetscCall(PetscFree(mine));
   PetscFunctionReturn(0);
 }
+
+PetscErrorCode VKFitHarmonicCopy(VKFit from, VKFit to)
+{
+  PetscInt n = from->mesh->layout.eEnd - from->mesh->layout.eStart;
+
+  PetscFunctionBegin;
+  PetscCheck(from->mesh == to->mesh, from->comm, PETSC_ERR_ARG_INCOMP, "VKFitHarmonicCopy: the two fits are on different meshes");
+  if (to->rbasis >= from->rbasis) PetscFunctionReturn(0);
+  PetscCall(PetscFree2(to->basis, to->basis_eig));
+  PetscCall(PetscMalloc2(n * from->rbasis + 1, &to->basis, from->rbasis, &to->basis_eig));
+  PetscCall(PetscArraycpy(to->basis, from->basis, n * from->rbasis));
+  PetscCall(PetscArraycpy(to->basis_eig, from->basis_eig, from->rbasis));
+  to->rbasis = from->rbasis;
+  PetscFunctionReturn(0);
+}

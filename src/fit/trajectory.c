@@ -182,6 +182,13 @@ PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory T, PetscInt k, Vec x)
   PetscFunctionReturn(0);
 }
 
+/* gamma' = g0 + (gamma - g0) exp(w): a parameter moved by w in the
+ * log-harmonic parametrization above its floor g0 */
+static inline PetscReal Moved(PetscReal g0, PetscReal gamma, PetscReal w)
+{
+  return g0 + PetscMax(gamma - g0, 0) * PetscExpReal(PetscMin(w, 700));
+}
+
 /* gamma - floor, per parameter (the part the log-harmonic step scales) */
 static PetscErrorCode GammaExcess(VKFit fit, Vec gamma, Vec excess)
 {
@@ -211,10 +218,7 @@ PetscErrorCode VKFitTrajectoryMove(VKFit fit, PetscInt r, Vec gamma, const Petsc
   PetscCall(VecGetLocalSize(out, &n));
   PetscCall(VecGetArray(out, &a));
   PetscCall(VecGetArrayRead(gamma, &g));
-  for (PetscInt i = 0; i < n; i++) {
-    PetscReal lo = fit->gamma_min[i % 2];
-    a[i]         = lo + PetscMax(g[i] - lo, 0) * PetscExpReal(PetscMin(a[i], 700));
-  }
+  for (PetscInt i = 0; i < n; i++) a[i] = Moved(fit->gamma_min[i % 2], g[i], a[i]);
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArray(out, &a));
   PetscFunctionReturn(0);
@@ -394,10 +398,7 @@ static PetscErrorCode CapScale(VKFit fit, PetscInt r, Vec gamma, const PetscReal
     s = PetscMin(s, bound);
   }
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &s, 1, MPIU_REAL, MPIU_MIN, fit->comm));
-  for (PetscInt i = 0; i < m; i++) {
-    PetscReal g0 = fit->gamma_min[i % 2], gn = g0 + PetscMax(g[i] - g0, 0) * PetscExpReal(PetscMin(s * w[i], 700));
-    big = PetscMax(big, PetscAbsReal(PetscLogReal(gn / g[i])));
-  }
+  for (PetscInt i = 0; i < m; i++) big = PetscMax(big, PetscAbsReal(PetscLogReal(Moved(fit->gamma_min[i % 2], g[i], s * w[i]) / g[i])));
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArrayRead(work, &w));
   PetscCallMPI(MPI_Allreduce(&big, change, 1, MPIU_REAL, MPIU_MAX, fit->comm));
@@ -663,7 +664,8 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
       traj[off + k]   = i;
     }
     lossf[i] = loss1 + off;
-    PetscCall(VKFitHarmonicSetUp(fits[i], rmax));
+    if (i) PetscCall(VKFitHarmonicCopy(fit, fits[i])); /* the same mesh: one eigensolve */
+    else PetscCall(VKFitHarmonicSetUp(fit, rmax));
     PetscCall(VKFitSetGammaFloor(fits[i], gamma));
     PetscCall(VKFitTrajectoryEvaluate(T[i], gamma, 0, &res.traj_loss0, loss0 + off, NULL, NULL, &ok));
     PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the starting material's rollout of %s did not converge at step %d (t = %g s); raise -fit_eq_newton_its or -pd_max_it", data[i]->path, (int)T[i]->steps, (double)T[i]->f.t);
