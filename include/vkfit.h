@@ -164,6 +164,7 @@ struct _n_VKFit {
   PetscReal *basis, *basis_eig;
   PetscLogDouble time_eq, time_adjoint, time_kkt, time_eigen;
   PetscInt      eq_fallbacks; /* equilibria finished by L-BFGS + projected Newton after PD + Newton stalled */
+  PetscInt      traj_failed_rollouts; /* trial rollouts of the trajectory fit whose equilibria were not reached */
   /* checkpoints: after every checkpoint_every accepted iterations the
    * schedule calls checkpoint(fit, phase, iteration, ctx) with the place
    * a restart goes on from (VK_FIT_PHASE_*, the next iteration); it stops
@@ -364,13 +365,20 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory, PetscInt r,
  * lifted 0.1 % of the floor above it) and the per-frame losses of the
  * result out (lossf, optional); iterations appended to fit->hist
  * (sample -1). */
-PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma, PetscReal lossf[]);
+/* Why a stage ended: converged, the objective no longer falls by
+ * -fit_rtol of it (an accepted step or none of the trial steps); stalled,
+ * no step accepted and a trial rollout's equilibria were not reached (the
+ * solves, not the loss, stopped it); iteration_limit, -fit_gn_its reached
+ * while it still fell. */
+typedef enum { VK_FIT_STAGE_CONVERGED, VK_FIT_STAGE_STALLED, VK_FIT_STAGE_ITERATION_LIMIT } VKFitStageReason;
+PETSC_EXTERN const char *const VKFitStageReasons[];
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma, PetscReal lossf[], VKFitStageReason *);
 /* The same on sum_i L_i / L_i(rest) over nt trajectories, e.g. of several scenes:
  * each with its own VKFit (scene, PD) on one shared VKMaterial, the same
  * harmonic basis and floor; the first's fit records the iterations and
  * holds the prior; lossf[i] (optional) per frame of trajectory i.  A
  * parameter one scene leaves free is held by another. */
-PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[]);
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[], VKFitStageReason *);
 /* The whole fitting with -fit_loss trajectory (VKFitRun calls it): every
  * frame of the yarn-level run after the rest frame compared. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryRun(VKFit, VKFitData, const char dir[]);

@@ -201,6 +201,11 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_patt
     if fit_run "traj$n" "$n" -fit_loss trajectory && [ -s "$fd/traj$n/material.h5" ] && grep -q '"loss": "trajectory"' "$fd/traj$n/fit.json" \
        && sed -n 's/^volknit fit: trajectory loss \([^ ]*\) -> \([^ ]*\) .*/\1 \2/p' "$fd/traj$n.log" | awk 'NF == 2 && $2 < 0.75 * $1 { found = 1 } END { exit !found }'; then ok
     else not_ok "volknit fit -n $n -fit_loss trajectory: failed, no material.h5, or the loss did not fall by a quarter (see $fd/traj$n.log; measured: by half)"; fi
+    # its status: the same in fit.json and the log, and a stage cut at -fit_gn_its is warned about and unconverged
+    st=$(sed -n 's/.*"status": "\([a-z]*\)".*/\1/p' "$fd/traj$n/fit.json")
+    if [ -n "$st" ] && grep -q "^volknit fit: status $st " "$fd/traj$n.log" \
+       && { ! grep -q '"stop": "iteration_limit"' "$fd/traj$n/fit.json" || { [ "$st" = unconverged ] && grep -q 'WARNING: stage r = .* stopped at -fit_gn_its' "$fd/traj$n.log"; }; }; then ok
+    else not_ok "volknit fit -n $n -fit_loss trajectory: status '$st' in fit.json, its log line or the iteration-limit warning missing (see $fd/traj$n.log)"; fi
   done
   compare_material "$fd/traj1/material.h5" "$fd/traj2/material.h5" 1e-5 "trajectory, 1 vs 2 ranks"
   # one material on two scenes (-fit_joint): a hang run of the same yarn beside

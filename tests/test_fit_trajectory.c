@@ -17,7 +17,8 @@
  *  - Gauss-Newton in the stages r = 1, 3 from the uniform mean recovers
  *    gamma* to 1e-3 with the loss down by 1e8; with uniform data the stage
  *    r = 1 alone recovers that uniform material (the automatic uniform
- *    search of issue 21 on the trajectory loss);
+ *    search of issue 21 on the trajectory loss); those stages stop
+ *    `converged`, and a stage cut at one iteration says `iteration_limit`;
  *  - the prior (-fit_trajectory_prior) vanishes at its reference, its
  *    gradient and Hessian reproduce it exactly (it is quadratic in q), and
  *    a heavy one holds the optimizer at the reference;
@@ -250,19 +251,26 @@ static PetscErrorCode TestRecovery(PetscBool uniform)
   PetscReal L0, L1, err;
   PetscBool ok;
   char      d[256];
+  VKFitStageReason why1, why3 = VK_FIT_STAGE_CONVERGED, whylim;
 
   PetscFunctionBegin;
   PetscCall(Build(&p, uniform));
   PetscCall(VecDuplicate(p.gamma0, &gamma));
   PetscCall(VecCopy(p.gamma0, gamma));
   PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L0, NULL, NULL, NULL, &ok));
-  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma, NULL));
-  if (!uniform) PetscCall(VKFitTrajectoryOptimize(p.T, 3, gamma, NULL));
+  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma, NULL, &why1));
+  if (!uniform) PetscCall(VKFitTrajectoryOptimize(p.T, 3, gamma, NULL, &why3));
   PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L1, NULL, NULL, NULL, &ok));
   PetscCall(RelDiff(gamma, p.gstar, &err));
   PetscCall(PetscSNPrintf(d, sizeof(d), "loss %.3e -> %.3e, max |gamma/gamma* - 1| %.3e, %d iterations", (double)L0, (double)L1, (double)err, (int)p.fit->nits));
   if (uniform) PetscCall(VKTestCheck((PetscBool)(ok && L1 < 1e-8 * L0 && err < 1e-3), d, "trajectory: stage r = 1 recovers the uniform material g_s 300, g_v 600 Pa from 1 kPa (error %.1e)", (double)err));
   else PetscCall(VKTestCheck((PetscBool)(ok && L1 < 1e-8 * L0 && err < 1e-3), d, "trajectory: stages r = 1, 3 recover the heterogeneous gamma* (error %.1e, loss down %.1e)", (double)err, (double)(L0 / L1)));
+  /* the stop reasons: converged at gamma*; one iteration from the start is the limit, not convergence */
+  p.fit->gn_its = 1;
+  PetscCall(VecCopy(p.gamma0, gamma));
+  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma, NULL, &whylim));
+  PetscCall(PetscSNPrintf(d, sizeof(d), "stage r = 1: %s, r = 3: %s; one iteration from the start: %s", VKFitStageReasons[why1], uniform ? "-" : VKFitStageReasons[why3], VKFitStageReasons[whylim]));
+  PetscCall(VKTestCheck((PetscBool)(why1 == VK_FIT_STAGE_CONVERGED && why3 == VK_FIT_STAGE_CONVERGED && whylim == VK_FIT_STAGE_ITERATION_LIMIT), d, "trajectory (%s): the recovering stages stop converged, a stage cut at -fit_gn_its 1 says iteration_limit", uniform ? "uniform" : "heterogeneous"));
   PetscCall(VecDestroy(&gamma));
   PetscCall(Destroy(&p));
   PetscFunctionReturn(0);
@@ -309,7 +317,7 @@ static PetscErrorCode TestPrior(void)
   PetscCall(VecCopy(p.gamma0, gamma));
   PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L1, NULL, NULL, NULL, &ok));
   PetscCall(VKFitTrajectorySetPriorReference(p.T, p.gamma0, L1));
-  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma, NULL));
+  PetscCall(VKFitTrajectoryOptimize(p.T, 1, gamma, NULL, NULL));
   PetscCall(RelDiff(gamma, p.gamma0, &err));
   PetscCall(PetscSNPrintf(d, sizeof(d), "max |gamma/gamma0 - 1| %.3e after %d iterations", (double)err, (int)p.fit->nits));
   PetscCall(VKTestCheck((PetscBool)(ok && err < 1e-3), d, "trajectory: a prior of weight 1e6 holds the fit at its reference (change %.1e)", (double)err));
@@ -369,9 +377,9 @@ static PetscErrorCode TestJoint(void)
   PetscCall(VecDuplicate(p.gamma0, &gamma));
   PetscCall(VecCopy(p.gamma0, gamma));
   p.fit->nhist = 0;
-  PetscCall(VKFitTrajectoryOptimizeJoint(2, T, 1, gamma, lossf));
+  PetscCall(VKFitTrajectoryOptimizeJoint(2, T, 1, gamma, lossf, NULL));
   J0 = p.fit->hist[0].loss;
-  PetscCall(VKFitTrajectoryOptimizeJoint(2, T, 3, gamma, lossf));
+  PetscCall(VKFitTrajectoryOptimizeJoint(2, T, 3, gamma, lossf, NULL));
   J1 = 0;
   for (int k = 0; k < NF; k++) J1 += l1[k] / R1 + l2[k] / R2;
   PetscCall(RelDiff(gamma, p.gstar, &err));

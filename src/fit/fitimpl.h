@@ -24,6 +24,9 @@ typedef struct {
   PetscInt         ntraj;  /* > 1 for a joint trajectory fit: */
   const VKFitData *joint;  /* the data of each trajectory (the first is the fit's) */
   const PetscInt  *traj;   /* and each frame's trajectory */
+  PetscInt                nstages; /* the trajectory fit's stages: */
+  const PetscInt         *stage_r, *stage_its;
+  const VKFitStageReason *stage_reason;
 } VKFitResult;
 /* material.h5, material.xdmf, fit.csv, fit.json and fit.png in dir. */
 PETSC_INTERN PetscErrorCode VKFitWriteOutputs_Private(VKFit, VKFitData, const VKFitResult *, const char dir[]);

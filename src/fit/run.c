@@ -121,6 +121,21 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONInt(&j, "steps", res->traj_steps));
     PetscCall(VKJSONReal(&j, "loss_start", res->traj_loss0));
     PetscCall(VKJSONReal(&j, "loss_end", res->traj_loss1));
+    { /* converged only when every stage did */
+      PetscBool all = PETSC_TRUE;
+      for (PetscInt s = 0; s < res->nstages; s++) all = (PetscBool)(all && res->stage_reason[s] == VK_FIT_STAGE_CONVERGED);
+      PetscCall(VKJSONString(&j, "status", all ? "converged" : "unconverged"));
+    }
+    PetscCall(VKJSONInt(&j, "failed_trial_rollouts", fit->traj_failed_rollouts));
+    PetscCall(VKJSONArrayBegin(&j, "stages"));
+    for (PetscInt s = 0; s < res->nstages; s++) {
+      PetscCall(VKJSONObjectBegin(&j, NULL));
+      PetscCall(VKJSONInt(&j, "r", res->stage_r[s]));
+      PetscCall(VKJSONInt(&j, "iterations", res->stage_its[s]));
+      PetscCall(VKJSONString(&j, "stop", VKFitStageReasons[res->stage_reason[s]]));
+      PetscCall(VKJSONObjectEnd(&j));
+    }
+    PetscCall(VKJSONArrayEnd(&j));
     if (res->ntraj > 1) { /* -fit_joint: one material on several scenes */
       PetscCall(VKJSONArrayBegin(&j, "joint_data"));
       for (PetscInt t = 0; t < res->ntraj; t++) {

@@ -517,20 +517,21 @@ static PetscErrorCode EvaluateAll(PetscInt nt, VKFitTrajectory T[], Vec gamma, P
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma, PetscReal lossf[])
+PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma, PetscReal lossf[], VKFitStageReason *reason)
 {
   PetscFunctionBegin;
-  PetscCall(VKFitTrajectoryOptimizeJoint(1, &T, r, gamma, lossf ? &lossf : NULL));
+  PetscCall(VKFitTrajectoryOptimizeJoint(1, &T, r, gamma, lossf ? &lossf : NULL, reason));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[])
+PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[], VKFitStageReason *reason)
 {
   VKFit      fit = T[0]->fit;
   PetscInt   n   = 2 * r, it, bad;
   PetscReal *grad, *P, *gt, *Pt, *l, *Q, *dq, *work, *scratch, loss, lt, obj, ot, lambda = -1, cap = PetscLogReal(fit->traj_max_factor), gnorm = 0;
   Vec        trial, work_v;
   PetscBool  ok;
+  VKFitStageReason why = VK_FIT_STAGE_ITERATION_LIMIT;
 
   PetscFunctionBegin;
   PetscCheck(r >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The trajectory fit moves in a harmonic basis of size r >= 1, got %d", (int)r);
@@ -557,7 +558,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
   for (PetscInt j = 0; j < n; j++) gnorm += grad[j] * grad[j];
   PetscCall(Record(T[0], r, 0, loss, PetscSqrtReal(gnorm), 0));
   for (it = 1; it <= fit->gn_its; it++) {
-    PetscBool accepted = PETSC_FALSE;
+    PetscBool accepted = PETSC_FALSE, failed = PETSC_FALSE;
     PetscReal change   = 0, lmax = 0;
     VKSymEigN(n, P, l, Q, work);
     for (PetscInt k = 0; k < n; k++) lmax = PetscMax(lmax, l[k]);
@@ -566,12 +567,19 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
       PetscCall(LMStep(fit, r, gamma, Q, l, grad, &lambda, cap, dq, work_v, &change));
       PetscCall(VKFitTrajectoryMove(fit, r, gamma, dq, trial));
       PetscCall(EvaluateAll(nt, T, trial, r, &lt, gt, Pt, scratch, &bad, &ok));
+      if (!ok) {
+        failed = PETSC_TRUE;
+        fit->traj_failed_rollouts++;
+      }
       ot = lt;
       if (ok) PetscCall(VKFitTrajectoryAddPrior(T[0], r, trial, &ot, gt, Pt));
       if (ok && ot < obj * (1 - fit->rtol)) accepted = PETSC_TRUE;
       else lambda = PetscMax(10 * lambda, 1e-12 * lmax);
     }
-    if (!accepted) break;
+    if (!accepted) {
+      why = failed ? VK_FIT_STAGE_STALLED : VK_FIT_STAGE_CONVERGED;
+      break;
+    }
     lambda /= 3;
     PetscCall(VecCopy(trial, gamma));
     if (lossf)
@@ -585,9 +593,13 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
       loss           = lt;
       obj            = ot;
       PetscCall(Record(T[0], r, it, loss, PetscSqrtReal(gnorm), change));
-      if (prev - obj <= fit->rtol * prev) break;
+      if (prev - obj <= fit->rtol * prev) {
+        why = VK_FIT_STAGE_CONVERGED;
+        break;
+      }
     }
   }
+  if (reason) *reason = why;
   for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitSetGamma(T[i]->fit, gamma));
   PetscCall(VecDestroy(&trial));
   PetscCall(VecDestroy(&work_v));
@@ -629,7 +641,8 @@ static PetscErrorCode CreateTrajectory(VKFit fit, VKFitData data, PetscReal eps[
 PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data[], const char dir[])
 {
   VKFit            fit = fits[0];
-  PetscInt         nf = 0, rmax = 0, *frames, *traj, *stages, nst = 0, steps = 0, off = 0;
+  PetscInt         nf = 0, rmax = 0, *frames, *traj, *stages, *stage_its, nst = 0, steps = 0, off = 0;
+  VKFitStageReason *why;
   PetscReal       *eps, *loss0, *loss1, **lossf, l0 = 0, l1 = 0, floor = 0;
   Vec              gamma;
   VKFitTrajectory *T;
@@ -645,10 +658,10 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     nf += data[i]->nframes - 1;
   }
   fit->wall0 = VKWallTime();
-  fit->nhist = fit->nits = 0;
+  fit->nhist = fit->nits = fit->traj_failed_rollouts = 0;
   for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitSetUp(fits[i]));
   PetscCall(VKMakeDirectory(fit->comm, dir));
-  PetscCall(PetscMalloc3(fit->nharm, &stages, nf, &frames, nf, &traj));
+  PetscCall(PetscMalloc5(fit->nharm, &stages, fit->nharm, &stage_its, fit->nharm, &why, nf, &frames, nf, &traj));
   for (PetscInt h = 0; h < fit->nharm; h++)
     if (fit->harm_r[h] < fit->mesh->ne) stages[nst++] = fit->harm_r[h];
   PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)fit->mesh->ne);
@@ -681,8 +694,11 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   for (PetscInt s = 0; s < nst; s++) {
     PetscReal before = fit->nhist ? fit->hist[fit->nhist - 1].loss : l0;
     PetscInt  its0   = fit->nits;
-    PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, stages[s], gamma, lossf));
-    PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)(fit->nits - its0), VKWallTime() - fit->wall0));
+    PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, stages[s], gamma, lossf, &why[s]));
+    stage_its[s] = fit->nits - its0;
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
+    if (why[s] == VK_FIT_STAGE_ITERATION_LIMIT) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stopped at -fit_gn_its %d with the loss still falling by more than -fit_rtol %g: not converged\n", (int)stages[s], (int)fit->gn_its, (double)fit->rtol));
+    if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -pd_max_it): not converged\n", (int)stages[s]));
   }
   /* of the last accepted rollouts: a rollout again could land on another side of a step's tolerance */
   for (PetscInt k = 0; k < nf; k++) {
@@ -706,6 +722,10 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   res.ntraj      = nt;
   res.joint      = data;
   res.traj       = traj;
+  res.nstages    = nst;
+  res.stage_r    = stages;
+  res.stage_its  = stage_its;
+  res.stage_reason = why;
   PetscCall(VKFitWriteOutputs_Private(fit, data[0], &res, dir));
   if (nt > 1) {
     off = 0;
@@ -723,10 +743,15 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     teq += fits[i]->time_eq;
     tadj += fits[i]->time_adjoint;
   }
+  {
+    PetscInt bad = 0;
+    for (PetscInt s = 0; s < nst; s++) bad += why[s] != VK_FIT_STAGE_CONVERGED;
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: status %s (%d of %d stages converged; %d trial rollouts not converged, rejected)\n", bad ? "unconverged" : "converged", (int)(nst - bad), (int)nst, (int)fit->traj_failed_rollouts));
+  }
   PetscCall(PetscPrintf(fit->comm, "volknit fit: trajectory loss %.4e -> %.4e (of its excess over the floor %.4e, %.1f%% remains); %d iterations, equilibria %.1f s, sensitivities %.1f s, total %.1f s -> %s/material.h5\n", (double)l0, (double)l1, (double)floor, l0 > floor ? 100 * (double)((l1 - floor) / (l0 - floor)) : 0.0, (int)fit->nits, teq, tadj, VKWallTime() - fit->wall0, dir));
   for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitTrajectoryDestroy(&T[i]));
   PetscCall(VecDestroy(&gamma));
   PetscCall(PetscFree5(eps, loss0, loss1, lossf, T));
-  PetscCall(PetscFree3(stages, frames, traj));
+  PetscCall(PetscFree5(stages, stage_its, why, frames, traj));
   PetscFunctionReturn(0);
 }
