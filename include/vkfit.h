@@ -379,6 +379,18 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r,
  * holds the prior; lossf[i] (optional) per frame of trajectory i.  A
  * parameter one scene leaves free is held by another. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[], VKFitStageReason *);
+/* The best uniform material on the trajectory loss (uniform.c; DESIGN §11's
+ * baseline): g_s = g_v = g in [lo, hi] Pa by a half-decade scan of log g
+ * and golden-section search to 1 %, on sum_i L_i (sum_i L_i / L_i(rest) for
+ * nt > 1); with refine, then g_s and g_v apart by the stage r = 1 (the
+ * constant harmonic; needs the basis and floor set up as for
+ * VKFitTrajectoryOptimizeJoint, and records its iterations).  gamma (out)
+ * is the material, g[2] its g_s and g_v, loss its loss, reason the
+ * refinement's stop (converged without refine). */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], PetscReal lo, PetscReal hi, PetscBool refine, Vec gamma, PetscReal g[2], PetscReal *loss, VKFitStageReason *);
+/* The trajectory of a yarn-level run: its frames after the rest frame,
+ * their shape-fit targets, and eps of each (out, optional: nframes - 1). */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryCreateFromData(VKFit, VKFitData, PetscReal eps[], VKFitTrajectory *);
 /* The whole fitting with -fit_loss trajectory (VKFitRun calls it): every
  * frame of the yarn-level run after the rest frame compared. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryRun(VKFit, VKFitData, const char dir[]);

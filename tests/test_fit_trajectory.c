@@ -19,6 +19,8 @@
  *    r = 1 alone recovers that uniform material (the automatic uniform
  *    search of issue 21 on the trajectory loss); those stages stop
  *    `converged`, and a stage cut at one iteration says `iteration_limit`;
+ *  - VKFitTrajectoryBestUniform (a scan of g_s = g_v = g over 1 Pa - 100 kPa,
+ *    then the stage r = 1) finds that uniform material without a start;
  *  - the prior (-fit_trajectory_prior) vanishes at its reference, its
  *    gradient and Hessian reproduce it exactly (it is quadratic in q), and
  *    a heavy one holds the optimizer at the reference;
@@ -276,6 +278,29 @@ static PetscErrorCode TestRecovery(PetscBool uniform)
   PetscFunctionReturn(0);
 }
 
+/* The automatic uniform search on uniform data g_s 300, g_v 600 Pa: the
+ * 1-parameter scan lands between them, the refinement on both. */
+static PetscErrorCode TestBestUniform(void)
+{
+  Problem          p;
+  Vec              gamma;
+  PetscReal        g[2], gscan[2], L, Lscan, err;
+  VKFitStageReason why;
+  char             d[256];
+
+  PetscFunctionBegin;
+  PetscCall(Build(&p, PETSC_TRUE));
+  PetscCall(VecDuplicate(p.gamma0, &gamma));
+  PetscCall(VKFitTrajectoryBestUniform(1, &p.T, 1, 1e5, PETSC_FALSE, gamma, gscan, &Lscan, NULL));
+  PetscCall(VKFitTrajectoryBestUniform(1, &p.T, 1, 1e5, PETSC_TRUE, gamma, g, &L, &why));
+  PetscCall(RelDiff(gamma, p.gstar, &err));
+  PetscCall(PetscSNPrintf(d, sizeof(d), "scan: g %.4g Pa, loss %.3e; refined: g_s %.5g, g_v %.5g Pa, loss %.3e, %s", (double)gscan[0], (double)Lscan, (double)g[0], (double)g[1], (double)L, VKFitStageReasons[why]));
+  PetscCall(VKTestCheck((PetscBool)(gscan[0] > 300 && gscan[0] < 600 && err < 1e-3 && PetscAbsReal(g[0] / 300 - 1) < 1e-3 && PetscAbsReal(g[1] / 600 - 1) < 1e-3 && L < 1e-6 * Lscan && why == VK_FIT_STAGE_CONVERGED), d, "trajectory: the automatic uniform search finds the uniform material of the data, g_s 300, g_v 600 Pa, from the range 1 Pa - 100 kPa (error %.1e)", (double)err));
+  PetscCall(VecDestroy(&gamma));
+  PetscCall(Destroy(&p));
+  PetscFunctionReturn(0);
+}
+
 /* The prior R = mu L_ref mean log^2((gamma - g0)/(gref - g0)) is exactly
  * quadratic in q: its gradient and Hessian reproduce it along a direction
  * to round-off; and a heavy prior holds the optimizer at the reference. */
@@ -400,6 +425,7 @@ int main(int argc, char **argv)
   PetscCall(TestRolloutAndDerivatives());
   PetscCall(TestRecovery(PETSC_TRUE));
   PetscCall(TestRecovery(PETSC_FALSE));
+  PetscCall(TestBestUniform());
   PetscCall(TestPrior());
   PetscCall(TestJoint());
   {

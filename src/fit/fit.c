@@ -124,7 +124,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsInt("-fit_max_iterations", "Stop after this many iterations in all, with a checkpoint to go on from (0: no limit)", "VKFitRun", fit->max_iterations, &fit->max_iterations, NULL));
   {
     PetscInt n = 2;
-    PetscCall(PetscOptionsBool("-fit_best_uniform", "Before the first sample, search the uniform material g_s = g_v = g with the lowest loss over the sample frames, report it as the baseline and start the fit from it", "VKFitRun", fit->best_uniform, &fit->best_uniform, NULL));
+    PetscCall(PetscOptionsBool("-fit_best_uniform", "First search the uniform material g_s = g_v = g with the lowest loss (over the sample frames, or the trajectory), report it as the baseline and start the fit from it", "VKFitRun", fit->best_uniform, &fit->best_uniform, NULL));
     PetscCall(PetscOptionsRealArray("-fit_uniform_range", "The interval lo,hi (Pa) of that search", "VKFitBestUniform", fit->uniform_range, &n, NULL));
   }
   PetscCall(PetscOptionsBool("-fit_restart", "Go on from DIR/fit_checkpoint.h5 (sample frames and stages as the checkpoint has them)", "VKFitRun", fit->restart, &fit->restart, NULL));
@@ -158,7 +158,6 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   if (fit->loss == VK_FIT_LOSS_TRAJECTORY) {
     PetscCheck(fit->nharm > 0, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... (not 0)");
     PetscCheck(!fit->restart && fit->max_iterations == 0, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory writes no checkpoint: -fit_restart and -fit_max_iterations apply to -fit_loss frames only (bound each stage with -fit_gn_its)");
-    PetscCheck(!fit->best_uniform, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_best_uniform searches on the frames loss; with -fit_loss trajectory the first stage, -fit_harmonic 1, is the best uniform material");
   }
   PetscCall(KSPSetFromOptions(fit->kadj));
   PetscCall(KSPSetFromOptions(fit->kkkt));

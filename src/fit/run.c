@@ -104,7 +104,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   if (fit->uniform_g > 0) { /* searched in this run (not after a restart) */
     PetscCall(VKJSONObjectBegin(&j, "best_uniform"));
     PetscCall(VKJSONReal(&j, "gamma_Pa", fit->uniform_g));
-    PetscCall(VKJSONReal(&j, "loss_summed_over_samples", fit->uniform_loss));
+    PetscCall(VKJSONReal(&j, fit->loss == VK_FIT_LOSS_TRAJECTORY ? "trajectory_loss" : "loss_summed_over_samples", fit->uniform_loss));
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONReal(&j, "alpha", fit->sf->alpha));

@@ -615,17 +615,16 @@ PetscErrorCode VKFitTrajectoryRun(VKFit fit, VKFitData data, const char dir[])
   PetscFunctionReturn(0);
 }
 
-/* Trajectory i's frames 1.. of data[i]: the shape-fit targets and eps. */
-static PetscErrorCode CreateTrajectory(VKFit fit, VKFitData data, PetscReal eps[], VKFitTrajectory *T)
+PetscErrorCode VKFitTrajectoryCreateFromData(VKFit fit, VKFitData data, PetscReal eps_out[], VKFitTrajectory *T)
 {
   PetscInt   nf = data->nframes - 1;
-  PetscReal *xy, *n1, *Fhat;
+  PetscReal *xy, *n1, *Fhat, *eps;
   Vec       *xhat;
 
   PetscFunctionBegin;
   PetscCheck(nf >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "%s has no frame after the rest frame to fit", data->path);
   PetscCheck(PetscAbsReal(data->time[0]) <= 1e-9 * (data->time[1] - data->time[0]), fit->comm, PETSC_ERR_FILE_UNEXPECTED, "%s starts at t = %g s; the trajectory loss rolls the model out from rest at t = 0, as volknit sim does", data->path, (double)data->time[0]);
-  PetscCall(PetscMalloc1(nf, &xhat));
+  PetscCall(PetscMalloc2(nf, &xhat, nf, &eps));
   PetscCall(PetscMalloc3(3 * fit->mesh->ny, &xy, 3 * fit->sf->nseg, &n1, 9 * (fit->mesh->layout.eEnd - fit->mesh->layout.eStart) + 1, &Fhat));
   for (PetscInt k = 0; k < nf; k++) {
     PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &xhat[k]));
@@ -633,8 +632,9 @@ static PetscErrorCode CreateTrajectory(VKFit fit, VKFitData data, PetscReal eps[
   }
   PetscCall(PetscFree3(xy, n1, Fhat));
   PetscCall(VKFitTrajectoryCreate(fit, nf, data->time + 1, xhat, eps, T));
+  if (eps_out) PetscCall(PetscArraycpy(eps_out, eps, nf));
   for (PetscInt k = 0; k < nf; k++) PetscCall(VecDestroy(&xhat[k]));
-  PetscCall(PetscFree(xhat));
+  PetscCall(PetscFree2(xhat, eps));
   PetscFunctionReturn(0);
 }
 
@@ -671,7 +671,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   PetscCall(VKFitGetGamma(fit, gamma));
   for (PetscInt i = 0; i < nt; i++) {
     PetscInt n = data[i]->nframes - 1;
-    PetscCall(CreateTrajectory(fits[i], data[i], eps + off, &T[i]));
+    PetscCall(VKFitTrajectoryCreateFromData(fits[i], data[i], eps + off, &T[i]));
     for (PetscInt k = 0; k < n; k++) {
       frames[off + k] = k + 1;
       traj[off + k]   = i;
@@ -680,11 +680,21 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     if (i) PetscCall(VKFitHarmonicCopy(fit, fits[i])); /* the same mesh: one eigensolve */
     else PetscCall(VKFitHarmonicSetUp(fit, rmax));
     PetscCall(VKFitSetGammaFloor(fits[i], gamma));
+    PetscCheck(nt == 1 || T[i]->rest_loss > 0, fit->comm, PETSC_ERR_ARG_WRONG, "Joint trajectory fit: the yarns of %s never leave their rest state; it has nothing to fit", data[i]->path);
+    off += n;
+  }
+  if (fit->best_uniform) { /* the baseline, and the start */
+    PetscReal g[2];
+    PetscCall(VKFitTrajectoryBestUniform(nt, T, fit->uniform_range[0], fit->uniform_range[1], PETSC_FALSE, gamma, g, &fit->uniform_loss, NULL));
+    fit->uniform_g = g[0];
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: best uniform material g_s = g_v = %.4g Pa (trajectory loss %.4e); the fit starts from it\n", (double)g[0], (double)fit->uniform_loss));
+  }
+  off = 0;
+  for (PetscInt i = 0; i < nt; i++) {
     PetscCall(VKFitTrajectoryEvaluate(T[i], gamma, 0, &res.traj_loss0, loss0 + off, NULL, NULL, &ok));
     PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the starting material's rollout of %s did not converge at step %d (t = %g s); raise -fit_eq_newton_its or -pd_max_it", data[i]->path, (int)T[i]->steps, (double)T[i]->f.t);
-    PetscCheck(nt == 1 || T[i]->rest_loss > 0, fit->comm, PETSC_ERR_ARG_WRONG, "Joint trajectory fit: the yarns of %s never leave their rest state; it has nothing to fit", data[i]->path);
     l0 += (nt > 1 ? 1 / T[i]->rest_loss : 1) * res.traj_loss0;
-    off += n;
+    off += data[i]->nframes - 1;
   }
   PetscCall(PetscPrintf(fit->comm, "volknit fit: the trajectory of %s", data[0]->path));
   for (PetscInt i = 1; i < nt; i++) PetscCall(PetscPrintf(fit->comm, "%s%s", i == nt - 1 ? " and " : ", ", data[i]->path));
