@@ -96,6 +96,8 @@ struct _n_VKMaterial {
 };
 PETSC_EXTERN PetscErrorCode VKMaterialCreate(VKMesh, VKMaterial *);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUniform(VKMaterial, PetscReal gs, PetscReal gv);
+/* The per-element material of a material.h5 (read at set-up; -mat_file). */
+PETSC_EXTERN PetscErrorCode VKMaterialSetFile(VKMaterial, const char path[]);
 /* The stretch band, 0 < lo <= 1 <= hi (default [1, 1]: the paper's ARAP);
  * once set, VKMaterialLoadH5 refuses a file with another band. */
 PETSC_EXTERN PetscErrorCode VKMaterialSetStretchBand(VKMaterial, PetscReal lo, PetscReal hi);

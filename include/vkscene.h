@@ -71,6 +71,10 @@ PETSC_EXTERN PetscErrorCode VKSceneSetFromOptions(VKScene);
  * yarn model (both simulators pass the same box). */
 PETSC_EXTERN PetscErrorCode VKSceneSetUp(VKScene, const PetscReal lo[], const PetscReal hi[]);
 PETSC_EXTERN PetscErrorCode VKSceneView(VKScene, PetscViewer);
+/* The largest step <= dt that divides the output interval, so a run at a
+ * constant step writes its frames at k x the interval (volknit sim, and
+ * the fit's rollout of it). */
+PETSC_EXTERN PetscReal VKSceneFrameStep(VKScene, PetscReal dt);
 PETSC_EXTERN PetscErrorCode VKSceneDestroy(VKScene *);
 
 /* The handle (first matching box) that holds a point of rest position X,

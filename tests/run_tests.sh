@@ -10,7 +10,9 @@
 #     tests/tool_compare_mesh (same mesh, masses, embedding, partition);
 #  4. the example programs;
 #  5. `volknit fit` with 1 and 2 ranks (both losses), stopped and restarted, killed and
-#     restarted, and with broken checkpoints (tests/tool_compare_material).
+#     restarted, and with broken checkpoints (tests/tool_compare_material);
+#  6. `volknit run` sweeps: the report over the points, the best uniform
+#     material, 1 and 2 ranks, and the cached yarn-level reference.
 # Ends with the line "N passed, M failed"; exit status 1 if M > 0.
 set -u
 cd "$(dirname "$0")/.."
@@ -291,6 +293,48 @@ else
   not_ok "volknit run -run_fit (the reference run of the fit tests) failed or left no material.h5/sim.h5 (see $fd/ref.log)"
 fi
 printf '%-22s       : %4d passed, %d failed\n' "fit command" "$((passed - fit_passed))" "$((failed - fit_failed))"
+
+# 6. volknit run sweeps on the 2 x 2 rib stretch: the best uniform material's
+#    predicted REL (its trajectory loss) is what volknit report measures of
+#    its run; 1 and 2 ranks find the same material and error; a second run
+#    with the same reference options does not rerun the yarn-level reference
+#    and a changed -yls_ option does; mesh, step and PD-iteration lists give
+#    one point each, with frames on the output interval (the report matches
+#    them to the reference's).
+run_passed=$passed
+run_failed=$failed
+rd="$out/run"
+mkdir -p "$rd"
+SWEEP_OPTS="-options_file options/stretch.opts -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -scene_duration 0.1"
+json_num() { sed -n "s/.*\"$2\": \([^,]*\),\{0,1\}$/\1/p" "$1" | head -n "${3:-1}" | tail -n 1; }
+close() { awk -v a="$1" -v b="$2" -v t="$3" 'BEGIN { d = a - b; if (d < 0) d = -d; s = (a < 0 ? -a : a); exit !(a != "" && b != "" && d <= t * s) }'; }
+sweep_run() { # dir ranks [options]: volknit run, log in dir.log
+  d=$1; n=$2; shift 2
+  # shellcheck disable=SC2086
+  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit run -o "$rd/$d" $SWEEP_OPTS "$@" > "$rd/$d.log" 2>&1
+}
+for n in 1 2; do
+  if sweep_run "s$n" "$n" -run_sweep_material uniform,best_uniform && [ "$(grep -c '"label"' "$rd/s$n/report/report.json")" -eq 2 ] && [ -s "$rd/s$n/run.json" ]; then
+    pred=$(json_num "$rd/s$n/run.json" best_uniform_predicted_rel); rel=$(json_num "$rd/s$n/report/report.json" rel 2)
+    if close "$pred" "$rel" 1e-3 && grep -q '"label": "best_uniform"' "$rd/s$n/report/report.json"; then ok
+    else not_ok "run sweep -n $n: the best uniform material's predicted REL $pred is not the REL $rel the report measured of its run"; fi
+  else not_ok "run sweep -n $n (uniform, best_uniform) failed or left no report of 2 runs and run.json (see $rd/s$n.log)"; fi
+done
+for key in best_uniform_gamma_s_Pa best_uniform_gamma_v_Pa; do
+  if close "$(json_num "$rd/s1/run.json" $key)" "$(json_num "$rd/s2/run.json" $key)" 1e-5; then ok
+  else not_ok "run sweep: $key differs between 1 and 2 ranks ($(json_num "$rd/s1/run.json" $key) and $(json_num "$rd/s2/run.json" $key))"; fi
+done
+if close "$(json_num "$rd/s1/report/report.json" rel 1)" "$(json_num "$rd/s2/report/report.json" rel 1)" 1e-6; then ok
+else not_ok "run sweep: the uniform material's REL differs between 1 and 2 ranks"; fi
+stamp=$(stat -c %Y "$rd/s1/yls.h5" 2>/dev/null)
+if sweep_run "s1" 1 -run_sweep_material uniform && grep -q 'is up to date' "$rd/s1.log" && ! grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(stat -c %Y "$rd/s1/yls.h5")" = "$stamp" ]; then ok
+else not_ok "run sweep: the same reference options reran the yarn-level reference (see $rd/s1.log)"; fi
+if sweep_run "s1" 1 -run_sweep_material uniform -run_sweep_mesh_h 0.003,0.004 -run_sweep_ts_dt 0.005 -run_sweep_pd_its 3 -yls_strict \
+   && grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(grep -c '"label"' "$rd/s1/report/report.json")" -eq 2 ] \
+   && grep -q '"label": "h0.004_uniform_dt0.005_its3"' "$rd/s1/report/report.json" && [ -s "$rd/s1/sweep/mesh_h0.004/mesh.h5" ] \
+   && grep -q 'steps of 0.0047619 s instead' "$rd/s1.log"; then ok
+else not_ok "run sweep over mesh h, dt and PD iterations with a changed -yls_ option: expected the reference rerun and a report of 2 runs (see $rd/s1.log)"; fi
+printf '%-22s       : %4d passed, %d failed\n' "run sweeps" "$((passed - run_passed))" "$((failed - run_failed))"
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

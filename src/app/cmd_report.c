@@ -4,6 +4,7 @@
  *   volknit report -report_yls YDIR -report_runs DIR1,DIR2 [-report_labels a,b] -o OUT */
 #include <vkapp.h>
 #include <vkreport.h>
+#include <vklog.h>
 
 PetscErrorCode VKCommandReport(MPI_Comm comm)
 {
@@ -18,6 +19,7 @@ PetscErrorCode VKCommandReport(MPI_Comm comm)
   PetscCall(VKReportSetFromOptions(r));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
+    PetscCall(PetscLogStagePush(VK_STAGE_REPORT));
     PetscCall(VKReportCompute(r));
     PetscCall(VKReportWrite(r, dir));
     PetscCall(VKReportGetNumRuns(r, &n));
@@ -29,6 +31,7 @@ PetscErrorCode VKCommandReport(MPI_Comm comm)
       PetscCall(PetscPrintf(comm, ", RMS error %.3g r (max %.3g r) over %d frames, %.4g s per simulated second, %.1fx the yarn-level speed (status %s)\n", (double)(run->rms_all / run->radius), (double)(run->max_all / run->radius), (int)run->nframes, (double)run->wall_per_second, (double)run->speedup, run->status));
     }
     PetscCall(PetscPrintf(comm, "volknit report: %s/report.{md,csv,json}, report_error.png, report_tradeoff.png\n", dir));
+    PetscCall(PetscLogStagePop());
   }
   PetscCall(VKReportDestroy(&r));
   PetscFunctionReturn(0);

@@ -4,11 +4,11 @@
  *   sim   simulate the homogenized model over a scene -> DIR/sim.h5 .xdmf .json
  *   yls   simulate the yarns themselves over a scene -> DIR/yls.h5 .xdmf .csv .json
  *   fit   learn gamma per tet from DIR/yls.h5 on DIR/mesh.h5 -> DIR/material.h5 .xdmf, fit.csv .json .png
- *   run   the stages the scene needs, in order (today: yarn, mesh, sim)
+ *   run   the stages the scene needs, in order, and sweeps (cmd_run.c)
  *   report  homogenized runs against a yarn-level run (cmd_report.c)
  * Each runs in its own PetscLogStage, so -log_view splits the time by
  * stage.  With -help a command lists its options and stops. */
-#include <vkapp.h>
+#include "appimpl.h"
 #include <vkmesh.h>
 #include <vksim.h>
 #include <vkyls.h>
@@ -39,7 +39,7 @@ PetscErrorCode VKGetOutputDirectory(MPI_Comm comm, char dir[], size_t size)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode ViewFromOptions(MPI_Comm comm, const char opt[], PetscErrorCode (*view)(void *, PetscViewer), void *obj)
+PetscErrorCode VKAppViewFromOptions(MPI_Comm comm, const char opt[], PetscErrorCode (*view)(void *, PetscViewer), void *obj)
 {
   PetscViewer       viewer;
   PetscViewerFormat format;
@@ -70,7 +70,7 @@ static PetscErrorCode DomainsView(void *m, PetscViewer v)
 }
 
 /* Yarn model object with every yarn option read and checked. */
-static PetscErrorCode YarnFromOptions(MPI_Comm comm, VKYarn *y)
+PetscErrorCode VKAppYarnFromOptions(MPI_Comm comm, VKYarn *y)
 {
   char      path[PETSC_MAX_PATH_LEN];
   PetscBool set;
@@ -87,7 +87,7 @@ static PetscErrorCode YarnFromOptions(MPI_Comm comm, VKYarn *y)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode MeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
+PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
 {
   PetscFunctionBegin;
   PetscCall(VKMeshCreate(comm, m));
@@ -98,7 +98,7 @@ static PetscErrorCode MeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
 
 /* Build the yarn model, relaxed when `relax` or -yarn_relax asks and it is
  * not relaxed yet; with `write`, write and report it. */
-static PetscErrorCode YarnStage(VKYarn y, const char dir[], PetscBool write, PetscBool relax)
+PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, PetscBool relax)
 {
   MPI_Comm  comm = y->comm;
   char      path[PETSC_MAX_PATH_LEN];
@@ -124,34 +124,27 @@ static PetscErrorCode YarnStage(VKYarn y, const char dir[], PetscBool write, Pet
     PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_obj", path, sizeof(path), &set));
     if (set) PetscCall(VKYarnWriteOBJ(y, path));
   }
-  PetscCall(ViewFromOptions(comm, "-yarn_view", YarnView, y));
+  PetscCall(VKAppViewFromOptions(comm, "-yarn_view", YarnView, y));
   PetscCall(VKYarnGetMass(y, &mass, &length));
   PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m%s%s%s%s (%.2f s)\n", y->description, (int)y->curves.n, (int)y->curves.nv, (double)length, (double)mass, (double)y->radius, y->contact_radius > 0 ? ", relaxed" : "", write ? " -> " : "", write ? dir : "", write ? "/yarn.h5" : "", y->time_build));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode MeshStage(VKMesh m, const char dir[])
+PetscErrorCode VKAppMeshStage(VKMesh m, const char dir[])
 {
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_MESH));
   PetscCall(VKMeshSetUp(m));
   PetscCall(VKMeshWriteOutputs(m, dir));
-  PetscCall(ViewFromOptions(m->comm, "-mesh_view", MeshView, m));
-  PetscCall(ViewFromOptions(m->comm, "-dd_view", DomainsView, m));
+  PetscCall(VKAppViewFromOptions(m->comm, "-mesh_view", MeshView, m));
+  PetscCall(VKAppViewFromOptions(m->comm, "-dd_view", DomainsView, m));
   PetscCall(PetscPrintf(m->comm, "volknit mesh: h = %g m, %d voxels, %d nodes, %d tets (n_V/n_Y = %.3f), %d domains, mass error %.1e -> %s/mesh.h5 (%.2f s)\n", (double)m->grid.h, (int)m->nvox, (int)m->nv, (int)m->ne, (double)m->nv / (double)m->ny, (int)m->ndomains, (double)(PetscAbsReal(m->mesh_mass - m->yarn_mass) / m->yarn_mass), dir, m->time[7]));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
 
-/* Material, scene and simulator over a mesh, every option read. */
-typedef struct {
-  VKMaterial mat;
-  VKScene    scene;
-  VKSim      sim;
-} SimParts;
-
-static PetscErrorCode SimFromOptions(VKMesh m, const char dir[], SimParts *p)
+PetscErrorCode VKAppSimFromOptions(VKMesh m, const char dir[], VKAppSimParts *p)
 {
   PetscFunctionBegin;
   PetscCall(VKMaterialCreate(m, &p->mat));
@@ -167,7 +160,7 @@ static PetscErrorCode SimFromOptions(VKMesh m, const char dir[], SimParts *p)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode SimPartsDestroy(SimParts *p)
+PetscErrorCode VKAppSimPartsDestroy(VKAppSimParts *p)
 {
   PetscFunctionBegin;
   PetscCall(VKSimDestroy(&p->sim));
@@ -181,11 +174,11 @@ static PetscErrorCode SimView(void *s, PetscViewer v)
   return VKSimView((VKSim)s, v);
 }
 
-static PetscErrorCode SimStage(SimParts *p)
+PetscErrorCode VKAppSimStage(VKAppSimParts *p)
 {
   PetscFunctionBegin;
   PetscCall(VKSimSetUp(p->sim));
-  PetscCall(ViewFromOptions(p->sim->comm, "-sim_view", SimView, p->sim));
+  PetscCall(VKAppViewFromOptions(p->sim->comm, "-sim_view", SimView, p->sim));
   PetscCall(VKSimRun(p->sim));
   PetscFunctionReturn(0);
 }
@@ -198,9 +191,9 @@ PetscErrorCode VKCommandYarn(MPI_Comm comm)
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
-  PetscCall(YarnFromOptions(comm, &y));
+  PetscCall(VKAppYarnFromOptions(comm, &y));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
-  if (!help) PetscCall(YarnStage(y, dir, PETSC_TRUE, PETSC_FALSE));
+  if (!help) PetscCall(VKAppYarnStage(y, dir, PETSC_TRUE, PETSC_FALSE));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
 }
@@ -219,7 +212,7 @@ static PetscErrorCode HasYarnOptions(PetscBool *has)
 
 /* The yarn model of a stage that reads it: DIR/yarn.h5 when it exists and
  * no -yarn_ option is given, otherwise the options. */
-static PetscErrorCode YarnForStage(MPI_Comm comm, const char dir[], VKYarn *y)
+PetscErrorCode VKAppYarnForStage(MPI_Comm comm, const char dir[], VKYarn *y)
 {
   char      path[PETSC_MAX_PATH_LEN];
   PetscBool exists = PETSC_FALSE, yarnopts = PETSC_FALSE;
@@ -228,7 +221,7 @@ static PetscErrorCode YarnForStage(MPI_Comm comm, const char dir[], VKYarn *y)
   PetscCall(VKPathJoin(dir, "yarn.h5", path, sizeof(path)));
   PetscCall(VKFileExists(comm, path, &exists));
   PetscCall(HasYarnOptions(&yarnopts));
-  PetscCall(YarnFromOptions(comm, y));
+  PetscCall(VKAppYarnFromOptions(comm, y));
   if (exists && !yarnopts) {
     PetscCall(PetscStrncpy((*y)->file, path, sizeof((*y)->file)));
     (*y)->source = VK_YARN_H5;
@@ -248,13 +241,13 @@ PetscErrorCode VKCommandMesh(MPI_Comm comm)
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
-  PetscCall(YarnForStage(comm, dir, &y));
-  PetscCall(MeshFromOptions(comm, y, &m));
+  PetscCall(VKAppYarnForStage(comm, dir, &y));
+  PetscCall(VKAppMeshFromOptions(comm, y, &m));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
     if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit mesh: yarn model read from %s\n", y->file));
-    PetscCall(YarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
-    PetscCall(MeshStage(m, dir));
+    PetscCall(VKAppYarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
+    PetscCall(VKAppMeshStage(m, dir));
   }
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
@@ -267,7 +260,7 @@ PetscErrorCode VKCommandSim(MPI_Comm comm)
   char      dir[PETSC_MAX_PATH_LEN], path[PETSC_MAX_PATH_LEN];
   VKYarn    y = NULL;
   VKMesh    m = NULL;
-  SimParts  p = {0};
+  VKAppSimParts  p = {0};
   PetscBool exists, help;
 
   PetscFunctionBegin;
@@ -278,12 +271,12 @@ PetscErrorCode VKCommandSim(MPI_Comm comm)
   PetscCheck(exists || help, comm, PETSC_ERR_FILE_OPEN, "volknit sim needs %s: run volknit mesh -o %s (or volknit run) first", path, dir);
   if (exists) PetscCall(VKMeshLoadH5(comm, path, &m, &y));
   else PetscCall(VKMeshCreate(comm, &m));
-  PetscCall(SimFromOptions(m, dir, &p));
+  PetscCall(VKAppSimFromOptions(m, dir, &p));
   if (!help) {
     PetscCall(PetscPrintf(comm, "volknit sim: mesh read from %s (%d nodes, %d tets)\n", path, (int)m->nv, (int)m->ne));
-    PetscCall(SimStage(&p));
+    PetscCall(VKAppSimStage(&p));
   }
-  PetscCall(SimPartsDestroy(&p));
+  PetscCall(VKAppSimPartsDestroy(&p));
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
@@ -295,7 +288,7 @@ static PetscErrorCode YLSView(void *y, PetscViewer v)
 }
 
 /* The yarn-level simulator of a scene, every option read. */
-static PetscErrorCode YLSFromOptions(VKYarn y, VKScene scene, const char dir[], VKYLS *yls)
+PetscErrorCode VKAppYLSFromOptions(VKYarn y, VKScene scene, const char dir[], VKYLS *yls)
 {
   PetscFunctionBegin;
   PetscCall(VKYLSCreate(y, scene, yls));
@@ -307,12 +300,12 @@ static PetscErrorCode YLSFromOptions(VKYarn y, VKScene scene, const char dir[], 
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode YLSStage(VKYLS yls)
+PetscErrorCode VKAppYLSStage(VKYLS yls)
 {
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_YLS));
   PetscCall(VKYLSSetUp(yls));
-  PetscCall(ViewFromOptions(yls->comm, "-yls_view", YLSView, yls));
+  PetscCall(VKAppViewFromOptions(yls->comm, "-yls_view", YLSView, yls));
   PetscCall(VKYLSRun(yls));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
@@ -329,15 +322,15 @@ PetscErrorCode VKCommandYLS(MPI_Comm comm)
 
   PetscFunctionBegin;
   PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
-  PetscCall(YarnForStage(comm, dir, &y));
+  PetscCall(VKAppYarnForStage(comm, dir, &y));
   PetscCall(VKSceneCreate(comm, &scene));
   PetscCall(VKSceneSetFromOptions(scene));
-  PetscCall(YLSFromOptions(y, scene, dir, &yls));
+  PetscCall(VKAppYLSFromOptions(y, scene, dir, &yls));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
     if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit yls: yarn model read from %s\n", y->file));
-    PetscCall(YarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
-    PetscCall(YLSStage(yls));
+    PetscCall(VKAppYarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
+    PetscCall(VKAppYLSStage(yls));
   }
   PetscCall(VKYLSDestroy(&yls));
   PetscCall(VKSceneDestroy(&scene));
@@ -350,16 +343,7 @@ static PetscErrorCode FitView(void *f, PetscViewer v)
   return VKFitView((VKFit)f, v);
 }
 
-/* Further scenes fitted with the first (volknit fit -fit_joint). */
-#define MAX_JOINT 4
-typedef struct {
-  PetscInt n;
-  char    *dir[MAX_JOINT];
-  VKScene  scene[MAX_JOINT];
-  VKFit    fit[MAX_JOINT];
-} FitJoint;
-
-static PetscErrorCode FitJointDestroy(FitJoint *J)
+PetscErrorCode VKAppFitJointDestroy(VKAppFitJoint *J)
 {
   PetscFunctionBegin;
   for (PetscInt i = 0; i < J->n; i++) {
@@ -371,9 +355,7 @@ static PetscErrorCode FitJointDestroy(FitJoint *J)
   PetscFunctionReturn(0);
 }
 
-/* The fitting stage: frames from DIR/yls.h5 (and each -fit_joint
- * directory's), the fit's own -fit_view. */
-static PetscErrorCode FitStage(VKFit fit, const FitJoint *J, const char dir[])
+PetscErrorCode VKAppFitStage(VKFit fit, const VKAppFitJoint *J, const char ydir[], const char dir[])
 {
   char      ypath[PETSC_MAX_PATH_LEN];
   VKFitData data[1 + MAX_JOINT] = {NULL};
@@ -384,12 +366,12 @@ static PetscErrorCode FitStage(VKFit fit, const FitJoint *J, const char dir[])
   PetscCall(PetscLogStagePush(VK_STAGE_FIT));
   for (PetscInt i = 0; i <= nj; i++) {
     fits[i] = i ? J->fit[i - 1] : fit;
-    PetscCall(VKPathJoin(i ? J->dir[i - 1] : dir, "yls.h5", ypath, sizeof(ypath)));
+    PetscCall(VKPathJoin(i ? J->dir[i - 1] : ydir, "yls.h5", ypath, sizeof(ypath)));
     PetscCall(VKFitDataLoad(fit->comm, ypath, &data[i]));
     PetscCall(PetscPrintf(fit->comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)fit->mesh->nv, (int)fit->mesh->ne, ypath, (int)data[i]->nframes, data[i]->status));
     PetscCall(VKFitSetUp(fits[i]));
   }
-  PetscCall(ViewFromOptions(fit->comm, "-fit_view", FitView, fit));
+  PetscCall(VKAppViewFromOptions(fit->comm, "-fit_view", FitView, fit));
   if (nj) PetscCall(VKFitTrajectoryRunJoint(1 + nj, fits, data, dir));
   else PetscCall(VKFitRun(fit, data[0], dir));
   for (PetscInt i = 0; i <= nj; i++) PetscCall(VKFitDataDestroy(&data[i]));
@@ -399,7 +381,7 @@ static PetscErrorCode FitStage(VKFit fit, const FitJoint *J, const char dir[])
 
 /* J: where -fit_joint goes (volknit fit); NULL refuses it (volknit run,
  * whose mesh is of this run's own relaxed yarn). */
-static PetscErrorCode FitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, FitJoint *J)
+PetscErrorCode VKAppFitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, VKAppFitJoint *J)
 {
   char     *dirs[MAX_JOINT + 1]; /* one more, to tell a list too long */
   PetscInt  n = MAX_JOINT + 1;
@@ -430,56 +412,6 @@ static PetscErrorCode FitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, 
   PetscFunctionReturn(0);
 }
 
-/* run: every stage the scene needs, options of all stages checked first.
- * -run_fit: the homogenized material is fitted to the scene's own
- * yarn-level run (yarn relaxed, yls, mesh, fit), then simulated; the fit
- * starts from the -mat_ material and leaves its result in it. */
-PetscErrorCode VKCommandRun(MPI_Comm comm)
-{
-  char           dir[PETSC_MAX_PATH_LEN];
-  VKYarn         y;
-  VKMesh         m;
-  VKYLS          yls = NULL;
-  VKFit          fit = NULL;
-  SimParts       p   = {0};
-  PetscBool      help, reference = PETSC_FALSE, fitting = PETSC_FALSE;
-  PetscLogDouble t0 = VKWallTime();
-
-  PetscFunctionBegin;
-  PetscCall(VKGetOutputDirectory(comm, dir, sizeof(dir)));
-  PetscOptionsBegin(comm, NULL, "Pipeline", "volknit run");
-  PetscCall(PetscOptionsBool("-run_reference", "The scene needs yarn-level reference data: relax the yarns, run volknit yls on the scene (DIR/yls.*), then mesh the relaxed yarns", "volknit run", reference, &reference, NULL));
-  PetscCall(PetscOptionsBool("-run_fit", "Fit the material to the scene's yarn-level run (implies -run_reference; volknit fit, DIR/material.h5), then simulate with it", "volknit run", fitting, &fitting, NULL));
-  PetscOptionsEnd();
-  if (fitting) reference = PETSC_TRUE;
-  PetscCall(YarnFromOptions(comm, &y));
-  PetscCall(MeshFromOptions(comm, y, &m));
-  PetscCall(SimFromOptions(m, dir, &p));
-  if (reference) PetscCall(YLSFromOptions(y, p.scene, dir, &yls));
-  if (fitting) PetscCall(FitFromOptions(p.mat, p.scene, &fit, NULL));
-  PetscCall(PetscOptionsHasHelp(NULL, &help));
-  if (!help) {
-    /* relaxed first, so yarn.h5, the reference run and the mesh share one rest state */
-    PetscCall(YarnStage(y, dir, PETSC_TRUE, reference));
-    if (reference) PetscCall(YLSStage(yls));
-    PetscCall(MeshStage(m, dir));
-    if (fitting) PetscCall(FitStage(fit, NULL, dir));
-    if (fitting && fit->stopped) PetscCall(PetscPrintf(comm, "volknit run: the fit stopped before the end; go on with volknit fit -o %s -fit_restart, then volknit sim -o %s -mat_file %s/material.h5\n", dir, dir, dir));
-    else {
-      const char *status;
-      PetscCall(SimStage(&p));
-      PetscCall(VKSimGetStatus(p.sim, &status));
-      PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim done in %.2f s (sim status: %s); outputs in %s/\n", reference ? "yls, " : "", fitting ? "fit, " : "", VKWallTime() - t0, status, dir));
-    }
-  }
-  PetscCall(VKFitDestroy(&fit));
-  PetscCall(VKYLSDestroy(&yls));
-  PetscCall(SimPartsDestroy(&p));
-  PetscCall(VKMeshDestroy(&m));
-  PetscCall(VKYarnDestroy(&y));
-  PetscFunctionReturn(0);
-}
-
 /* fit: the mesh (with the yarn model the reference run started from) from
  * DIR/mesh.h5, the frames from DIR/yls.h5; the start material from the
  * -mat_ options, the scene (handles) from the -scene_ options of the
@@ -492,7 +424,7 @@ PetscErrorCode VKCommandFit(MPI_Comm comm)
   VKMaterial mat = NULL;
   VKScene   scene = NULL;
   VKFit     fit = NULL;
-  FitJoint  joint = {0};
+  VKAppFitJoint  joint = {0};
   PetscBool mexists, yexists, help;
 
   PetscFunctionBegin;
@@ -510,12 +442,12 @@ PetscErrorCode VKCommandFit(MPI_Comm comm)
   PetscCall(VKMaterialSetFromOptions(mat));
   PetscCall(VKSceneCreate(comm, &scene));
   PetscCall(VKSceneSetFromOptions(scene));
-  PetscCall(FitFromOptions(mat, scene, &fit, &joint));
+  PetscCall(VKAppFitFromOptions(mat, scene, &fit, &joint));
   if (!help) {
     PetscCall(PetscPrintf(comm, "volknit fit: mesh %s\n", mpath));
-    PetscCall(FitStage(fit, &joint, dir));
+    PetscCall(VKAppFitStage(fit, &joint, dir, dir));
   }
-  PetscCall(FitJointDestroy(&joint));
+  PetscCall(VKAppFitJointDestroy(&joint));
   PetscCall(VKFitDestroy(&fit));
   PetscCall(VKSceneDestroy(&scene));
   PetscCall(VKMaterialDestroy(&mat));

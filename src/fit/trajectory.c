@@ -62,7 +62,7 @@ PetscReal VKFitTrajectoryStep(VKFit fit)
 
   if (fit->traj_dt > 0) return fit->traj_dt;
   if (PetscOptionsGetReal(NULL, NULL, "-ts_dt", &dt, &set) || !set || !(dt > 0)) dt = PetscMin(1.0 / 150, fit->scene->output_interval);
-  return dt;
+  return VKSceneFrameStep(fit->scene, dt); /* as volknit sim steps */
 }
 
 /* max_k |M (xhat_k - 2 xhat_{k-1} + xhat_{k-2})| / dh^2 (rest before t_0) */

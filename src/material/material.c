@@ -48,6 +48,14 @@ PetscErrorCode VKMaterialSetUniform(VKMaterial m, PetscReal gs, PetscReal gv)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKMaterialSetFile(VKMaterial m, const char path[])
+{
+  PetscFunctionBegin;
+  PetscCheck(!m->setup, m->comm, PETSC_ERR_ORDER, "VKMaterialSetFile(%s) after VKMaterialSetUp", path);
+  PetscCall(PetscStrncpy(m->file, path, sizeof(m->file)));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKMaterialSetStretchBand(VKMaterial m, PetscReal lo, PetscReal hi)
 {
   PetscFunctionBegin;

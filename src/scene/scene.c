@@ -202,6 +202,14 @@ PetscErrorCode VKSceneSetUp(VKScene s, const PetscReal lo[], const PetscReal hi[
   PetscFunctionReturn(0);
 }
 
+PetscReal VKSceneFrameStep(VKScene s, PetscReal dt)
+{
+  PetscReal n = PetscCeilReal(s->output_interval / dt * (1 - 1e-9));
+
+  if (n < 1 || PetscAbsReal(n * dt - s->output_interval) <= 1e-9 * s->output_interval) return dt; /* divides it already */
+  return s->output_interval / n;
+}
+
 PetscErrorCode VKSceneView(VKScene s, PetscViewer viewer)
 {
   PetscFunctionBegin;

@@ -105,6 +105,14 @@ PetscErrorCode VKSimSetUp(VKSim sim)
   PetscCall(VKSceneSetUp(sim->scene, lo, hi));
   PetscCall(TSGetTimeStep(sim->ts, &dt));
   {
+    PetscReal step = VKSceneFrameStep(sim->scene, dt);
+    if (step != dt) {
+      if (!sim->quiet) PetscCall(PetscPrintf(sim->comm, "volknit sim: -ts_dt %g does not divide the output interval %g s: steps of %g s instead, so the frames fall on it\n", (double)dt, (double)sim->scene->output_interval, (double)step));
+      dt = step;
+      PetscCall(TSSetTimeStep(sim->ts, dt));
+    }
+  }
+  {
     /* ptime accumulates rounding: a duration of n steps must not take an
      * (n+1)-th step just past it */
     PetscReal T, n;

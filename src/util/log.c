@@ -2,7 +2,7 @@
 #include <vklog.h>
 
 PetscClassId  VK_CLASSID;
-PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH, VK_STAGE_SIM, VK_STAGE_YLS, VK_STAGE_FIT;
+PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH, VK_STAGE_SIM, VK_STAGE_YLS, VK_STAGE_FIT, VK_STAGE_REPORT;
 PetscLogEvent VK_EVENT_YarnBuild, VK_EVENT_YarnRead, VK_EVENT_YarnResample, VK_EVENT_YarnFrames, VK_EVENT_YarnBind, VK_EVENT_YarnRadius;
 PetscLogEvent VK_EVENT_Voxelize, VK_EVENT_Tets, VK_EVENT_Lump, VK_EVENT_Embed, VK_EVENT_DualGraph, VK_EVENT_Partition, VK_EVENT_Layout, VK_EVENT_Write;
 PetscLogEvent VK_EVENT_PDSetUp, VK_EVENT_PDLocal, VK_EVENT_PDGlobal, VK_EVENT_PDNewton, VK_EVENT_PDCollide;
@@ -29,6 +29,7 @@ PetscErrorCode VKInitializePackage(void)
   PetscCall(PetscLogStageRegister("volknit sim", &VK_STAGE_SIM));
   PetscCall(PetscLogStageRegister("volknit yls", &VK_STAGE_YLS));
   PetscCall(PetscLogStageRegister("volknit fit", &VK_STAGE_FIT));
+  PetscCall(PetscLogStageRegister("volknit report", &VK_STAGE_REPORT));
   PetscCall(PetscLogEventRegister("YarnBuild", VK_CLASSID, &VK_EVENT_YarnBuild));
   PetscCall(PetscLogEventRegister("YarnRead", VK_CLASSID, &VK_EVENT_YarnRead));
   PetscCall(PetscLogEventRegister("YarnResample", VK_CLASSID, &VK_EVENT_YarnResample));
