@@ -152,8 +152,8 @@ for n in 1 2; do
 done
 printf '%-22s       : examples ex1_chart_mesh, ex2_stretch with 1 and 2 ranks\n' "examples"
 
-# 5. volknit run -run_fit on a small patch (2 x 2 rib, stretch): yarn, yls,
-#    mesh, fit and sim, the fit the same as volknit fit's on its data; 1 and
+# 5. volknit run -run_fit -run_report on a small patch (2 x 2 rib, stretch):
+#    yarn, yls, mesh, fit, sim and report, the fit the same as volknit fit's on its data; 1 and
 #    2 ranks give the same material; a run stopped by -fit_max_iterations, or
 #    killed, leaves no material.h5 and goes on with -fit_restart (also on
 #    another rank count) to the material of the uninterrupted run; broken
@@ -181,8 +181,9 @@ fit_run() { # name ranks [options]: volknit fit in $fd/name, log in $fd/name.log
 }
 mkdir -p "$fd"
 # shellcheck disable=SC2086
-if timeout "$TIMEOUT" bin/volknit run -run_fit -o "$fd/ref" $FIT_OPTS -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -scene_duration 0.1 > "$fd/ref.log" 2>&1 \
-   && [ -s "$fd/ref/material.h5" ] && [ -s "$fd/ref/sim.h5" ] && grep -q 'stages yarn, yls, mesh, fit, sim done' "$fd/ref.log"; then
+if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPTS -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -scene_duration 0.1 > "$fd/ref.log" 2>&1 \
+   && [ -s "$fd/ref/material.h5" ] && [ -s "$fd/ref/sim.h5" ] && grep -q 'stages yarn, yls, mesh, fit, sim, report done' "$fd/ref.log" \
+   && grep -q '"label": "fitted"' "$fd/ref/report/report.json"; then
   ok
   for n in 1 2; do
     fit_dir "n$n"
