@@ -5,7 +5,9 @@
 #   1. the yarn-level reference (volknit yls; cached: rerun only when its
 #      command line changes);
 #   2. homogenized runs on one mesh: uniform materials g_s = g_v = g over a
-#      log grid (the best of them is the baseline a fit must beat), and the
+#      log grid, the best uniform material searched on the scene's
+#      trajectory loss (g_s and g_v apart, as volknit run's best_uniform;
+#      the baseline a fit must beat, with the grid's best), and the
 #      material fitted on the scene's own frames (training error);
 #   3. the materials fitted on the other scenes (held-out error, paper §8.6);
 #   4. with FID_JOINT=1, one material fitted to all the scenes at once
@@ -73,6 +75,11 @@ for pat in $PATTERNS; do
         && echo "$want" > "$ref/stamp" || echo "    (yarn-level run failed: see $ref/yls.log)" >> "$cmds"
       echo "(yarn-level $pat $s: $(( $(date +%s) - t0 )) s)" >&2
     fi
+    # the best uniform material: the scan of g, then stage r = 1 (g_s and g_v apart)
+    best="$d/$s/best_uniform$TAG"; mkdir -p "$best"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$best/"
+    if [ ! -s "$best/material.h5" ] || [ "$ref/yls.h5" -nt "$best/material.h5" ]; then
+      run $MPIEXEC -n "$NP" bin/volknit fit -o "$best" -options_file "options/$s.opts" $MAT_OPTS -fit_loss trajectory -fit_best_uniform -fit_harmonic 1 -fit_gn_its 30 > "$best/fit.log" 2>&1 || echo "    (best uniform search failed: see $best/fit.log)" >> "$cmds"
+    fi
     # the fit on this scene's own frames
     fit="$d/$s/fit$TAG"; mkdir -p "$fit"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$fit/"
     if [ ! -s "$fit/material.h5" ] || [ "$ref/yls.h5" -nt "$fit/material.h5" ]; then
@@ -97,6 +104,10 @@ for pat in $PATTERNS; do
       sim_run "$d/$s/u$g$TAG" -options_file "options/$s.opts" -scene_duration "$T" $MAT_OPTS -mat_gamma_s "$g" -mat_gamma_v "$g"
       runs="$runs,$d/$s/u$g$TAG"; labels="$labels,uniform_${g}Pa"
     done
+    if [ -s "$d/$s/best_uniform$TAG/material.h5" ]; then
+      sim_run "$d/$s/ubest$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$s/best_uniform$TAG/material.h5"
+      runs="$runs,$d/$s/ubest$TAG"; labels="$labels,best_uniform_searched"
+    fi
     for f in $SCENES; do
       [ -s "$d/$f/fit$TAG/material.h5" ] || continue
       sim_run "$d/$s/fit_$f$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$f/fit$TAG/material.h5"
@@ -129,7 +140,7 @@ for pat in $PATTERNS; do
       label=$(json "$j" label "$i" | tr -d '"'); rel=$(json "$j" rel "$i"); fl=$(json "$j" floor_rel "$i")
       mx=$(json "$j" max_error_r "$i"); ps=$(json "$j" wall_time_per_simulated_second "$((i + 1))"); sp=$(json "$j" speedup "$i")
       printf '| %s | %s | %s | %.3f | %.3f | %.1f | %.3g | %.0f |\n' "$pat" "$s" "$label" "$rel" "$fl" "$mx" "$ps" "$sp"
-      case "$label" in uniform*) if [ -z "$bestrel" ] || awk "BEGIN{exit !($rel < $bestrel)}"; then best=$label; bestrel=$rel; fi ;; esac
+      case "$label" in uniform*|best_uniform*) if [ -z "$bestrel" ] || awk "BEGIN{exit !($rel < $bestrel)}"; then best=$label; bestrel=$rel; fi ;; esac
     done
     echo "| $pat | $s | best uniform: $best | $(printf %.3f "$bestrel") | | | | |"
   done
