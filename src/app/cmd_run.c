@@ -60,6 +60,7 @@ typedef struct {
   VKMaterial fitmat[MAX_LIST], bestmat[MAX_LIST];
   VKScene    fitscene[MAX_LIST], bestscene[MAX_LIST];
   VKFit      fit[MAX_LIST], bestfit[MAX_LIST]; /* the fit, and the best uniform search */
+  PetscBool  has_best[MAX_LIST];
   PetscReal  best[MAX_LIST][2], best_rel[MAX_LIST];
   PetscInt   npoints;
   Point      pt[MAX_POINTS];
@@ -302,6 +303,7 @@ static PetscErrorCode BestUniform(Run *R, PetscInt i)
   PetscCall(VKFitTrajectoryBestUniform(1, &T, fit->uniform_range[0], fit->uniform_range[1], PETSC_TRUE, gamma, R->best[i], &loss, &why));
   PetscCall(VKFitTrajectoryGetRestLoss(T, &rest));
   R->best_rel[i] = rest > 0 ? PetscSqrtReal(loss / rest) : 0;
+  R->has_best[i] = PETSC_TRUE;
   PetscCall(PetscPrintf(R->comm, "volknit run: best uniform material on %s/mesh.h5: g_s = %.4g Pa, g_v = %.4g Pa (trajectory loss %.4e, predicted REL %.3f; refinement %s) (%.1f s)\n", R->meshdir[i], (double)R->best[i][0], (double)R->best[i][1], (double)loss, (double)R->best_rel[i], VKFitStageReasons[why], VKWallTime() - t0));
   if (why != VK_FIT_STAGE_CONVERGED) PetscCall(PetscPrintf(R->comm, "volknit run: WARNING: the best uniform material's refinement did not converge (%s)\n", VKFitStageReasons[why]));
   PetscCall(VecDestroy(&gamma));
@@ -376,7 +378,7 @@ static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONObjectBegin(&j, NULL));
     PetscCall(VKJSONString(&j, "dir", R->meshdir[i]));
     PetscCall(VKJSONReal(&j, "h", R->mesh[i]->grid.h));
-    if (R->bestfit[i]) {
+    if (R->has_best[i]) {
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_s_Pa", R->best[i][0]));
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_v_Pa", R->best[i][1]));
       PetscCall(VKJSONReal(&j, "best_uniform_predicted_rel", R->best_rel[i]));
@@ -403,16 +405,25 @@ static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
   PetscFunctionReturn(0);
 }
 
+/* The fit and the search of mesh i, once done: their solvers' memory is
+ * not held through the simulations. */
+static PetscErrorCode FitsDestroy(Run *R, PetscInt i)
+{
+  PetscFunctionBegin;
+  PetscCall(VKFitDestroy(&R->fit[i]));
+  PetscCall(VKFitDestroy(&R->bestfit[i]));
+  PetscCall(VKSceneDestroy(&R->fitscene[i]));
+  PetscCall(VKSceneDestroy(&R->bestscene[i]));
+  PetscCall(VKMaterialDestroy(&R->fitmat[i]));
+  PetscCall(VKMaterialDestroy(&R->bestmat[i]));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode RunDestroy(Run *R)
 {
   PetscFunctionBegin;
   for (PetscInt i = 0; i < MAX_LIST; i++) {
-    PetscCall(VKFitDestroy(&R->fit[i]));
-    PetscCall(VKFitDestroy(&R->bestfit[i]));
-    PetscCall(VKSceneDestroy(&R->fitscene[i]));
-    PetscCall(VKSceneDestroy(&R->bestscene[i]));
-    PetscCall(VKMaterialDestroy(&R->fitmat[i]));
-    PetscCall(VKMaterialDestroy(&R->bestmat[i]));
+    PetscCall(FitsDestroy(R, i));
     PetscCall(VKMeshDestroy(&R->mesh[i]));
   }
   PetscFunctionReturn(0);
@@ -483,6 +494,7 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
         }
       }
       if (R.bestfit[i] && !stopped) PetscCall(BestUniform(&R, i));
+      PetscCall(FitsDestroy(&R, i));
     }
     if (!stopped) {
       for (PetscInt i = 0; i < R.npoints; i++) PetscCall(RunPoint(&R, &R.pt[i]));
