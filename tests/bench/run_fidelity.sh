@@ -10,14 +10,17 @@
 #      the baseline a fit must beat, with the grid's best), and the
 #      material fitted on the scene's own frames (training error);
 #   3. the materials fitted on the other scenes (held-out error, paper §8.6);
-#   4. with FID_JOINT=1, one material fitted to all the scenes at once
-#      (-fit_loss trajectory -fit_joint, options FID_JOINT_OPTS) and run on
-#      each ("fitted_jointly");
+#   4. with FID_JOINT=1, one material fitted to the scenes FID_JOINT_SCENES
+#      (default: all) at once (-fit_loss trajectory -fit_joint, options
+#      FID_JOINT_OPTS) and run on each scene ("fitted_jointly", or
+#      "fitted_jointly_held_out" on a scene it was not fitted to);
 #   5. volknit report on all of them; a Markdown table on stdout.
 # Sizes from the environment: FID_PATTERNS (rib1x1), FID_WALES x FID_COURSES
 # (8 x 7, about 2K yarn vertices), FID_SCENES (hang stretch drape twist),
 # FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
-# about 8 minutes on 2 cores, the others about 1.5), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS,
+# about 8 minutes on 2 cores, the others about 1.5; FID_DURATION_<scene>
+# for one scene, e.g. FID_DURATION_stretch=1 for options/stretch.opts's
+# full 50 %, in the directory <scene>_<duration>s), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS,
 # FID_MAT_OPTS (material options of the uniform runs and the fits, e.g.
 # "-mat_band 0.7,1.5"), FID_JOINT and FID_JOINT_OPTS (step 4) and FID_TAG (a suffix of the homogenized runs'
 # directories, so runs with other material or fit options sit beside them:
@@ -42,11 +45,14 @@ MAT_OPTS=${FID_MAT_OPTS:-}
 TAG=${FID_TAG:-}
 JOINT=${FID_JOINT:-0}
 JOINT_OPTS=${FID_JOINT_OPTS:--fit_harmonic 1,10 -fit_gn_its 15}
+JOINT_SCENES=${FID_JOINT_SCENES:-$SCENES}
 top=out/fidelity
 mkdir -p "$top"
 cmds="$top/commands"
 : > "$cmds"
 run() { echo "    $*" >> "$cmds"; "$@"; }
+dur() { local v="FID_DURATION_$1"; echo "${!v:-$T}"; }          # a scene's duration
+sdir() { if [ "$(dur "$1")" = "$T" ]; then echo "$d/$1"; else echo "$d/$1_$(dur "$1")s"; fi; } # and its directory
 json() { sed -n "s/.*\"$2\": \([^,]*\),\{0,1\}$/\1/p" "$1" | head -n "${3:-1}" | tail -n 1; }
 
 # a sim directory with the mesh: $1 dir, then sim options
@@ -67,33 +73,34 @@ for pat in $PATTERNS; do
     run bin/volknit mesh -o "$mesh" -yarn_h5 "$d/yarn.h5" > "$d/mesh.log" 2>&1 || { echo "mesh failed: $d/mesh.log"; exit 1; }
   fi
   for s in $SCENES; do
-    ref="$d/$s/yls"; mkdir -p "$ref"
-    want="yls -yarn_h5 $d/yarn.h5 -options_file options/$s.opts -scene_duration $T"
+    ref="$(sdir "$s")/yls"; mkdir -p "$ref"
+    want="yls -yarn_h5 $d/yarn.h5 -options_file options/$s.opts -scene_duration $(dur "$s")"
     if [ ! -s "$ref/yls.h5" ] || [ "$(cat "$ref/stamp" 2>/dev/null)" != "$want" ]; then
       t0=$(date +%s)
-      run $MPIEXEC -n "$NP" bin/volknit yls -o "$ref" -yarn_h5 "$d/yarn.h5" -options_file "options/$s.opts" -scene_duration "$T" > "$ref/yls.log" 2>&1 \
+      run $MPIEXEC -n "$NP" bin/volknit yls -o "$ref" -yarn_h5 "$d/yarn.h5" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" > "$ref/yls.log" 2>&1 \
         && echo "$want" > "$ref/stamp" || echo "    (yarn-level run failed: see $ref/yls.log)" >> "$cmds"
       echo "(yarn-level $pat $s: $(( $(date +%s) - t0 )) s)" >&2
     fi
     # the best uniform material: the scan of g, then stage r = 1 (g_s and g_v apart)
-    best="$d/$s/best_uniform$TAG"; mkdir -p "$best"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$best/"
+    best="$(sdir "$s")/best_uniform$TAG"; mkdir -p "$best"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$best/"
     if [ ! -s "$best/material.h5" ] || [ "$ref/yls.h5" -nt "$best/material.h5" ]; then
       run $MPIEXEC -n "$NP" bin/volknit fit -o "$best" -options_file "options/$s.opts" $MAT_OPTS -fit_loss trajectory -fit_best_uniform -fit_harmonic 1 -fit_gn_its 30 > "$best/fit.log" 2>&1 || echo "    (best uniform search failed: see $best/fit.log)" >> "$cmds"
     fi
     # the fit on this scene's own frames
-    fit="$d/$s/fit$TAG"; mkdir -p "$fit"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$fit/"
+    fit="$(sdir "$s")/fit$TAG"; mkdir -p "$fit"; cp "$mesh/mesh.h5" "$ref/yls.h5" "$fit/"
     if [ ! -s "$fit/material.h5" ] || [ "$ref/yls.h5" -nt "$fit/material.h5" ]; then
       run $MPIEXEC -n "$NP" bin/volknit fit -o "$fit" -options_file "options/$s.opts" $MAT_OPTS $FIT_OPTS > "$fit/fit.log" 2>&1 || echo "    (fit failed: see $fit/fit.log)" >> "$cmds"
     fi
   done
   joint="$d/joint$TAG"
+  [ "$JOINT_SCENES" = "$SCENES" ] || joint="$d/joint_$(echo $JOINT_SCENES | tr ' ' '_')$TAG"
   if [ "$JOINT" = 1 ]; then
     # the first scene's run in the fit's directory, the others by -fit_joint, each under its prefix
-    set -- $SCENES; first=$1; shift
+    set -- $JOINT_SCENES; first=$1; shift
     dirs=""; scene_opts=(); i=0
-    for s in "$@"; do i=$((i + 1)); dirs="$dirs,$d/$s/yls"; scene_opts+=(-prefix_push "fit_joint${i}_" -options_file "options/$s.opts" -prefix_pop); done
-    mkdir -p "$joint"; cp "$mesh/mesh.h5" "$d/$first/yls/yls.h5" "$joint/"
-    if [ ! -s "$joint/material.h5" ] || [ "$d/$first/yls/yls.h5" -nt "$joint/material.h5" ]; then
+    for s in "$@"; do i=$((i + 1)); dirs="$dirs,$(sdir "$s")/yls"; scene_opts+=(-prefix_push "fit_joint${i}_" -options_file "options/$s.opts" -prefix_pop); done
+    mkdir -p "$joint"; cp "$mesh/mesh.h5" "$(sdir "$first")/yls/yls.h5" "$joint/"
+    if [ ! -s "$joint/material.h5" ] || [ "$(sdir "$first")/yls/yls.h5" -nt "$joint/material.h5" ]; then
       # shellcheck disable=SC2086
       run $MPIEXEC -n "$NP" bin/volknit fit -o "$joint" -options_file "options/$first.opts" $MAT_OPTS $JOINT_OPTS -fit_loss trajectory -fit_joint "${dirs#,}" "${scene_opts[@]}" > "$joint/fit.log" 2>&1 || echo "    (joint fit failed: see $joint/fit.log)" >> "$cmds"
     fi
@@ -101,24 +108,25 @@ for pat in $PATTERNS; do
   for s in $SCENES; do
     runs=""; labels=""
     for g in $UNIFORM; do
-      sim_run "$d/$s/u$g$TAG" -options_file "options/$s.opts" -scene_duration "$T" $MAT_OPTS -mat_gamma_s "$g" -mat_gamma_v "$g"
-      runs="$runs,$d/$s/u$g$TAG"; labels="$labels,uniform_${g}Pa"
+      sim_run "$(sdir "$s")/u$g$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" $MAT_OPTS -mat_gamma_s "$g" -mat_gamma_v "$g"
+      runs="$runs,$(sdir "$s")/u$g$TAG"; labels="$labels,uniform_${g}Pa"
     done
-    if [ -s "$d/$s/best_uniform$TAG/material.h5" ]; then
-      sim_run "$d/$s/ubest$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$s/best_uniform$TAG/material.h5"
-      runs="$runs,$d/$s/ubest$TAG"; labels="$labels,best_uniform_searched"
+    if [ -s "$(sdir "$s")/best_uniform$TAG/material.h5" ]; then
+      sim_run "$(sdir "$s")/ubest$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$s")/best_uniform$TAG/material.h5"
+      runs="$runs,$(sdir "$s")/ubest$TAG"; labels="$labels,best_uniform_searched"
     fi
     for f in $SCENES; do
-      [ -s "$d/$f/fit$TAG/material.h5" ] || continue
-      sim_run "$d/$s/fit_$f$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$d/$f/fit$TAG/material.h5"
-      runs="$runs,$d/$s/fit_$f$TAG"; labels="$labels,fitted_on_$f"
+      [ -s "$(sdir "$f")/fit$TAG/material.h5" ] || continue
+      sim_run "$(sdir "$s")/fit_$f$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$f")/fit$TAG/material.h5"
+      runs="$runs,$(sdir "$s")/fit_$f$TAG"; labels="$labels,fitted_on_$f"
     done
     if [ "$JOINT" = 1 ] && [ -s "$joint/material.h5" ]; then
-      sim_run "$d/$s/fit_joint$TAG" -options_file "options/$s.opts" -scene_duration "$T" -mat_file "$joint/material.h5"
-      runs="$runs,$d/$s/fit_joint$TAG"; labels="$labels,fitted_jointly"
+      sim_run "$(sdir "$s")/fit_joint$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$joint/material.h5"
+      runs="$runs,$(sdir "$s")/fit_joint$TAG"
+      case " $JOINT_SCENES " in *" $s "*) labels="$labels,fitted_jointly" ;; *) labels="$labels,fitted_jointly_held_out" ;; esac
     fi
-    run bin/volknit report -report_yls "$d/$s/yls" -report_runs "${runs#,}" -report_labels "${labels#,}" -o "$d/$s/report$TAG" > "$d/$s/report$TAG.log" 2>&1 \
-      || echo "    (report failed: see $d/$s/report$TAG.log)" >> "$cmds"
+    run bin/volknit report -report_yls "$(sdir "$s")/yls" -report_runs "${runs#,}" -report_labels "${labels#,}" -o "$(sdir "$s")/report$TAG" > "$(sdir "$s")/report$TAG.log" 2>&1 \
+      || echo "    (report failed: see $(sdir "$s")/report$TAG.log)" >> "$cmds"
   done
 done
 
@@ -132,8 +140,8 @@ echo "|---|---|---|---|---|---|---|---|"
 for pat in $PATTERNS; do
   d="$top/${pat}_${W}x${C}"
   for s in $SCENES; do
-    j="$d/$s/report$TAG/report.json"
-    [ -s "$j" ] || { echo "| $pat | $s | (no report: see $d/$s/report$TAG.log) | | | | | |"; continue; }
+    j="$(sdir "$s")/report$TAG/report.json"
+    [ -s "$j" ] || { echo "| $pat | $s | (no report: see $(sdir "$s")/report$TAG.log) | | | | | |"; continue; }
     n=$(grep -c '"label"' "$j")
     best=""; bestrel=""
     for i in $(seq 1 "$n"); do
