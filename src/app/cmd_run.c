@@ -51,7 +51,7 @@ typedef struct {
   char        dir[PETSC_MAX_PATH_LEN];
   PetscBool   reference, fitting, report, sweep, cached;
   PetscInt    nmat, nh;
-  RunMaterial mat[3];
+  RunMaterial mat[4]; /* room for one too many, so a list too long is caught */
   PetscReal   h[MAX_LIST];
   SweepList   list[NSWEEP];
   /* per mesh */
@@ -122,7 +122,7 @@ static PetscErrorCode PointOptionsPop(SavedOption saved[], PetscInt n)
 
 static PetscErrorCode ReadOptions(Run *R)
 {
-  PetscInt  nmat = 3, nh = MAX_LIST;
+  PetscInt  nmat = 4, nh = MAX_LIST;
   PetscBool set, any = PETSC_FALSE;
 
   PetscFunctionBegin;
@@ -135,7 +135,7 @@ static PetscErrorCode ReadOptions(Run *R)
   PetscCall(PetscOptionsBool("-run_report", "Measure the homogenized runs against the yarn-level run (implies -run_reference; volknit report, DIR/report/)", "volknit run", R->report, &R->report, NULL));
   PetscCall(PetscOptionsEnumArray("-run_sweep_material", "Sweep: materials, of uniform (the -mat_ options), best_uniform (searched on the trajectory loss, the baseline a fit must beat), fitted (volknit fit)", "volknit run", RunMaterials, (PetscEnum *)R->mat, &nmat, &set));
   if (set) {
-    PetscCheck(nmat >= 1, R->comm, PETSC_ERR_ARG_WRONG, "-run_sweep_material needs a list of uniform, best_uniform, fitted");
+    PetscCheck(nmat >= 1 && nmat <= 3, R->comm, PETSC_ERR_ARG_WRONG, "-run_sweep_material needs a list of up to three of uniform, best_uniform, fitted");
     for (PetscInt i = 0; i < nmat; i++)
       for (PetscInt j = 0; j < i; j++) PetscCheck(R->mat[i] != R->mat[j], R->comm, PETSC_ERR_ARG_WRONG, "-run_sweep_material names %s twice", RunMaterials[R->mat[i]]);
     R->nmat = nmat;
