@@ -15,6 +15,8 @@ PETSC_INTERN PetscErrorCode VKAppYarnFromOptions(MPI_Comm, VKYarn *);
 /* The yarn model of a stage that reads it: DIR/yarn.h5 when it exists and
  * no -yarn_ option is given, otherwise the options. */
 PETSC_INTERN PetscErrorCode VKAppYarnForStage(MPI_Comm, const char dir[], VKYarn *);
+/* Read the yarn model from a yarn.h5 (set before set-up). */
+PETSC_INTERN PetscErrorCode VKAppYarnUseFile(VKYarn, const char path[]);
 /* Set up (relaxed when relax or -yarn_relax asks and it is not yet); with
  * write, DIR/yarn.{h5,xdmf,json} and the -yarn_write_ files. */
 PETSC_INTERN PetscErrorCode VKAppYarnStage(VKYarn, const char dir[], PetscBool write, PetscBool relax);

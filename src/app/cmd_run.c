@@ -23,6 +23,7 @@
 #include <vklog.h>
 #include <vkutil.h>
 #include <stdio.h>
+#include <string.h>
 
 typedef enum { RUN_MATERIAL_UNIFORM, RUN_MATERIAL_BEST_UNIFORM, RUN_MATERIAL_FITTED } RunMaterial;
 static const char *const RunMaterials[] = {"uniform", "best_uniform", "fitted", "RunMaterial", "RUN_MATERIAL_", NULL};
@@ -30,9 +31,10 @@ static const char *const RunMaterials[] = {"uniform", "best_uniform", "fitted", 
 #define MAX_LIST   8
 #define MAX_POINTS VK_REPORT_MAX_RUNS
 
-/* A swept simulation setting: its values, and how one is applied. */
+/* A swept simulation setting: its values, and the option that sets one
+ * (with -pd_fixed_its beside it for a fixed iteration count). */
 typedef struct {
-  const char *list_option, *help, *label;
+  const char *list_option, *help, *label, *option;
   PetscBool   integer;
   PetscInt    n;
   PetscReal   value[MAX_LIST];
@@ -61,6 +63,7 @@ typedef struct {
   VKScene    fitscene[MAX_LIST], bestscene[MAX_LIST];
   VKFit      fit[MAX_LIST], bestfit[MAX_LIST]; /* the fit, and the best uniform search */
   PetscBool  has_best[MAX_LIST];
+  VKFitStageReason best_why[MAX_LIST];
   PetscReal  best[MAX_LIST][2], best_rel[MAX_LIST];
   PetscInt   npoints;
   Point      pt[MAX_POINTS];
@@ -90,25 +93,21 @@ static PetscErrorCode OptionPop(SavedOption *s)
   PetscFunctionReturn(0);
 }
 
-/* The point's simulation settings into the options database (saved[4]). */
+/* The point's simulation settings into the options database (saved:
+ * NSWEEP + 1; the database copies each value). */
 static PetscErrorCode PointOptionsPush(const Run *R, const Point *p, SavedOption saved[], PetscInt *n)
 {
-  char v[NSWEEP][32];
+  char value[NSWEEP][32];
 
   PetscFunctionBegin;
   *n = 0;
-  if (p->setting[SWEEP_DT] >= 0) {
-    PetscCall(PetscSNPrintf(v[0], sizeof(v[0]), "%.17g", (double)R->list[SWEEP_DT].value[p->setting[SWEEP_DT]]));
-    PetscCall(OptionPush("-ts_dt", v[0], &saved[(*n)++]));
-  }
-  if (p->setting[SWEEP_FTOL] >= 0) {
-    PetscCall(PetscSNPrintf(v[1], sizeof(v[1]), "%.17g", (double)R->list[SWEEP_FTOL].value[p->setting[SWEEP_FTOL]]));
-    PetscCall(OptionPush("-pd_ftol", v[1], &saved[(*n)++]));
-  }
-  if (p->setting[SWEEP_ITS] >= 0) {
-    PetscCall(PetscSNPrintf(v[2], sizeof(v[2]), "%d", (int)R->list[SWEEP_ITS].value[p->setting[SWEEP_ITS]]));
-    PetscCall(OptionPush("-pd_max_it", v[2], &saved[(*n)++]));
-    PetscCall(OptionPush("-pd_fixed_its", "1", &saved[(*n)++]));
+  for (PetscInt k = 0; k < NSWEEP; k++) {
+    const SweepList *L = &R->list[k];
+    if (p->setting[k] < 0) continue;
+    if (L->integer) PetscCall(PetscSNPrintf(value[k], 32, "%d", (int)L->value[p->setting[k]]));
+    else PetscCall(PetscSNPrintf(value[k], 32, "%.17g", (double)L->value[p->setting[k]]));
+    PetscCall(OptionPush(L->option, value[k], &saved[(*n)++]));
+    if (k == SWEEP_ITS) PetscCall(OptionPush("-pd_fixed_its", "1", &saved[(*n)++]));
   }
   PetscFunctionReturn(0);
 }
@@ -126,9 +125,9 @@ static PetscErrorCode ReadOptions(Run *R)
   PetscBool set, any = PETSC_FALSE;
 
   PetscFunctionBegin;
-  R->list[SWEEP_DT]   = (SweepList){"-run_sweep_ts_dt", "Sweep: time steps of the homogenized runs (-ts_dt), s", "dt", PETSC_FALSE, 0, {0}};
-  R->list[SWEEP_FTOL] = (SweepList){"-run_sweep_pd_ftol", "Sweep: PD force tolerances (-pd_ftol)", "ftol", PETSC_FALSE, 0, {0}};
-  R->list[SWEEP_ITS]  = (SweepList){"-run_sweep_pd_its", "Sweep: fixed PD iteration counts per step (-pd_fixed_its -pd_max_it N: error against run time)", "its", PETSC_TRUE, 0, {0}};
+  R->list[SWEEP_DT]   = (SweepList){"-run_sweep_ts_dt", "Sweep: time steps of the homogenized runs (-ts_dt), s", "dt", "-ts_dt", PETSC_FALSE, 0, {0}};
+  R->list[SWEEP_FTOL] = (SweepList){"-run_sweep_pd_ftol", "Sweep: PD force tolerances (-pd_ftol)", "ftol", "-pd_ftol", PETSC_FALSE, 0, {0}};
+  R->list[SWEEP_ITS]  = (SweepList){"-run_sweep_pd_its", "Sweep: fixed PD iteration counts per step (-pd_fixed_its -pd_max_it N: error against run time)", "its", "-pd_max_it", PETSC_TRUE, 0, {0}};
   PetscOptionsBegin(R->comm, NULL, "Pipeline", "volknit run");
   PetscCall(PetscOptionsBool("-run_reference", "The scene needs yarn-level reference data: relax the yarns, run volknit yls on the scene (DIR/yls.*; rerun only when the -yarn_, -yls_ or -scene_ options or the files they name change), then mesh the relaxed yarns", "volknit run", R->reference, &R->reference, NULL));
   PetscCall(PetscOptionsBool("-run_fit", "Fit the material to the scene's yarn-level run (implies -run_reference; volknit fit, material.h5 beside the mesh), then simulate with it", "volknit run", R->fitting, &R->fitting, NULL));
@@ -266,7 +265,7 @@ static PetscErrorCode CheckPoints(Run *R, PetscBool help)
 {
   PetscFunctionBegin;
   for (PetscInt i = 0; i < (help ? 1 : R->npoints); i++) {
-    SavedOption   saved[4];
+    SavedOption   saved[NSWEEP + 1];
     PetscInt      ns;
     VKAppSimParts p = {0};
     PetscCall(PointOptionsPush(R, &R->pt[i], saved, &ns));
@@ -304,6 +303,7 @@ static PetscErrorCode BestUniform(Run *R, PetscInt i)
   PetscCall(VKFitTrajectoryGetRestLoss(T, &rest));
   R->best_rel[i] = rest > 0 ? PetscSqrtReal(loss / rest) : 0;
   R->has_best[i] = PETSC_TRUE;
+  R->best_why[i] = why;
   PetscCall(PetscPrintf(R->comm, "volknit run: best uniform material on %s/mesh.h5: g_s = %.4g Pa, g_v = %.4g Pa (trajectory loss %.4e, predicted REL %.3f; refinement %s) (%.1f s)\n", R->meshdir[i], (double)R->best[i][0], (double)R->best[i][1], (double)loss, (double)R->best_rel[i], VKFitStageReasons[why], VKWallTime() - t0));
   if (why != VK_FIT_STAGE_CONVERGED) PetscCall(PetscPrintf(R->comm, "volknit run: WARNING: the best uniform material's refinement did not converge (%s)\n", VKFitStageReasons[why]));
   PetscCall(VecDestroy(&gamma));
@@ -315,7 +315,7 @@ static PetscErrorCode BestUniform(Run *R, PetscInt i)
 
 static PetscErrorCode RunPoint(Run *R, Point *pt)
 {
-  SavedOption   saved[4];
+  SavedOption   saved[NSWEEP + 1];
   PetscInt      ns;
   VKAppSimParts p = {0};
   VKMesh        m = R->mesh[pt->mesh];
@@ -382,6 +382,7 @@ static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_s_Pa", R->best[i][0]));
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_v_Pa", R->best[i][1]));
       PetscCall(VKJSONReal(&j, "best_uniform_predicted_rel", R->best_rel[i]));
+      PetscCall(VKJSONString(&j, "best_uniform_refinement", VKFitStageReasons[R->best_why[i]]));
     }
     PetscCall(VKJSONObjectEnd(&j));
   }
@@ -442,8 +443,9 @@ static PetscErrorCode ReferenceStage(Run *R, VKYarn y, VKYLS yls)
     PetscCall(VKAppReferenceIsCurrent(R->comm, R->dir, stamp, &R->cached));
   }
   if (R->cached) {
-    PetscCall(VKPathJoin(R->dir, "yarn.h5", y->file, sizeof(y->file)));
-    y->source = VK_YARN_H5;
+    char path[PETSC_MAX_PATH_LEN];
+    PetscCall(VKPathJoin(R->dir, "yarn.h5", path, sizeof(path)));
+    PetscCall(VKAppYarnUseFile(y, path));
     PetscCall(PetscPrintf(R->comm, "volknit run: the yarn-level reference in %s is up to date (same -yarn_, -yls_, -scene_ options and files): relaxed yarn read from %s, volknit yls not rerun\n", R->dir, y->file));
     PetscCall(VKAppYarnStage(y, R->dir, PETSC_FALSE, PETSC_FALSE));
   } else {
@@ -509,7 +511,12 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
         PetscCall(VKCollective(comm, ierr, path));
       }
       if (R.npoints == 1) PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim%s done in %.2f s (sim status: %s); outputs in %s/\n", R.reference ? (R.cached ? "yls (up to date), " : "yls, ") : "", R.fitting ? "fit, " : "", R.report ? ", report" : "", VKWallTime() - t0, R.pt[0].status, R.dir));
-      else PetscCall(PetscPrintf(comm, "volknit run: %d homogenized runs of the sweep done in %.2f s; outputs in %s/sweep, the summary in %s/run.json\n", (int)R.npoints, VKWallTime() - t0, R.dir, R.dir));
+      else {
+        PetscInt bad = 0;
+        for (PetscInt i = 0; i < R.npoints; i++) bad += strcmp(R.pt[i].status, "completed") != 0;
+        PetscCall(PetscPrintf(comm, "volknit run: %d homogenized runs of the sweep done in %.2f s, %d of them with status other than completed; outputs in %s/sweep, the summary in %s/run.json\n", (int)R.npoints, VKWallTime() - t0, (int)bad, R.dir, R.dir));
+        if (bad) PetscCall(PetscPrintf(comm, "volknit run: WARNING: %d runs of the sweep did not report completed (fixed PD iterations say unmeasured); see sim_status in run.json\n", (int)bad));
+      }
     }
   }
   PetscCall(VKYLSDestroy(&yls));

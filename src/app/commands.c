@@ -222,10 +222,15 @@ PetscErrorCode VKAppYarnForStage(MPI_Comm comm, const char dir[], VKYarn *y)
   PetscCall(VKFileExists(comm, path, &exists));
   PetscCall(HasYarnOptions(&yarnopts));
   PetscCall(VKAppYarnFromOptions(comm, y));
-  if (exists && !yarnopts) {
-    PetscCall(PetscStrncpy((*y)->file, path, sizeof((*y)->file)));
-    (*y)->source = VK_YARN_H5;
-  }
+  if (exists && !yarnopts) PetscCall(VKAppYarnUseFile(*y, path));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKAppYarnUseFile(VKYarn y, const char path[])
+{
+  PetscFunctionBegin;
+  PetscCall(PetscStrncpy(y->file, path, sizeof(y->file)));
+  y->source = VK_YARN_H5;
   PetscFunctionReturn(0);
 }
 
