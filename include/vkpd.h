@@ -69,6 +69,13 @@ typedef enum {
 } VKPDType;
 PETSC_EXTERN const char *const VKPDTypes[];
 
+/* Which mesh nodes a scene handle holds (-pd_handle_nodes). */
+typedef enum {
+  VK_PD_HANDLE_EMBEDDED, /* every node of a tet that embeds a yarn vertex inside the box: the embedded yarns follow the handle exactly, as in volknit yls */
+  VK_PD_HANDLE_BOX       /* the nodes inside the box */
+} VKPDHandleNodes;
+PETSC_EXTERN const char *const VKPDHandleNodesTypes[];
+
 typedef struct {
   VKPDReason     reason;
   PetscInt       iterations, newton_its, fail_iteration;
@@ -120,6 +127,7 @@ struct _n_VKPD {
    * step; w_i = contact_weight * K_ii is in K, so K stays constant.
    * contact[i] is set when x_i is inside a collider. */
   PetscReal  contact_weight;
+  VKPDHandleNodes handle_nodes;
   PetscReal *contact_w;
   PetscBool *contact;
   PetscReal  t;    /* time of the current solve (handles, moving colliders) */

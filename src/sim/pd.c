@@ -21,6 +21,7 @@ const char *VKPDReasonName(VKPDReason r)
 }
 
 const char *const VKPDTypes[] = {"pd", "lbfgs", "VKPDType", "VK_PD_TYPE_", NULL};
+const char *const VKPDHandleNodesTypes[] = {"embedded", "box", "VKPDHandleNodes", "VK_PD_HANDLE_", NULL};
 
 PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
 {
@@ -160,6 +161,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsInt("-pd_chebyshev_delay", "Plain PD iterations before the acceleration starts", "VKPDSolve", pd->cheb_delay, &pd->cheb_delay, NULL));
   PetscCall(PetscOptionsInt("-pd_newton_its", "Newton iterations (exact Hessian, SNES prefix -pd_newton_) after PD", "VKPDSolve", pd->newton_its, &pd->newton_its, NULL));
   PetscCall(PetscOptionsReal("-pd_newton_rtol", "Newton stops when |grad Phi| <= rtol |grad Phi(x0)|", "VKPDSolve", pd->newton_rtol, &pd->newton_rtol, NULL));
+  PetscCall(PetscOptionsEnum("-pd_handle_nodes", "Mesh nodes a scene handle holds: embedded (the nodes of every tet that embeds a yarn vertex in the box, so the embedded yarns move as in volknit yls) or box (the nodes in the box)", "VKPDSetUp", VKPDHandleNodesTypes, (PetscEnum)pd->handle_nodes, (PetscEnum *)&pd->handle_nodes, NULL));
   PetscCall(PetscOptionsReal("-pd_contact_weight", "Weight of the collider constraints relative to each node's diagonal of K (penetration ~ force / weight)", "VKPDSolve", pd->contact_weight, &pd->contact_weight, NULL));
   PetscOptionsEnd();
   PetscCheck(pd->contact_weight > 0 && pd->contact_weight < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_contact_weight must be positive and finite, got %g", (double)pd->contact_weight);
@@ -194,17 +196,50 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscFunctionReturn(0);
 }
 
-/* Handle nodes among the owned nodes, from the scene's boxes. */
+/* The handle of every mesh node (-1: free), by -pd_handle_nodes.  With
+ * "embedded" a node takes the handle of any yarn vertex embedded in one of
+ * its tets whose rest position (N x_rest) lies in the handle's box; a
+ * node claimed by two handles takes the lower-numbered one, as a point in
+ * two boxes does. */
+static PetscErrorCode NodeHandles(VKPD pd, PetscInt node_of[], PetscInt held[])
+{
+  VKMesh mesh = pd->mesh;
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < mesh->nv; i++) node_of[i] = pd->handle_nodes == VK_PD_HANDLE_BOX ? VKSceneHandleOf(pd->scene, mesh->x + 3 * i) : -1;
+  if (pd->handle_nodes == VK_PD_HANDLE_EMBEDDED) {
+    PetscCheck(mesh->ny > 0, pd->comm, PETSC_ERR_ARG_WRONG, "-pd_handle_nodes embedded needs the mesh's yarn embedding, and this mesh has none; use -pd_handle_nodes box");
+    for (PetscInt k = 0; k < mesh->ny; k++) {
+      const PetscInt  *t = mesh->tet + 4 * mesh->emb_tet[k];
+      const PetscReal *w = mesh->emb_w + 4 * k;
+      PetscReal        p[3] = {0, 0, 0};
+      PetscInt         h;
+      for (int a = 0; a < 4; a++)
+        for (int c = 0; c < 3; c++) p[c] += w[a] * mesh->x[3 * t[a] + c];
+      h = VKSceneHandleOf(pd->scene, p);
+      if (h < 0) continue;
+      held[h]++;
+      for (int a = 0; a < 4; a++)
+        if (node_of[t[a]] < 0 || h < node_of[t[a]]) node_of[t[a]] = h;
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
+/* Handle nodes among the owned nodes (the mesh is replicated, so every
+ * rank finds the same assignment). */
 static PetscErrorCode FindHandles(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
   VKLayout *L    = &mesh->layout;
-  PetscInt  nown = L->nEnd - L->nStart, n = 0, count[VK_SCENE_MAX] = {0}, total[VK_SCENE_MAX];
+  PetscInt  nown = L->nEnd - L->nStart, n = 0, count[VK_SCENE_MAX] = {0}, total[VK_SCENE_MAX], yarn_held[VK_SCENE_MAX] = {0}, *node_of;
 
   PetscFunctionBegin;
   PetscCall(PetscMalloc4(nown + 1, &pd->handle_node, nown + 1, &pd->handle_id, nown + 1, &pd->handle_row, nown + 1, &pd->node_handle));
+  PetscCall(PetscMalloc1(mesh->nv, &node_of));
+  PetscCall(NodeHandles(pd, node_of, yarn_held));
   for (PetscInt i = 0; i < nown; i++) {
-    PetscInt h = VKSceneHandleOf(pd->scene, mesh->x + 3 * (L->nStart + i));
+    PetscInt h = node_of[L->nStart + i];
     pd->node_handle[i] = h;
     if (h < 0) continue;
     pd->handle_node[n] = i;
@@ -213,10 +248,14 @@ static PetscErrorCode FindHandles(VKPD pd)
     count[h]++;
     n++;
   }
+  PetscCall(PetscFree(node_of));
   pd->nhandle  = n;
   pd->nscene   = n;
   PetscCallMPI(MPI_Allreduce(count, total, VK_SCENE_MAX, MPIU_INT, MPI_SUM, pd->comm));
-  for (PetscInt h = 0; h < pd->scene->nhandles; h++) PetscCheck(total[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node", (int)h, (int)h);
+  for (PetscInt h = 0; h < pd->scene->nhandles; h++) {
+    if (pd->handle_nodes == VK_PD_HANDLE_EMBEDDED) PetscCheck(yarn_held[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no embedded yarn vertex, so it holds nothing (with -pd_handle_nodes box it would hold the mesh nodes in the box)", (int)h, (int)h);
+    PetscCheck(total[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node", (int)h, (int)h);
+  }
   PetscFunctionReturn(0);
 }
 
@@ -396,7 +435,7 @@ PetscErrorCode VKPDView(VKPD pd, PetscViewer viewer)
     else PetscCall(PetscSNPrintf(type, sizeof(type), "local/global iterations"));
     if (pd->fixed_its) PetscCall(PetscSNPrintf(stop, sizeof(stop), "exactly %d iterations, residual not measured", (int)pd->max_it));
     else PetscCall(PetscSNPrintf(stop, sizeof(stop), "|grad Phi| <= max(ftol %g f_scale, atol %g N, rtol %g |grad Phi(x0)|) within %d iterations", (double)pd->ftol, (double)pd->atol, (double)pd->rtol, (int)pd->max_it));
-    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics by %s: dt %g s, %s, %d eliminated nodes%s%s%s\n", type, (double)pd->dt, stop, (int)pd->nhandle_total, cheb, newton, contact));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "Projective dynamics by %s: dt %g s, %s, %d eliminated nodes (handle nodes: %s)%s%s%s\n", type, (double)pd->dt, stop, (int)pd->nhandle_total, VKPDHandleNodesTypes[pd->handle_nodes], cheb, newton, contact));
     if (pd->kset) PetscCall(PetscViewerASCIIPrintf(viewer, "  f_scale parts: |M g| %g N, unit-strain force %g N (used only when gravity, constant force and reactions vanish)\n", (double)pd->f_gravity, (double)pd->f_unit));
   }
   PetscCall(PetscViewerASCIIPushTab(viewer));
