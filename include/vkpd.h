@@ -3,6 +3,10 @@
  *   Phi(x) = 1/(2 dt^2) |x - y|^2_M + sum_e V_e psi_e(F_e(x))
  * with handle nodes prescribed; y is the inertial target
  * (y = x_n + dt v_n + dt^2 g for a time step; the fitting passes its own).
+ * The scene's mass-proportional damping c adds c/(2 dt) |x - x_n|^2_M,
+ * the implicit Euler form of the drag -c M v that volknit yls applies to
+ * the yarns: M/dt^2 below is then (1 + c dt) M/dt^2 and y the damped
+ * target (y + c dt x_n)/(1 + c dt).
  * PD alternates the local step (R_e, V_e per tet) and the global step
  *   K x = b,  K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e   (scalar),
  *   b = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e)      (per coordinate),
@@ -101,6 +105,11 @@ struct _n_VKPD {
    * owned) is a constant force per node, added in either case */
   PetscReal  inertia;
   Vec        fconst;
+  /* the scene's mass-proportional damping c (1/s): Phi gains
+   * c/(2 dt) |x - x_n|^2_M, i.e. the inertia term is scaled by 1 + c dt
+   * and its target becomes (y + c dt x_n)/(1 + c dt) (VKPDInertiaScale) */
+  PetscReal  damping;
+  Vec        ydamp;
   /* options */
   VKPDType  type;
   PetscReal ftol, rtol, atol;
@@ -157,6 +166,12 @@ struct _n_VKPD {
   PetscBool  setup, kset;
 };
 
+/* The factor of M/dt^2 in Phi, K and the Hessian: 0 in a static solve,
+ * else 1 + c dt with c the scene's damping. */
+static inline PetscReal VKPDInertiaScale(VKPD pd)
+{
+  return pd->inertia * (1 + pd->damping * pd->dt);
+}
 PETSC_EXTERN PetscErrorCode VKPDCreate(VKMaterial, VKScene, VKPD *);
 PETSC_EXTERN PetscErrorCode VKPDSetTimeStep(VKPD, PetscReal dt);
 PETSC_EXTERN PetscErrorCode VKPDSetFromOptions(VKPD);
@@ -178,19 +193,23 @@ PETSC_EXTERN PetscErrorCode VKPDMaterialChanged(VKPD);
 
 /* Minimize Phi for target y with the handles at time t; x holds the initial
  * guess and receives the result; prev (optional) is the position at the
- * start of the step, the reference of collider friction.  A non-finite
+ * start of the step, the reference of collider friction and of the
+ * scene's damping (without it, no damping; with it, x is first moved by
+ * the damping's change of the target, so an initial guess y becomes the
+ * damped target).  A non-finite
  * Phi or residual is reported in stats->reason (x then holds the last
  * finite iterate), not raised, so that the caller can save its last good
  * state first. */
 PETSC_EXTERN PetscErrorCode VKPDSolve(VKPD, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *);
 /* Set the handle nodes of x to their positions at time t. */
 PETSC_EXTERN PetscErrorCode VKPDApplyHandles(VKPD, PetscReal t, Vec x);
-/* Phi(x), and grad Phi(x) with the handle rows zeroed.  Collider terms are
+/* Phi(x), and grad Phi(x) with the handle rows zeroed, for the target y
+ * as VKPDSolve uses it (with damping, (y + c dt x_n)/(1 + c dt)).  Collider terms are
  * evaluated at the time of the last VKPDSolve (0 before any) with friction
  * relative to its start position. */
 PETSC_EXTERN PetscErrorCode VKPDObjective(VKPD, Vec y, Vec x, PetscReal *phi);
 PETSC_EXTERN PetscErrorCode VKPDGradient(VKPD, Vec y, Vec x, Vec g);
-/* The exact Hessian of Phi, M/dt^2 + d2E/dx2 (+ the weights of active
+/* The exact Hessian of Phi, (1 + c dt) M/dt^2 + d2E/dx2 (+ the weights of active
  * collider constraints), with the rows and columns of the eliminated nodes
  * replaced by kdiag I, into a matrix from VKMeshCreateNodeMat(mesh, 3): the
  * Jacobian of Newton's steps and the operator of the fitting's adjoint. */

@@ -8,7 +8,9 @@
  * velocity and/or a rotation about an axis within a time window (held at
  * rest before the window and at the final pose after it).  Colliders are
  * planes, spheres and infinite cylinders, optionally moving at a constant
- * velocity, with Coulomb friction.
+ * velocity, with Coulomb friction.  Mass-proportional damping (a drag
+ * -c m v on every yarn vertex and every mesh node) belongs to the scene,
+ * so both simulators apply the same one.
  *
  * Scene units (the default; -scene_absolute switches everything to
  * metres): handle boxes are per-axis fractions of the rest bounding box of
@@ -50,6 +52,7 @@ struct _n_VKScene {
   char       prefix[64];      /* of its options, e.g. fit_joint1_ for -fit_joint1_scene_gravity */
   char       name[64];
   PetscReal  gravity[3];      /* m/s^2 */
+  PetscReal  damping;         /* mass-proportional viscous damping c, 1/s: force -c m v on every yarn vertex and mesh node */
   PetscReal  duration;        /* s */
   PetscReal  output_interval; /* s */
   PetscBool  relative;        /* lengths in bounding-box units (until set-up) */

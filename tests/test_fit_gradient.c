@@ -217,7 +217,8 @@ static PetscErrorCode TestGaussNewton(Setup *s, Vec grad)
 }
 
 /* |g| of the intended equation, from the material gradient alone (not PD's
- * residual): grad E(x) + M (x - y)/dt^2 (implicit) or grad E(x) - fext,
+ * residual): grad E(x) + M (x - y)/dt^2 + c M (x - x_prev)/dt (implicit, c
+ * the scene's damping) or grad E(x) - fext,
  * free nodes only, against the solve's tolerance. */
 static PetscErrorCode CheckEquation(Setup *s, const VKFitEqStats *st)
 {
@@ -225,8 +226,8 @@ static PetscErrorCode CheckEquation(Setup *s, const VKFitEqStats *st)
   const VKLayout    *L   = &s->m->layout;
   Vec                g;
   PetscScalar       *ga;
-  const PetscScalar *xa, *ya, *fa = NULL;
-  PetscReal          norm;
+  const PetscScalar *xa, *ya, *pa, *fa = NULL;
+  PetscReal          norm, c = fit->scene->damping;
 
   PetscFunctionBegin;
   PetscCall(VecDuplicate(s->frame.x, &g));
@@ -234,10 +235,12 @@ static PetscErrorCode CheckEquation(Setup *s, const VKFitEqStats *st)
   PetscCall(VecGetArray(g, &ga));
   PetscCall(VecGetArrayRead(s->frame.x, &xa));
   PetscCall(VecGetArrayRead(s->frame.y, &ya));
+  PetscCall(VecGetArrayRead(s->frame.xprev, &pa));
   if (s->frame.fext) PetscCall(VecGetArrayRead(s->frame.fext, &fa));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) ga[3 * i + r] += fa ? -fa[3 * i + r] : s->m->mass[L->nStart + i] * (xa[3 * i + r] - ya[3 * i + r]) / (fit->dt * fit->dt);
+    for (int r = 0; r < 3; r++) ga[3 * i + r] += fa ? -fa[3 * i + r] : s->m->mass[L->nStart + i] * ((xa[3 * i + r] - ya[3 * i + r]) / (fit->dt * fit->dt) + c * (xa[3 * i + r] - pa[3 * i + r]) / fit->dt);
   if (s->frame.fext) PetscCall(VecRestoreArrayRead(s->frame.fext, &fa));
+  PetscCall(VecRestoreArrayRead(s->frame.xprev, &pa));
   PetscCall(VecRestoreArrayRead(s->frame.y, &ya));
   PetscCall(VecRestoreArrayRead(s->frame.x, &xa));
   PetscCall(VecRestoreArray(g, &ga));

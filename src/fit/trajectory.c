@@ -224,8 +224,9 @@ PetscErrorCode VKFitTrajectoryMove(VKFit fit, PetscInt r, Vec gamma, const Petsc
   PetscFunctionReturn(0);
 }
 
-/* S_new = H^-1 (M/h^2 ((1 + a) S_n - a S_{n-1}) - J Gb), a = h/h', at the
- * equilibrium just reached (T->f.x), handle rows zero. */
+/* S_new = H^-1 (M/h^2 ((1 + a + c h) S_n - a S_{n-1}) - J Gb), a = h/h',
+ * c the scene's damping (H holds (1 + c h) M/h^2), at the equilibrium just
+ * reached (T->f.x), handle rows zero. */
 static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, PetscReal a)
 {
   VKFit              fit = T->fit;
@@ -233,6 +234,7 @@ static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, 
   KSPConvergedReason reason;
   Vec               *Sn = T->S[1], *Sp = T->S[2], *Snew = T->S[0];
   PetscLogDouble     t0 = VKWallTime();
+  PetscReal          ch = fit->pd->damping * h;
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_FitAdjoint, 0, 0, 0, 0));
@@ -246,7 +248,7 @@ static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, 
     PetscCall(VecGetArray(fit->rhs, &b));
     PetscCall(VecGetArrayRead(Sn[j], &sn));
     PetscCall(VecGetArrayRead(Sp[j], &sp));
-    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) b[i] = fit->mesh->mass[L->nStart + i / 3] / (h * h) * ((1 + a) * sn[i] - a * sp[i]) - b[i];
+    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) b[i] = fit->mesh->mass[L->nStart + i / 3] / (h * h) * ((1 + a + ch) * sn[i] - a * sp[i]) - b[i];
     PetscCall(VecRestoreArrayRead(Sp[j], &sp));
     PetscCall(VecRestoreArrayRead(Sn[j], &sn));
     PetscCall(VecRestoreArray(fit->rhs, &b));

@@ -20,6 +20,7 @@ PetscErrorCode VKSceneCreate(MPI_Comm comm, VKScene *scene)
   s->comm            = comm;
   s->gravity[2]      = -9.81;
   s->duration        = 1.0;
+  s->damping         = 1.0;
   s->output_interval = 1.0 / 30;
   s->relative        = PETSC_TRUE;
   PetscCall(PetscStrncpy(s->name, "scene", sizeof(s->name)));
@@ -149,6 +150,8 @@ PetscErrorCode VKSceneSetFromOptions(VKScene s)
   PetscCall(PetscOptionsBool("-scene_absolute", "Lengths in metres instead of rest bounding-box units (origin at the box centre, unit its largest extent)", "VKSceneSetFromOptions", absolute, &absolute, NULL));
   s->relative = absolute ? PETSC_FALSE : PETSC_TRUE;
   PetscCall(Option3(PetscOptionsObject, "-scene_gravity", "Gravity, m/s^2", s->gravity, 3, NULL));
+  PetscCall(PetscOptionsReal("-scene_damping", "Mass-proportional viscous damping c, 1/s: a drag -c m v on every yarn vertex (volknit yls) and mesh node (volknit sim)", "VKSceneSetFromOptions", s->damping, &s->damping, NULL));
+  PetscCheck(s->damping >= 0 && s->damping < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_damping must be >= 0 and finite (1/s), got %g", (double)s->damping);
   PetscCall(PetscOptionsReal("-scene_duration", "Simulated time, s", "VKSceneSetFromOptions", s->duration, &s->duration, NULL));
   PetscCheck(s->duration > 0 && s->duration < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration must be positive, got %g", (double)s->duration);
   PetscCall(PetscOptionsReal("-scene_output_interval", "Time between output frames, s", "VKSceneSetFromOptions", s->output_interval, &s->output_interval, NULL));
@@ -213,7 +216,7 @@ PetscReal VKSceneFrameStep(VKScene s, PetscReal dt)
 PetscErrorCode VKSceneView(VKScene s, PetscViewer viewer)
 {
   PetscFunctionBegin;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "Scene %s: gravity (%g, %g, %g) m/s^2, duration %g s, output every %g s, %d handles, %d colliders%s\n", s->name, (double)s->gravity[0], (double)s->gravity[1], (double)s->gravity[2], (double)s->duration, (double)s->output_interval, (int)s->nhandles, (int)s->ncolliders, s->setup ? "" : " (scene units)"));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Scene %s: gravity (%g, %g, %g) m/s^2, damping %g 1/s, duration %g s, output every %g s, %d handles, %d colliders%s\n", s->name, (double)s->gravity[0], (double)s->gravity[1], (double)s->gravity[2], (double)s->damping, (double)s->duration, (double)s->output_interval, (int)s->nhandles, (int)s->ncolliders, s->setup ? "" : " (scene units)"));
   PetscCall(PetscViewerASCIIPushTab(viewer));
   for (PetscInt i = 0; i < s->nhandles; i++) {
     VKHandle *h = &s->handle[i];

@@ -81,6 +81,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(SNESDestroy(&pd->snes));
   PetscCall(KSPDestroy(&pd->pksp));
   PetscCall(VecDestroy(&pd->xc));
+  PetscCall(VecDestroy(&pd->ydamp));
   PetscCall(VecDestroy(&pd->bc));
   PetscCall(VecDestroy(&pd->rc));
   for (int c = 0; c < 3; c++) PetscCall(VecDestroy(&pd->xd[c]));
@@ -287,7 +288,7 @@ static PetscErrorCode ForceScales(VKPD pd)
       PetscReal m = pd->mesh->mass[L->nStart + i];
       if (pd->node_handle[i] >= 0) continue;
       if (c == 0) sums[0] += m * m * g2;
-      sums[1] += PetscSqr(ka[i] - (pd->inertia * m / dt2 + pd->contact_w[i]) * xa[i]);
+      sums[1] += PetscSqr(ka[i] - (VKPDInertiaScale(pd) * m / dt2 + pd->contact_w[i]) * xa[i]);
     }
     PetscCall(VecRestoreArrayRead(xr, (const PetscScalar **)&xa));
     PetscCall(VecRestoreArrayRead(kx, &ka));
@@ -321,7 +322,7 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscCall(MatSetValuesLocal(pd->K, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, Ke, ADD_VALUES));
   }
   for (PetscInt i = L->nStart; i < L->nEnd; i++) {
-    PetscReal m = pd->inertia * mesh->mass[i] / dt2;
+    PetscReal m = VKPDInertiaScale(pd) * mesh->mass[i] / dt2;
     PetscCall(MatSetValue(pd->K, i, i, m, ADD_VALUES));
   }
   PetscCall(MatAssemblyBegin(pd->K, MAT_FINAL_ASSEMBLY));
@@ -386,6 +387,10 @@ PetscErrorCode VKPDSetUp(VKPD pd)
   PetscFunctionBegin;
   PetscCheck(pd->scene->setup, pd->comm, PETSC_ERR_ORDER, "Call VKSceneSetUp() before VKPDSetUp()");
   PetscCall(VKMaterialSetUp(pd->mat));
+  if (pd->damping != pd->scene->damping) { /* -scene_damping is read after VKPDCreate */
+    pd->damping = pd->scene->damping;
+    pd->kset    = PETSC_FALSE;
+  }
   if (!pd->setup) {
     PetscInt nown = pd->mesh->layout.nEnd - pd->mesh->layout.nStart;
     PetscCall(FindHandles(pd));

@@ -40,7 +40,7 @@ static PetscErrorCode Hessian(VKPD pd, Vec x, PetscBool psd, Mat H)
   PetscCall(VKMaterialHessian(pd->mat, x, psd, H));
   PetscCall(VecGetArray(pd->hdiag, &ma));
   for (PetscInt i = 0; i < nown; i++)
-    for (int c = 0; c < 3; c++) ma[3 * i + c] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt);
+    for (int c = 0; c < 3; c++) ma[3 * i + c] = VKPDInertiaScale(pd) * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt);
   PetscCall(VecRestoreArray(pd->hdiag, &ma));
   PetscCall(MatDiagonalSet(H, pd->hdiag, ADD_VALUES));
   if (pd->scene->ncolliders) {

@@ -78,7 +78,7 @@ static PetscErrorCode InertialTarget(VKPD pd, Vec y)
   if (pd->fconst) PetscCall(VecGetArrayRead(pd->fconst, &fa));
   PetscCall(VecGetArray(pd->My, &m));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) m[3 * i + r] = pd->inertia * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r] + (fa ? fa[3 * i + r] : 0);
+    for (int r = 0; r < 3; r++) m[3 * i + r] = VKPDInertiaScale(pd) * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r] + (fa ? fa[3 * i + r] : 0);
   {
     PetscReal f2 = 0;
     for (PetscInt i = 0; fa && i < L->nEnd - L->nStart; i++)
@@ -110,7 +110,7 @@ static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
       d2 += PetscSqr(xa[3 * i + r] - ya[3 * i + r]);
       if (fa) fx += fa[3 * i + r] * xa[3 * i + r];
     }
-    VKSumAdd(&sum, 0.5 * pd->inertia * pd->mesh->mass[L->nStart + i] * d2 / (pd->dt * pd->dt) - fx);
+    VKSumAdd(&sum, 0.5 * VKPDInertiaScale(pd) * pd->mesh->mass[L->nStart + i] * d2 / (pd->dt * pd->dt) - fx);
   }
   if (pd->fconst) PetscCall(VecRestoreArrayRead(pd->fconst, &fa));
   PetscCall(VecRestoreArrayRead(y, &ya));
@@ -435,6 +435,13 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
     PetscCall(PetscMalloc2(pd->hist_cap, &pd->hist_phi, pd->hist_cap, &pd->hist_res));
   }
   pd->hist_n = 0;
+  if (pd->inertia > 0 && pd->damping > 0 && prev) { /* the damping's share of the target: (y + c dt x_n)/(1 + c dt) */
+    PetscReal cdt = pd->damping * pd->dt;
+    if (!pd->ydamp) PetscCall(VecDuplicate(y, &pd->ydamp));
+    PetscCall(VecAXPBYPCZ(pd->ydamp, 1 / (1 + cdt), cdt / (1 + cdt), 0, y, prev));
+    PetscCall(VecAXPBYPCZ(x, 1, -1, 1, pd->ydamp, y)); /* the guess moves with its target: x0 = y becomes the damped target */
+    y = pd->ydamp;
+  }
   if (prev && pd->nhandle > pd->nscene) { /* frozen nodes stay at the start of the step */
     PetscScalar       *xa;
     const PetscScalar *pa;

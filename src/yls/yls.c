@@ -10,7 +10,6 @@
 #define YLS_KB  2.0e-7 /* N m^2: bending length (k_b / (rho g))^(1/3) about 4 cm */
 #define YLS_KC  1.0e3  /* N/m */
 #define YLS_KW  1.0e3  /* N/m */
-#define YLS_CV  1.0    /* 1/s */
 #define YLS_CS  1.0e-3 /* N s */
 #define YLS_CAP 0.25   /* of r */
 #define YLS_FTOL 1e-3  /* of the force scale */
@@ -34,7 +33,6 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->par.kc       = YLS_KC;
   y->par.nq       = 3;
   y->kw           = YLS_KW;
-  y->cv           = YLS_CV;
   y->cs           = YLS_CS;
   y->friction_eps = 1e-3;
   y->cap          = YLS_CAP;
@@ -62,7 +60,6 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsReal("-yls_kb", "Bending stiffness k_b, N m^2", "VKYLSSetFromOptions", y->par.kb, &y->par.kb, NULL));
   PetscCall(PetscOptionsReal("-yls_kc", "Contact stiffness k_c of Kaldor's penalty, N/m", "VKYLSSetFromOptions", y->par.kc, &y->par.kc, NULL));
   PetscCall(PetscOptionsInt("-yls_nq", "Contact quadrature points per segment", "VKYLSSetFromOptions", y->par.nq, &y->par.nq, NULL));
-  PetscCall(PetscOptionsReal("-yls_damping", "Viscous (mass-proportional) damping c_v, 1/s", "VKYLSSetFromOptions", y->cv, &y->cv, NULL));
   PetscCall(PetscOptionsReal("-yls_dashpot", "Along-segment dashpot c_s: force per unit strain rate, N s", "VKYLSSetFromOptions", y->cs, &y->cs, NULL));
   PetscCall(PetscOptionsReal("-yls_collider_stiffness", "Collider penalty k_w, N/m", "VKYLSSetFromOptions", y->kw, &y->kw, NULL));
   PetscCall(PetscOptionsReal("-yls_friction_eps", "Sliding speed below which collider friction is smoothed, m/s", "VKYLSSetFromOptions", y->friction_eps, &y->friction_eps, NULL));
@@ -85,7 +82,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCheck(y->par.ks >= 0 && y->par.kb >= 0 && y->par.kc >= 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Rod stiffnesses must be >= 0: -yls_ks %g -yls_kb %g -yls_kc %g", (double)y->par.ks, (double)y->par.kb, (double)y->par.kc);
   PetscCheck(y->par.ks > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_ks must be positive (yarns are nearly inextensible), got %g", (double)y->par.ks);
   PetscCheck(y->par.nq >= 1 && y->par.nq <= 16, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_nq must be in 1..16, got %d", (int)y->par.nq);
-  PetscCheck(y->cv >= 0 && y->cs >= 0 && y->kw > 0 && y->friction_eps > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_damping >= 0, -yls_dashpot >= 0, -yls_collider_stiffness > 0, -yls_friction_eps > 0");
+  PetscCheck(y->cs >= 0 && y->kw > 0 && y->friction_eps > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_dashpot >= 0, -yls_collider_stiffness > 0, -yls_friction_eps > 0");
   PetscCheck(y->cap > 0 && y->cap <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_cap must be in (0, 1] yarn radii, got %g", (double)y->cap);
   PetscCheck(y->pattern_margin >= 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_pattern_margin must be >= 0 yarn radii, got %g", (double)y->pattern_margin);
   PetscCheck(y->max_halvings >= 0 && y->max_halvings <= 20, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_max_halvings must be in 0..20, got %d", (int)y->max_halvings);
@@ -131,6 +128,7 @@ static PetscErrorCode SetUpScene(VKYLS y)
   PetscFunctionBegin;
   PetscCall(VKCurvesBoundingBox(&y->yarn->curves, lo, hi));
   PetscCall(VKSceneSetUp(y->scene, lo, hi));
+  y->cv = y->scene->damping;
   PetscCall(PetscMalloc1(y->model.nv, &y->handle));
   y->nhandle_vertices = 0;
   for (PetscInt i = 0; i < y->model.nv; i++) {
