@@ -9,6 +9,8 @@
  *    or gravity linear momentum decays by the scene's drag exactly,
  *    p_n = p_0 / (1 + c dt)^n, to round-off (PD keeps sum M x = sum M y at
  *    every iteration, so this holds for any PD tolerance);
+ *  - a handle holds the nodes of every tet that embeds a yarn vertex in its
+ *    box, so the held yarn vertices follow the handle exactly;
  *  - the same trajectory with 1 and 2 ranks (in-process against a
  *    one-rank build on PETSC_COMM_SELF).
  * ranks: 1 2
@@ -75,6 +77,78 @@ static PetscErrorCode RestTarget(VKMesh m, PetscReal dt, const PetscReal g[], Ve
   PetscCall(VecGetArray(y, &a));
   for (PetscInt i = 0; i < n; i++) a[i] += dt * dt * g[i % 3];
   PetscCall(VecRestoreArray(y, &a));
+  PetscFunctionReturn(0);
+}
+
+/* A handle holds the nodes of every tet embedding a yarn vertex in its
+ * box (-pd_handle_nodes embedded), so after a step under gravity with the
+ * handle turned and moved, every held yarn vertex N x sits exactly where
+ * the handle puts it, as the yarn-level simulator holds it. */
+static PetscErrorCode TestEmbeddedHandles(VKMaterial mat)
+{
+  VKMesh             m = mat->mesh;
+  VKScene            s;
+  VKPD               pd;
+  VKHandle          *H;
+  Vec                x, y, all;
+  VecScatter         toall;
+  VKPDStats          st;
+  const PetscScalar *xa;
+  PetscReal          lo[3], hi[3], g[3] = {0, 0, -9.81}, dt = 1.0 / 150, worst = 0, size = 0;
+  PetscInt           held = 0, nodes;
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(m->comm, &s));
+  s->nhandles = 1;
+  H           = &s->handle[0];
+  for (int a = 0; a < 3; a++) {
+    H->box[a]     = -1;
+    H->box[3 + a] = 1;
+  }
+  H->box[1]      = 0.46; /* the top course, as options/hang.opts */
+  H->velocity[2] = 0.5;
+  H->axis[0]     = 1;
+  H->omega       = 30 * PETSC_PI / 180 / dt; /* 30 degrees in the step */
+  H->window[1]   = PETSC_MAX_REAL;
+  PetscCall(VKCurvesBoundingBox(&m->yarn->curves, lo, hi));
+  for (int a = 0; a < 3; a++) size = PetscMax(size, hi[a] - lo[a]);
+  PetscCall(VKSceneSetUp(s, lo, hi));
+  PetscCall(VKPDCreate(mat, s, &pd));
+  PetscCall(VKPDSetTimeStep(pd, dt));
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(VKMeshCreateNodeVec(m, 3, &x));
+  PetscCall(VecDuplicate(x, &y));
+  PetscCall(RestTarget(m, dt, g, y));
+  PetscCall(VecCopy(y, x));
+  PetscCall(VKPDSolve(pd, dt, y, NULL, x, &st));
+  PetscCall(VecScatterCreateToAll(x, &toall, &all));
+  PetscCall(VecScatterBegin(toall, x, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(toall, x, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGetArrayRead(all, &xa));
+  for (PetscInt k = 0; k < m->ny; k++) {
+    const PetscInt  *t = m->tet + 4 * m->emb_tet[k];
+    const PetscReal *w = m->emb_w + 4 * k;
+    PetscReal        p[3] = {0, 0, 0}, q[3], nx[3] = {0, 0, 0}, d2 = 0;
+    for (int a = 0; a < 4; a++)
+      for (int c = 0; c < 3; c++) {
+        p[c] += w[a] * m->x[3 * t[a] + c];
+        nx[c] += w[a] * xa[3 * t[a] + c];
+      }
+    if (VKSceneHandleOf(s, p) < 0) continue;
+    VKSceneHandlePosition(s, 0, p, dt, q);
+    for (int c = 0; c < 3; c++) d2 += PetscSqr(nx[c] - q[c]);
+    worst = PetscMax(worst, PetscSqrtReal(d2));
+    held++;
+  }
+  PetscCall(VecRestoreArrayRead(all, &xa));
+  PetscCallMPI(MPI_Allreduce(&pd->nhandle, &nodes, 1, MPIU_INT, MPI_SUM, m->comm));
+  PetscCall(VKTestCheck((PetscBool)(held > 0 && worst <= 1e-12 * size && VKPDReasonConverged(st.reason)), NULL, "-pd_handle_nodes embedded: the %d yarn vertices in a turning, moving handle box (%d mesh nodes held) sit at the handle's positions after a step to %.2e of the patch (%s)", (int)held, (int)nodes, (double)(worst / size), VKPDReasonName(st.reason)));
+  PetscCall(VecScatterDestroy(&toall));
+  PetscCall(VecDestroy(&all));
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&y));
+  PetscCall(VKPDDestroy(&pd));
+  PetscCall(VKSceneDestroy(&s));
   PetscFunctionReturn(0);
 }
 
@@ -339,6 +413,7 @@ int main(int argc, char **argv)
   VKTestInit(PETSC_COMM_WORLD);
   PetscCall(Build(PETSC_COMM_WORLD, &y, &m, &mat));
   PetscCall(TestRestEquilibrium(mat));
+  PetscCall(TestEmbeddedHandles(mat));
   PetscCall(TestMonotoneAndNewton(mat));
   PetscCall(TestTSMomentum(mat));
   PetscCall(TestRanks(mat));
