@@ -104,6 +104,14 @@ if timeout "$TIMEOUT" bin/volknit mesh -yarn_pattern rib1x1 -yarn_wales 30 -yarn
    && timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 > "$d30.sim.log" 2>&1 \
    && [ -s "$d30/sim.h5" ]; then ok
 else not_ok "30 x 30 rib: volknit mesh to file, then volknit sim -n 2 from it (see $d30.mesh.log, $d30.sim.log)"; fi
+# a duration that is no multiple of the step (1/150 s) or of the output
+# interval (1/30 s): the frames fall on k x the interval and the last one
+# on the duration (the last step is shortened)
+if timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.05 > "$d30.t005.log" 2>&1; then
+  times=$(sed -n 's/.*<Time Value="\([^"]*\)".*/\1/p' "$d30/sim.xdmf" | sort -g -u | tr '\n' ' ')
+  if echo "$times" | awk '{ n = NF; ok = (n == 3 && $n == 0.05); for (k = 1; k < n; k++) { d = $k - (k - 1) / 30; if (d < -1e-12 || d > 1e-12) ok = 0 } exit !ok }'; then ok
+  else not_ok "sim -scene_duration 0.05: frame times '$times', expected 0, 1/30 and 0.05 (see $d30.t005.log)"; fi
+else not_ok "sim -scene_duration 0.05 failed (see $d30.t005.log)"; fi
 # a step stopped at -pd_max_it: warned about, status "unconverged"; with -sim_strict an error
 if timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -pd_max_it 1 > "$d30.unconv.log" 2>&1 \
    && grep -q 'did not converge' "$d30.unconv.log" && grep -q '"status": "unconverged"' "$d30/sim.json"; then ok

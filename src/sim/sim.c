@@ -22,7 +22,7 @@ PetscErrorCode VKSimCreate(VKMaterial mat, VKScene scene, VKSim *simout)
   PetscCall(TSCreate(sim->comm, &sim->ts));
   PetscCall(TSSetType(sim->ts, TSPD));
   PetscCall(VKTSPDSetSolver(sim->ts, sim->pd));
-  PetscCall(TSSetExactFinalTime(sim->ts, TS_EXACTFINALTIME_STEPOVER));
+  PetscCall(TSSetExactFinalTime(sim->ts, TS_EXACTFINALTIME_MATCHSTEP)); /* the run ends on the scene's duration */
   PetscCall(TSSetMaxSteps(sim->ts, PETSC_MAX_INT));
   PetscCall(TSSetErrorIfStepFails(sim->ts, PETSC_FALSE));
   *simout = sim;
@@ -79,16 +79,21 @@ PetscErrorCode VKSimSetFromOptions(VKSim sim)
   PetscFunctionReturn(0);
 }
 
-/* TS monitor: a frame whenever the output time is reached. */
+/* TS monitor: a frame whenever the output time is reached, and at the
+ * end of a run that lands on its final time (TS_EXACTFINALTIME_MATCHSTEP,
+ * the default), so the last frame is at the scene's duration. */
 static PetscErrorCode OutputMonitor(TS ts, PetscInt step, PetscReal t, Vec x, void *ctx)
 {
-  VKSim     sim = (VKSim)ctx;
-  PetscReal dt;
+  VKSim                  sim = (VKSim)ctx;
+  PetscReal              dt, T;
+  TSExactFinalTimeOption eft;
 
   PetscFunctionBegin;
   (void)step;
   PetscCall(TSGetTimeStep(ts, &dt));
-  if (t >= sim->next_output - 1e-6 * dt) {
+  PetscCall(TSGetMaxTime(ts, &T));
+  PetscCall(TSGetExactFinalTime(ts, &eft));
+  if (t >= sim->next_output - 1e-6 * dt || (eft == TS_EXACTFINALTIME_MATCHSTEP && t >= T)) {
     PetscCall(VKSimOutputFrame(sim, t, x));
     while (sim->next_output <= t + 1e-6 * dt) sim->next_output += sim->scene->output_interval;
   }
@@ -113,12 +118,15 @@ PetscErrorCode VKSimSetUp(VKSim sim)
     }
   }
   {
-    /* ptime accumulates rounding: a duration of n steps must not take an
-     * (n+1)-th step just past it */
-    PetscReal T, n;
+    /* with -ts_exact_final_time stepover, ptime accumulates rounding: a
+     * duration of n steps must not take an (n+1)-th step just past it */
+    PetscReal              T, n;
+    TSExactFinalTimeOption eft;
     PetscCall(TSGetMaxTime(sim->ts, &T));
+    PetscCall(TSGetExactFinalTime(sim->ts, &eft));
     n = PetscFloorReal(T / dt + 0.5);
-    if (n >= 1 && PetscAbsReal(T / dt - n) < 1e-6) PetscCall(TSSetMaxTime(sim->ts, (n - 1e-6) * dt));
+    if (eft == TS_EXACTFINALTIME_STEPOVER && n >= 1 && PetscAbsReal(T / dt - n) < 1e-6) PetscCall(TSSetMaxTime(sim->ts, (n - 1e-6) * dt));
+    PetscCheck(eft != TS_EXACTFINALTIME_INTERPOLATE, sim->comm, PETSC_ERR_SUP, "-ts_exact_final_time interpolate is not supported by the TS type pd; use matchstep (the default: the last step ends on the duration) or stepover");
   }
   PetscCall(VKPDSetTimeStep(sim->pd, dt));
   PetscCall(VKPDSetUp(sim->pd));

@@ -6,7 +6,11 @@
  * A failed PD solve (non-finite values, global KSP failure) restores x_n
  * and sets TS_DIVERGED_NONLINEAR_SOLVE, so the caller still has the last
  * good state.  A solve that ends above its tolerance is counted and
- * warned about on stderr, or, with VKTSPDSetStrict, fails like that.  Modelled on PETSc's own TS implementations (TSStep_Euler). */
+ * warned about on stderr, or, with VKTSPDSetStrict, fails like that.
+ * With TS_EXACTFINALTIME_MATCHSTEP (-ts_exact_final_time matchstep) the
+ * step that would pass the final time is shortened to end on it (a
+ * sliver of less than 1e-6 dt left before it is absorbed into the step
+ * before); the time step itself is kept for any later TSSolve.  Modelled on PETSc's own TS implementations (TSStep_Euler). */
 #include <vksim.h>
 #include <petsc/private/tsimpl.h>
 
@@ -40,12 +44,18 @@ static PetscErrorCode TSStep_PD(TS ts)
   VKPD            pd = p->pd;
   Vec             x  = ts->vec_sol;
   PetscReal       dt = ts->time_step, t1 = ts->ptime + dt, rel;
+  PetscBool       last = PETSC_FALSE;
   const PetscReal *g = pd->scene->gravity;
   PetscScalar    *ya;
   PetscInt        n;
   VKTSPDStats    *s = &p->stats;
 
   PetscFunctionBegin;
+  if (ts->exact_final_time == TS_EXACTFINALTIME_MATCHSTEP && t1 > ts->max_time - 1e-6 * dt) {
+    dt   = ts->max_time - ts->ptime;
+    t1   = ts->max_time;
+    last = PETSC_TRUE;
+  }
   PetscCall(VKPDSetTimeStep(pd, dt));
   pd->step = ts->steps + 1;
   PetscCall(VecCopy(x, p->xprev));
@@ -76,7 +86,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   }
   PetscCall(VecWAXPY(p->v, -1, p->xprev, x));
   PetscCall(VecScale(p->v, 1 / dt));
-  ts->ptime += dt;
+  ts->ptime = last ? ts->max_time : ts->ptime + dt;
   /* a step that starts at the round-off floor (at rest) says nothing about
    * the relative residual PD reaches */
   rel = s->last.residual0 > 0 && s->last.reason != VK_PD_CONVERGED_ATOL ? s->last.residual / s->last.residual0 : 0;
