@@ -122,7 +122,8 @@ struct _n_VKFit {
   VKMaterial   mat;
   VKScene      scene;
   VKShapeFit   sf;
-  VKPD         pd;
+  VKPD         pd;      /* options prefix fit_ */
+  VKPDType     pd_type; /* -fit_pd_type, restored after an equilibrium's L-BFGS fallback */
   PetscReal    dt;      /* time between yarn frames */
   PetscReal    eq_rtol; /* |g| <= eq_rtol x force scale */
   PetscInt     eq_newton_its;

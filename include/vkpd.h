@@ -136,6 +136,7 @@ struct _n_VKPD {
    * step; w_i = contact_weight * K_ii is in K, so K stays constant.
    * contact[i] is set when x_i is inside a collider. */
   PetscReal  contact_weight;
+  char       prefix[64]; /* options prefix (VKPDSetOptionsPrefix) */
   VKPDHandleNodes handle_nodes;
   PetscReal *contact_w;
   PetscBool *contact;
@@ -174,6 +175,12 @@ static inline PetscReal VKPDInertiaScale(VKPD pd)
 }
 PETSC_EXTERN PetscErrorCode VKPDCreate(VKMaterial, VKScene, VKPD *);
 PETSC_EXTERN PetscErrorCode VKPDSetTimeStep(VKPD, PetscReal dt);
+/* Options read as -<prefix>pd_...; the global step's KSP, the Newton SNES
+ * and the projected-Newton KSP get <prefix>pd_global_, <prefix>pd_newton_
+ * and <prefix>pd_pnewton_ (the fitting's PD has the prefix fit_). */
+PETSC_EXTERN PetscErrorCode VKPDSetOptionsPrefix(VKPD, const char[]);
+PETSC_EXTERN PetscErrorCode VKPDAppendOptionsPrefix(VKPD, const char[]);
+PETSC_EXTERN PetscErrorCode VKPDGetOptionsPrefix(VKPD, const char *[]);
 PETSC_EXTERN PetscErrorCode VKPDSetFromOptions(VKPD);
 PETSC_EXTERN PetscErrorCode VKPDSetUp(VKPD);
 PETSC_EXTERN PetscErrorCode VKPDView(VKPD, PetscViewer);
@@ -183,6 +190,11 @@ PETSC_EXTERN PetscErrorCode VKPDDestroy(VKPD *);
  * initial residual, iteration limit. */
 PETSC_EXTERN PetscErrorCode VKPDSetTolerances(VKPD, PetscReal ftol, PetscReal atol, PetscReal rtol, PetscInt max_it);
 PETSC_EXTERN PetscErrorCode VKPDSetType(VKPD, VKPDType);
+PETSC_EXTERN PetscErrorCode VKPDGetType(VKPD, VKPDType *);
+/* Newton iterations after PD (its = 0: none) and their relative target. */
+PETSC_EXTERN PetscErrorCode VKPDSetNewton(VKPD, PetscInt its, PetscReal rtol);
+/* The step number named in messages about the next solves. */
+PETSC_EXTERN PetscErrorCode VKPDSetStepNumber(VKPD, PetscInt);
 /* Static (no M/dt^2 term; K reassembled) or inertial (the default). */
 PETSC_EXTERN PetscErrorCode VKPDSetStatic(VKPD, PetscBool);
 /* A constant force f (node vector, NULL: none): Phi gains -f . x.  The Vec

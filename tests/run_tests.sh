@@ -205,6 +205,15 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   fit_dir "uniform"
   if fit_run "uniform" 2 -fit_best_uniform && grep -q 'best uniform material g_s = g_v' "$fd/uniform.log" && grep -q '"best_uniform"' "$fd/uniform/fit.json" && [ -s "$fd/uniform/material.h5" ]; then ok
   else not_ok "volknit fit -fit_best_uniform: expected the search's line and best_uniform in fit.json (see $fd/uniform.log)"; fi
+  # the fit's PD reads its own options (prefix fit_): a global solver that
+  # cannot converge given as -pd_global_ leaves the fit alone, as
+  # -fit_pd_global_ it stops the fit with the option's name
+  broken="pd_global_ksp_type cg -PFX_pd_global_pc_type none -PFX_pd_global_ksp_max_it 1"
+  fit_dir "prefix.sim"
+  fit_dir "prefix.fit"
+  if fit_run "prefix.sim" 1 -fit_gn_its 1 -${broken//PFX_/} && [ -s "$fd/prefix.sim/material.h5" ] \
+     && ! fit_run "prefix.fit" 1 -fit_gn_its 1 -fit_${broken//PFX_/fit_} && grep -q 'the PD global solve failed (see -fit_pd_global_ksp_converged_reason)' "$fd/prefix.fit.log"; then ok
+  else not_ok "volknit fit: -pd_global_ options must not reach the fit's PD and -fit_pd_global_ ones must (see $fd/prefix.sim.log, $fd/prefix.fit.log)"; fi
   # the trajectory loss (-fit_loss trajectory): by default from the best uniform material
   # (searched, in fit.json), the rollout's loss falls by a quarter or more, the outputs say
   # which loss, and 1 and 2 ranks give the same material

@@ -135,12 +135,11 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
    * residual or to tol, then Newton, whose quadratic last step usually
    * lands far below tol (the adjoint and finite differences need that) */
   PetscCall(VKPDSetTolerances(pd, 0, tol, 1e-2, PETSC_DEFAULT));
-  pd->newton_its  = fit->eq_newton_its;
-  pd->newton_rtol = 0;
-  pd->step        = f->index;
+  PetscCall(VKPDSetNewton(pd, fit->eq_newton_its, 0));
+  PetscCall(VKPDSetStepNumber(pd, f->index));
   PetscCall(VKPDSetConstantForce(pd, f->fext));
   PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
-  PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the PD global solve failed (see -pd_global_ksp_converged_reason)", (int)f->index, (double)f->t);
+  PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the PD global solve failed (see -fit_pd_global_ksp_converged_reason)", (int)f->index, (double)f->t);
   *ok = Reached(pd, &st, tol);
   if (!*ok && st.reason != VK_PD_DIVERGED_NAN) {
     /* Newton after PD did not get there (a large deformation, where the
@@ -151,7 +150,7 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
     PetscCall(VKPDSetType(pd, VK_PD_TYPE_LBFGS));
     PetscCall(VKPDSetTolerances(pd, 0, tol, 0, PETSC_DEFAULT));
     PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
-    PetscCall(VKPDSetType(pd, VK_PD_TYPE_PD));
+    PetscCall(VKPDSetType(pd, fit->pd_type));
     PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the global solve of the L-BFGS fallback failed", (int)f->index, (double)f->t);
     st.iterations += its;
     st.newton_its += nits;
@@ -179,7 +178,7 @@ PetscErrorCode VKFitEquilibrium(VKFit fit, VKFitFrame *f, VKFitEqStats *stats)
   PetscFunctionBegin;
   PetscCall(VKFitEquilibriumTry(fit, f, &st, &ok));
   PetscCheck(st.residual < PETSC_INFINITY, fit->comm, PETSC_ERR_FP, "Equilibrium of sample frame %d (t = %g s): Phi or its gradient became NaN/Inf at iteration %d; the material parameters or the data are not usable", (int)f->index, (double)f->t, (int)st.fail_iteration);
-  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s) not reached: |g| = %.3e > %.3e (-fit_eq_rtol %g of the force scale %.3e) after %d PD and %d Newton iterations; raise -fit_eq_newton_its or -pd_max_it", (int)f->index, (double)f->t, (double)st.residual, (double)st.tolerance, (double)fit->eq_rtol, (double)f->scale, (int)st.pd_its, (int)st.newton_its);
+  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s) not reached: |g| = %.3e > %.3e (-fit_eq_rtol %g of the force scale %.3e) after %d PD and %d Newton iterations; raise -fit_eq_newton_its or -fit_pd_max_it", (int)f->index, (double)f->t, (double)st.residual, (double)st.tolerance, (double)fit->eq_rtol, (double)f->scale, (int)st.pd_its, (int)st.newton_its);
   if (stats) *stats = st;
   PetscFunctionReturn(0);
 }

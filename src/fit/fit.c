@@ -52,8 +52,11 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->wall0         = VKWallTime();
   PetscCall(VKShapeFitCreate(fit->mesh, &fit->sf));
   PetscCall(VKPDCreate(mat, scene, &fit->pd));
+  /* its own options (-fit_pd_type, -fit_pd_global_pc_type, ...), so that a
+   * run's -pd_ options change only the simulation's PD */
+  PetscCall(VKPDSetOptionsPrefix(fit->pd, "fit_"));
   /* the equilibria end in Newton with the exact Hessian to 1e-5 of the fit's
-   * force scale and below: plain PD takes them there (-pd_type still applies) */
+   * force scale and below: plain PD takes them there (-fit_pd_type still applies) */
   PetscCall(VKPDSetType(fit->pd, VK_PD_TYPE_PD));
   PetscCall(KSPCreate(fit->comm, &fit->kadj));
   PetscCall(KSPSetOptionsPrefix(fit->kadj, "fit_adjoint_"));
@@ -105,7 +108,25 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
 
   PetscFunctionBegin;
   PetscCall(VKShapeFitSetFromOptions(fit->sf));
+  {
+    /* each equilibrium's stopping rule is the fit's own (relative to the
+     * frame's force scale): PD options that it would override are refused */
+    static const char *const owned[][2] = {
+      {"-fit_pd_ftol",        "-fit_eq_rtol"       },
+      {"-fit_pd_atol",        "-fit_eq_rtol"       },
+      {"-fit_pd_rtol",        "-fit_eq_rtol"       },
+      {"-fit_pd_newton_its",  "-fit_eq_newton_its" },
+      {"-fit_pd_newton_rtol", "-fit_eq_rtol"       },
+      {"-fit_pd_fixed_its",   "-fit_eq_rtol"       }
+    };
+    for (size_t i = 0; i < sizeof(owned) / sizeof(owned[0]); i++) {
+      PetscBool has;
+      PetscCall(PetscOptionsHasName(NULL, NULL, owned[i][0], &has));
+      PetscCheck(!has, fit->comm, PETSC_ERR_ARG_INCOMP, "%s: the fit sets each equilibrium's stopping rule itself; use %s", owned[i][0], owned[i][1]);
+    }
+  }
   PetscCall(VKPDSetFromOptions(fit->pd));
+  PetscCall(VKPDGetType(fit->pd, &fit->pd_type));
   PetscOptionsBegin(fit->comm, NULL, "Fitting: equilibrium and adjoint (DESIGN section 8)", "VKFit");
   PetscCall(PetscOptionsReal("-fit_eq_rtol", "Equilibrium per sample frame: |g| <= rtol (|grad E(xhat)| + |M (xhat - y)|/dt^2)", "VKFitEquilibrium", fit->eq_rtol, &fit->eq_rtol, NULL));
   PetscCall(PetscOptionsInt("-fit_eq_newton_its", "Newton iterations (exact Hessian) allowed after PD in an equilibrium solve", "VKFitEquilibrium", fit->eq_newton_its, &fit->eq_newton_its, NULL));

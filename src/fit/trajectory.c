@@ -551,7 +551,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
     PetscCall(VecRestoreArray(gamma, &g));
   }
   PetscCall(EvaluateAll(nt, T, gamma, r, &loss, grad, P, scratch, &bad, &ok));
-  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit, stage r = %d: the starting material's rollout (trajectory %d) did not converge at step %d (t = %g s): |g| %.3g x the tolerance; raise -fit_eq_newton_its or -pd_max_it", (int)r, (int)bad, (int)T[bad]->steps, (double)T[bad]->f.t, (double)T[bad]->eq_worst);
+  PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit, stage r = %d: the starting material's rollout (trajectory %d) did not converge at step %d (t = %g s): |g| %.3g x the tolerance; raise -fit_eq_newton_its or -fit_pd_max_it", (int)r, (int)bad, (int)T[bad]->steps, (double)T[bad]->f.t, (double)T[bad]->eq_worst);
   if (lossf)
     for (PetscInt i = 0; i < nt; i++) PetscCall(PetscArraycpy(lossf[i], T[i]->lossf, T[i]->nf));
   if (fit->traj_prior > 0 && !T[0]->gref) PetscCall(VKFitTrajectorySetPriorReference(T[0], gamma, loss));
@@ -694,7 +694,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   off = 0;
   for (PetscInt i = 0; i < nt; i++) {
     PetscCall(VKFitTrajectoryEvaluate(T[i], gamma, 0, &res.traj_loss0, loss0 + off, NULL, NULL, &ok));
-    PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the starting material's rollout of %s did not converge at step %d (t = %g s); raise -fit_eq_newton_its or -pd_max_it", data[i]->path, (int)T[i]->steps, (double)T[i]->f.t);
+    PetscCheck(ok, fit->comm, PETSC_ERR_NOT_CONVERGED, "Trajectory fit: the starting material's rollout of %s did not converge at step %d (t = %g s); raise -fit_eq_newton_its or -fit_pd_max_it", data[i]->path, (int)T[i]->steps, (double)T[i]->f.t);
     l0 += (nt > 1 ? 1 / T[i]->rest_loss : 1) * res.traj_loss0;
     off += data[i]->nframes - 1;
   }
@@ -710,7 +710,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     stage_its[s] = fit->nits - its0;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
     if (why[s] == VK_FIT_STAGE_ITERATION_LIMIT) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stopped at -fit_gn_its %d with the loss still falling by more than -fit_rtol %g: not converged\n", (int)stages[s], (int)fit->gn_its, (double)fit->rtol));
-    if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -pd_max_it): not converged\n", (int)stages[s]));
+    if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n", (int)stages[s]));
   }
   /* of the last accepted rollouts: a rollout again could land on another side of a step's tolerance */
   for (PetscInt k = 0; k < nf; k++) {

@@ -165,7 +165,7 @@ PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], Pets
     PetscReal          mx[2] = {0, 0};
     PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, 1, gamma, NULL, reason));
     PetscCall(TrajectoryLoss(&c, gamma, loss));
-    PetscCheck(*loss < PETSC_INFINITY, comm, PETSC_ERR_NOT_CONVERGED, "The refined uniform material's rollout did not converge; raise -fit_eq_newton_its or -pd_max_it");
+    PetscCheck(*loss < PETSC_INFINITY, comm, PETSC_ERR_NOT_CONVERGED, "The refined uniform material's rollout did not converge; raise -fit_eq_newton_its or -fit_pd_max_it");
     /* uniform still (the constant harmonic): its value from any tet */
     PetscCall(VecGetLocalSize(gamma, &n));
     PetscCall(VecGetArrayRead(gamma, &a));

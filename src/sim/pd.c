@@ -21,6 +21,8 @@ const char *VKPDReasonName(VKPDReason r)
 }
 
 const char *const VKPDTypes[] = {"pd", "lbfgs", "VKPDType", "VK_PD_TYPE_", NULL};
+static PetscErrorCode SubSolverPrefixes(VKPD);
+
 const char *const VKPDHandleNodesTypes[] = {"embedded", "box", "VKPDHandleNodes", "VK_PD_HANDLE_", NULL};
 
 PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
@@ -51,7 +53,7 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   pd->newton_rtol = 1e-10;
   pd->contact_weight = 1;
   PetscCall(KSPCreate(pd->comm, &pd->ksp));
-  PetscCall(KSPSetOptionsPrefix(pd->ksp, "pd_global_"));
+  PetscCall(SubSolverPrefixes(pd));
   PetscCall(VKKSPSetDirectSolver(pd->ksp));
   PetscCall(KSPSetTolerances(pd->ksp, 1e-10, 1e-50, PETSC_DEFAULT, 1000));
   *pdout = pd;
@@ -122,6 +124,29 @@ PetscErrorCode VKPDSetType(VKPD pd, VKPDType type)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKPDGetType(VKPD pd, VKPDType *type)
+{
+  PetscFunctionBegin;
+  *type = pd->type;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetNewton(VKPD pd, PetscInt its, PetscReal rtol)
+{
+  PetscFunctionBegin;
+  PetscCheck(its >= 0 && rtol >= 0 && rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "Newton after PD: %d iterations (>= 0), rtol %g (in [0, 1))", (int)its, (double)rtol);
+  pd->newton_its  = its;
+  pd->newton_rtol = rtol;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetStepNumber(VKPD pd, PetscInt step)
+{
+  PetscFunctionBegin;
+  pd->step = step;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKPDSetStatic(VKPD pd, PetscBool isstatic)
 {
   PetscFunctionBegin;
@@ -144,10 +169,57 @@ PetscErrorCode VKPDMaterialChanged(VKPD pd)
   PetscFunctionReturn(0);
 }
 
+/* The prefix of the options and of the sub-solvers' prefixes: with "fit_",
+ * -fit_pd_ftol and -fit_pd_global_pc_type. */
+static PetscErrorCode SubSolverPrefixes(VKPD pd)
+{
+  char p[sizeof(pd->prefix) + 16];
+
+  PetscFunctionBegin;
+  PetscCall(PetscSNPrintf(p, sizeof(p), "%spd_global_", pd->prefix));
+  PetscCall(KSPSetOptionsPrefix(pd->ksp, p));
+  if (pd->snes) {
+    PetscCall(PetscSNPrintf(p, sizeof(p), "%spd_newton_", pd->prefix));
+    PetscCall(SNESSetOptionsPrefix(pd->snes, p));
+  }
+  if (pd->pksp) {
+    PetscCall(PetscSNPrintf(p, sizeof(p), "%spd_pnewton_", pd->prefix));
+    PetscCall(KSPSetOptionsPrefix(pd->pksp, p));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetOptionsPrefix(VKPD pd, const char prefix[])
+{
+  PetscFunctionBegin;
+  PetscCheck(!prefix || strlen(prefix) < sizeof(pd->prefix), pd->comm, PETSC_ERR_ARG_SIZ, "Options prefix '%s' is too long (at most %d characters)", prefix, (int)sizeof(pd->prefix) - 1);
+  PetscCall(PetscStrncpy(pd->prefix, prefix ? prefix : "", sizeof(pd->prefix)));
+  PetscCall(SubSolverPrefixes(pd));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDAppendOptionsPrefix(VKPD pd, const char prefix[])
+{
+  char p[sizeof(pd->prefix)];
+
+  PetscFunctionBegin;
+  PetscCheck(strlen(pd->prefix) + (prefix ? strlen(prefix) : 0) < sizeof(pd->prefix), pd->comm, PETSC_ERR_ARG_SIZ, "Options prefix '%s%s' is too long (at most %d characters)", pd->prefix, prefix ? prefix : "", (int)sizeof(pd->prefix) - 1);
+  PetscCall(PetscSNPrintf(p, sizeof(p), "%s%s", pd->prefix, prefix ? prefix : ""));
+  PetscCall(VKPDSetOptionsPrefix(pd, p));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGetOptionsPrefix(VKPD pd, const char *prefix[])
+{
+  PetscFunctionBegin;
+  *prefix = pd->prefix;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKPDSetFromOptions(VKPD pd)
 {
   PetscFunctionBegin;
-  PetscOptionsBegin(pd->comm, NULL, "Projective dynamics (DESIGN section 7)", "VKPD");
+  PetscOptionsBegin(pd->comm, pd->prefix, "Projective dynamics (DESIGN section 7)", "VKPD");
   PetscCall(PetscOptionsEnum("-pd_type", "Solver of each step: pd (local/global iterations) or lbfgs (L-BFGS with K^-1 as initial inverse Hessian, Liu et al. 2017)", "VKPDSolve", VKPDTypes, (PetscEnum)pd->type, (PetscEnum *)&pd->type, NULL));
   PetscCall(PetscOptionsReal("-pd_ftol", "Stop when |grad Phi| <= ftol f_scale, f_scale = |M g| + |f_const| + handle and collider reactions (N)", "VKPDSolve", pd->ftol, &pd->ftol, NULL));
   PetscCall(PetscOptionsReal("-pd_rtol", "Also stop when |grad Phi| <= rtol |grad Phi(x0)| (0: off; the initial residual depends on the inertial predictor)", "VKPDSolve", pd->rtol, &pd->rtol, NULL));
@@ -162,23 +234,27 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsInt("-pd_chebyshev_delay", "Plain PD iterations before the acceleration starts", "VKPDSolve", pd->cheb_delay, &pd->cheb_delay, NULL));
   PetscCall(PetscOptionsInt("-pd_newton_its", "Newton iterations (exact Hessian, SNES prefix -pd_newton_) after PD", "VKPDSolve", pd->newton_its, &pd->newton_its, NULL));
   PetscCall(PetscOptionsReal("-pd_newton_rtol", "Newton stops when |grad Phi| <= rtol |grad Phi(x0)|", "VKPDSolve", pd->newton_rtol, &pd->newton_rtol, NULL));
+  PetscOptionsEnd();
+  /* what the scene holds and how hard colliders push are the model, not the
+   * solver: one setting for every PD (the fit's too), without the prefix */
+  PetscOptionsBegin(pd->comm, NULL, "Projective dynamics: the model, shared by every PD", "VKPD");
   PetscCall(PetscOptionsEnum("-pd_handle_nodes", "Mesh nodes a scene handle holds: embedded (the nodes of every tet that embeds a yarn vertex in the box, so the embedded yarns move as in volknit yls) or box (the nodes in the box)", "VKPDSetUp", VKPDHandleNodesTypes, (PetscEnum)pd->handle_nodes, (PetscEnum *)&pd->handle_nodes, NULL));
   PetscCall(PetscOptionsReal("-pd_contact_weight", "Weight of the collider constraints relative to each node's diagonal of K (penetration ~ force / weight)", "VKPDSolve", pd->contact_weight, &pd->contact_weight, NULL));
   PetscOptionsEnd();
   PetscCheck(pd->contact_weight > 0 && pd->contact_weight < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_contact_weight must be positive and finite, got %g", (double)pd->contact_weight);
-  PetscCheck(pd->rtol >= 0 && pd->rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_rtol must be in [0, 1), got %g", (double)pd->rtol);
-  PetscCheck(pd->atol >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_atol must be >= 0, got %g", (double)pd->atol);
-  PetscCheck(pd->ftol >= 0 && pd->ftol < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_ftol must be >= 0 and finite, got %g", (double)pd->ftol);
-  PetscCheck(pd->fixed_its || pd->ftol > 0 || pd->atol > 0 || pd->rtol > 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_ftol, -pd_atol and -pd_rtol are all 0: no solve could converge (for a fixed iteration count use -pd_fixed_its)");
-  PetscCheck(pd->lbfgs_switch >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_lbfgs_switch must be >= 0, got %d", (int)pd->lbfgs_switch);
-  PetscCheck(pd->lbfgs_m >= 1 && pd->lbfgs_m <= 100, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_lbfgs_m must be in [1, 100], got %d", (int)pd->lbfgs_m);
-  PetscCheck(pd->max_it >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_max_it must be >= 1, got %d", (int)pd->max_it);
-  PetscCheck(pd->cheb_rho >= 0 && pd->cheb_rho < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_rho must be in [0, 1), got %g", (double)pd->cheb_rho);
-  PetscCheck(pd->cheb_gamma > 0 && pd->cheb_gamma <= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_gamma must be in (0, 1], got %g", (double)pd->cheb_gamma);
-  PetscCheck(pd->cheb_delay >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_chebyshev_delay must be >= 1, got %d", (int)pd->cheb_delay);
-  PetscCheck(pd->type == VK_PD_TYPE_PD || pd->cheb_rho == 0, pd->comm, PETSC_ERR_ARG_INCOMP, "-pd_chebyshev_rho accelerates -pd_type pd, not -pd_type %s", VKPDTypes[pd->type]);
-  PetscCheck(pd->newton_its >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_newton_its must be >= 0, got %d", (int)pd->newton_its);
-  PetscCheck(pd->newton_rtol >= 0 && pd->newton_rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_newton_rtol must be in [0, 1), got %g", (double)pd->newton_rtol);
+  PetscCheck(pd->rtol >= 0 && pd->rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_rtol must be in [0, 1), got %g", pd->prefix, (double)pd->rtol);
+  PetscCheck(pd->atol >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_atol must be >= 0, got %g", pd->prefix, (double)pd->atol);
+  PetscCheck(pd->ftol >= 0 && pd->ftol < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_ftol must be >= 0 and finite, got %g", pd->prefix, (double)pd->ftol);
+  PetscCheck(pd->fixed_its || pd->ftol > 0 || pd->atol > 0 || pd->rtol > 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_ftol, -%spd_atol and -%spd_rtol are all 0: no solve could converge (for a fixed iteration count use -%spd_fixed_its)", pd->prefix, pd->prefix, pd->prefix, pd->prefix);
+  PetscCheck(pd->lbfgs_switch >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_lbfgs_switch must be >= 0, got %d", pd->prefix, (int)pd->lbfgs_switch);
+  PetscCheck(pd->lbfgs_m >= 1 && pd->lbfgs_m <= 100, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_lbfgs_m must be in [1, 100], got %d", pd->prefix, (int)pd->lbfgs_m);
+  PetscCheck(pd->max_it >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_max_it must be >= 1, got %d", pd->prefix, (int)pd->max_it);
+  PetscCheck(pd->cheb_rho >= 0 && pd->cheb_rho < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_chebyshev_rho must be in [0, 1), got %g", pd->prefix, (double)pd->cheb_rho);
+  PetscCheck(pd->cheb_gamma > 0 && pd->cheb_gamma <= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_chebyshev_gamma must be in (0, 1], got %g", pd->prefix, (double)pd->cheb_gamma);
+  PetscCheck(pd->cheb_delay >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_chebyshev_delay must be >= 1, got %d", pd->prefix, (int)pd->cheb_delay);
+  PetscCheck(pd->type == VK_PD_TYPE_PD || pd->cheb_rho == 0, pd->comm, PETSC_ERR_ARG_INCOMP, "-%spd_chebyshev_rho accelerates -%spd_type pd, not -%spd_type %s", pd->prefix, pd->prefix, pd->prefix, VKPDTypes[pd->type]);
+  PetscCheck(pd->newton_its >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_newton_its must be >= 0, got %d", pd->prefix, (int)pd->newton_its);
+  PetscCheck(pd->newton_rtol >= 0 && pd->newton_rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_newton_rtol must be in [0, 1), got %g", pd->prefix, (double)pd->newton_rtol);
   PetscCall(KSPSetFromOptions(pd->ksp));
   {
     PC             pc;
@@ -192,7 +268,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
       if (st) PetscCall(PetscStrcmp(st, MATSOLVERCHOLMOD, &ischolmod));
     }
     PetscCallMPI(MPI_Comm_size(pd->comm, &size));
-    PetscCheck(!ischolmod || size == 1, pd->comm, PETSC_ERR_SUP, "-pd_global_pc_factor_mat_solver_type cholmod is sequential; with %d ranks use mumps or -pd_global_pc_type columns", (int)size);
+    PetscCheck(!ischolmod || size == 1, pd->comm, PETSC_ERR_SUP, "-%spd_global_pc_factor_mat_solver_type cholmod is sequential; with %d ranks use mumps or -%spd_global_pc_type columns", pd->prefix, (int)size, pd->prefix);
   }
   PetscFunctionReturn(0);
 }
@@ -444,7 +520,7 @@ PetscErrorCode VKPDView(VKPD pd, PetscViewer viewer)
     if (pd->kset) PetscCall(PetscViewerASCIIPrintf(viewer, "  f_scale parts: |M g| %g N, unit-strain force %g N (used only when gravity, constant force and reactions vanish)\n", (double)pd->f_gravity, (double)pd->f_unit));
   }
   PetscCall(PetscViewerASCIIPushTab(viewer));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "global step (prefix -pd_global_):\n"));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "global step (prefix -%spd_global_):\n", pd->prefix));
   PetscCall(KSPView(pd->ksp, viewer));
   PetscCall(PetscViewerASCIIPopTab(viewer));
   PetscFunctionReturn(0);

@@ -88,7 +88,11 @@ static PetscErrorCode NewtonCreate(VKPD pd)
 
   PetscFunctionBegin;
   PetscCall(SNESCreate(pd->comm, &pd->snes));
-  PetscCall(SNESSetOptionsPrefix(pd->snes, "pd_newton_"));
+  {
+    char p[sizeof(pd->prefix) + 16];
+    PetscCall(PetscSNPrintf(p, sizeof(p), "%spd_newton_", pd->prefix));
+    PetscCall(SNESSetOptionsPrefix(pd->snes, p));
+  }
   PetscCall(SNESSetType(pd->snes, SNESNEWTONLS));
   PetscCall(SNESGetLineSearch(pd->snes, &ls));
   PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
@@ -153,7 +157,11 @@ PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, V
   PetscFunctionBegin;
   if (!pd->pksp) {
     PetscCall(KSPCreate(pd->comm, &pd->pksp));
-    PetscCall(KSPSetOptionsPrefix(pd->pksp, "pd_pnewton_"));
+    {
+      char p[sizeof(pd->prefix) + 16];
+      PetscCall(PetscSNPrintf(p, sizeof(p), "%spd_pnewton_", pd->prefix));
+      PetscCall(KSPSetOptionsPrefix(pd->pksp, p));
+    }
     PetscCall(VKKSPSetMUMPS(pd->pksp, PCLU));
     PetscCall(KSPSetFromOptions(pd->pksp));
   }

@@ -57,7 +57,7 @@ static PetscErrorCode TSStep_PD(TS ts)
     last = PETSC_TRUE;
   }
   PetscCall(VKPDSetTimeStep(pd, dt));
-  pd->step = ts->steps + 1;
+  PetscCall(VKPDSetStepNumber(pd, ts->steps + 1));
   PetscCall(VecCopy(x, p->xprev));
   PetscCall(VecWAXPY(p->y, dt, p->v, x));
   PetscCall(VecGetLocalSize(p->y, &n));
