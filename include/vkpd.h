@@ -43,7 +43,11 @@
  * right-hand side solved on different ranks, each rank with a sequential
  * factorization of the whole operator (registered by VKPDCreate). */
 #define PCCOLUMNS "columns"
-PETSC_EXTERN PetscErrorCode VKPCColumnsRegister(void);
+PETSC_EXTERN PetscErrorCode VKPCCreate_Columns(PC);
+/* Registers the PC type columns and the TS type pd (src/sim/package.c);
+ * the driver calls it at start-up, VKPDCreate and VKSimCreate for library
+ * users. */
+PETSC_EXTERN PetscErrorCode VKSimInitializePackage(void);
 /* The sequential solver of this rank (after set-up). */
 PETSC_EXTERN PetscErrorCode VKPCColumnsGetKSP(PC, KSP *);
 /* The default solver of a scalar SPD matrix with three right-hand sides

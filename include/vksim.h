@@ -16,9 +16,8 @@
 #include <petscts.h>
 
 #define TSPD "pd"
-/* Register the TS type "pd" (done by VKSimCreate; call it to use the type
- * directly with TSSetType). */
-PETSC_EXTERN PetscErrorCode VKTSPDRegister(void);
+/* The TS type "pd", registered by VKSimInitializePackage. */
+PETSC_EXTERN PetscErrorCode VKTSCreate_PD(TS);
 /* The PD solver a TS of type "pd" uses, and its velocity vector. */
 PETSC_EXTERN PetscErrorCode VKTSPDSetSolver(TS, VKPD);
 PETSC_EXTERN PetscErrorCode VKTSPDGetVelocity(TS, Vec *);

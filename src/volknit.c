@@ -4,6 +4,7 @@
  * MPI_Abort, so that no rank is left waiting in a collective. */
 #include <vkapp.h>
 #include <slepcsys.h>
+#include <vkpd.h>
 
 static const char help[] = "volknit: volumetric homogenization of knitwear.\n"
                            "Usage: volknit <command> [options]   (volknit <command> -help lists its options)\n";
@@ -42,6 +43,7 @@ int main(int argc, char **argv)
     argc--;
   }
   PetscCall(SlepcInitialize(&argc, &argv, NULL, help)); /* SLEPc: the harmonic bases of the fitting */
+  PetscCall(VKSimInitializePackage());                  /* the TS type pd and the PC type columns */
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   if (!cmd) {
     PetscCall(PetscOptionsHasHelp(NULL, &hashelp));

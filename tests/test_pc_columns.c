@@ -211,7 +211,7 @@ int main(int argc, char **argv)
   PetscFunctionBeginUser;
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
   VKTestInit(PETSC_COMM_WORLD);
-  PetscCall(VKPCColumnsRegister());
+  PetscCall(VKSimInitializePackage());
   PetscCall(Laplacian(12, 0.5, &K));
   PetscCall(TestMatSolve(K, 3));
   PetscCall(TestMatSolve(K, 5));

@@ -304,7 +304,7 @@ static PetscErrorCode TestTSMomentum(VKMaterial mat)
   PetscCall(VKSceneSetUp(s, lo, hi));
   PetscCall(VKPDCreate(mat, s, &pd));
   pd->max_it = 7; /* any tolerance: momentum holds at every iteration */
-  PetscCall(VKTSPDRegister());
+  PetscCall(VKSimInitializePackage());
   PetscCall(TSCreate(m->comm, &ts));
   PetscCall(TSSetType(ts, TSPD));
   PetscCall(VKTSPDSetSolver(ts, pd));

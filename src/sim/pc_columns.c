@@ -252,7 +252,7 @@ static PetscErrorCode PCView_Columns(PC pc, PetscViewer viewer)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode PCCreate_Columns(PC pc)
+PetscErrorCode VKPCCreate_Columns(PC pc)
 {
   PC_Columns *c;
 
@@ -280,24 +280,13 @@ PetscErrorCode VKPCColumnsGetKSP(PC pc, KSP *ksp)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKPCColumnsRegister(void)
-{
-  static PetscBool done = PETSC_FALSE;
-
-  PetscFunctionBegin;
-  if (done) PetscFunctionReturn(0);
-  PetscCall(PCRegister(PCCOLUMNS, PCCreate_Columns));
-  done = PETSC_TRUE;
-  PetscFunctionReturn(0);
-}
-
 PetscErrorCode VKKSPSetDirectSolver(KSP ksp)
 {
   PC          pc;
   PetscMPIInt size;
 
   PetscFunctionBegin;
-  PetscCall(VKPCColumnsRegister());
+  PetscCall(VKSimInitializePackage());
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)ksp), &size));
   PetscCall(KSPGetPC(ksp, &pc));

@@ -30,8 +30,7 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   VKPD pd;
 
   PetscFunctionBegin;
-  PetscCall(VKInitializePackage());
-  PetscCall(VKPCColumnsRegister());
+  PetscCall(VKSimInitializePackage());
   PetscCall(PetscNew(&pd));
   pd->comm        = mat->comm;
   pd->mesh        = mat->mesh;

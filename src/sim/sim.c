@@ -12,7 +12,7 @@ PetscErrorCode VKSimCreate(VKMaterial mat, VKScene scene, VKSim *simout)
   VKSim sim;
 
   PetscFunctionBegin;
-  PetscCall(VKTSPDRegister());
+  PetscCall(VKSimInitializePackage());
   PetscCall(PetscNew(&sim));
   sim->comm  = mat->comm;
   sim->mesh  = mat->mesh;
@@ -106,6 +106,7 @@ PetscErrorCode VKSimSetUp(VKSim sim)
 
   PetscFunctionBegin;
   if (sim->setup) PetscFunctionReturn(0);
+  PetscCall(PetscLogStagePush(VK_STAGE_SIM)); /* the PD set-up (assembly, factorization) is the sim's */
   PetscCall(VKCurvesBoundingBox(&sim->mesh->yarn->curves, lo, hi));
   PetscCall(VKSceneSetUp(sim->scene, lo, hi));
   PetscCall(TSGetTimeStep(sim->ts, &dt));
@@ -136,6 +137,7 @@ PetscErrorCode VKSimSetUp(VKSim sim)
   PetscCall(TSMonitorSet(sim->ts, OutputMonitor, sim, NULL));
   PetscCall(TSSetUp(sim->ts));
   sim->setup = PETSC_TRUE;
+  PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
 

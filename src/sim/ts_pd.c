@@ -146,7 +146,7 @@ static PetscErrorCode TSView_PD(TS ts, PetscViewer viewer)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode TSCreate_PD(TS ts)
+PetscErrorCode VKTSCreate_PD(TS ts)
 {
   TS_PD *p = NULL;
 
@@ -160,17 +160,6 @@ static PetscErrorCode TSCreate_PD(TS ts)
   ts->ops->view           = TSView_PD;
   ts->default_adapt_type  = TSADAPTNONE;
   ts->usessnes            = PETSC_FALSE;
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode VKTSPDRegister(void)
-{
-  static PetscBool done = PETSC_FALSE;
-
-  PetscFunctionBegin;
-  if (done) PetscFunctionReturn(0);
-  PetscCall(TSRegister(TSPD, TSCreate_PD));
-  done = PETSC_TRUE;
   PetscFunctionReturn(0);
 }
 
