@@ -91,7 +91,9 @@ struct _n_VKMaterial {
   VKStretchBand band;                    /* one for the whole mesh (-mat_band) */
   PetscBool     band_set;                /* set by VKMaterialSetStretchBand (-mat_band): a file's band must agree */
   char      file[PETSC_MAX_PATH_LEN];    /* per-element values (-mat_file) */
-  PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v */
+  PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v (change them by VKMaterialSetGamma) */
+  PetscObjectState state;                /* raised by every change of gamma */
+  PetscObjectState *domain_state;        /* per mesh domain: raised when one of its owned tets changes */
   PetscBool setup;
 };
 PETSC_EXTERN PetscErrorCode VKMaterialCreate(VKMesh, VKMaterial *);
@@ -102,6 +104,16 @@ PETSC_EXTERN PetscErrorCode VKMaterialSetFile(VKMaterial, const char path[]);
  * once set, VKMaterialLoadH5 refuses a file with another band. */
 PETSC_EXTERN PetscErrorCode VKMaterialSetStretchBand(VKMaterial, PetscReal lo, PetscReal hi);
 PETSC_EXTERN PetscErrorCode VKMaterialSetFromOptions(VKMaterial);
+/* gamma of the owned tets to and from a Vec of 2 entries per owned tet (g_s,
+ * g_v; VKMaterialCreateGammaVec).  SetGamma refuses negative or non-finite
+ * values and records what changed: the material's state and that of each
+ * domain with a changed tet, so that solvers built on the material (the PD
+ * global matrix, later per-domain factors) rebuild what they must. */
+PETSC_EXTERN PetscErrorCode VKMaterialCreateGammaVec(VKMaterial, Vec *);
+PETSC_EXTERN PetscErrorCode VKMaterialGetGamma(VKMaterial, Vec);
+PETSC_EXTERN PetscErrorCode VKMaterialSetGamma(VKMaterial, Vec);
+PETSC_EXTERN PetscErrorCode VKMaterialGetState(VKMaterial, PetscObjectState *);
+PETSC_EXTERN PetscErrorCode VKMaterialGetDomainState(VKMaterial, PetscInt domain, PetscObjectState *);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUp(VKMaterial);
 PETSC_EXTERN PetscErrorCode VKMaterialView(VKMaterial, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKMaterialDestroy(VKMaterial *);

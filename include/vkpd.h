@@ -79,7 +79,7 @@ PETSC_EXTERN const char *const VKPDTypes[];
 
 /* Which mesh nodes a scene handle holds (-pd_handle_nodes). */
 typedef enum {
-  VK_PD_HANDLE_EMBEDDED, /* every node of a tet that embeds a yarn vertex inside the box: the embedded yarns follow the handle exactly, as in volknit yls */
+  VK_PD_HANDLE_EMBEDDED, /* the nodes in the box and every node of a tet that embeds a yarn vertex inside it: the embedded yarns follow the handle exactly, as in volknit yls */
   VK_PD_HANDLE_BOX       /* the nodes inside the box */
 } VKPDHandleNodes;
 PETSC_EXTERN const char *const VKPDHandleNodesTypes[];
@@ -141,6 +141,7 @@ struct _n_VKPD {
    * contact[i] is set when x_i is inside a collider. */
   PetscReal  contact_weight;
   char       prefix[64]; /* options prefix (VKPDSetOptionsPrefix) */
+  PetscObjectState mat_state; /* of the material K was assembled with */
   VKPDHandleNodes handle_nodes;
   PetscReal *contact_w;
   PetscBool *contact;

@@ -10,7 +10,8 @@
  * norm equal those of a one-rank, one-domain build; material.h5 written
  * from this partition reads back tet by tet into the one-rank mesh; with a
  * stretch band the same partition independence, exact J and a round trip
- * of the band through material.h5. */
+ * of the band through material.h5; VKMaterialSetGamma records which
+ * domains changed and refuses negative values. */
 #include <vkmaterial.h>
 #include <vkio.h>
 #include "vktest.h"
@@ -25,14 +26,84 @@ static void CanonicalGamma(const PetscInt v[], PetscInt p, PetscReal g[])
 
 static PetscErrorCode SetCanonicalGamma(VKMaterial mat)
 {
-  VKMesh    m = mat->mesh;
-  VKLayout *L = &m->layout;
+  VKMesh       m = mat->mesh;
+  VKLayout    *L = &m->layout;
+  Vec          g;
+  PetscScalar *a;
 
   PetscFunctionBegin;
+  PetscCall(VKMaterialCreateGammaVec(mat, &g));
+  PetscCall(VecGetArray(g, &a));
   for (PetscInt k = 0; k < 6 * m->nvox; k++) {
     PetscInt e = m->tet_of_kuhn[k];
-    if (e >= L->eStart && e < L->eEnd) CanonicalGamma(m->vox + 3 * (k / 6), k % 6, mat->gamma + 2 * (e - L->eStart));
+    if (e >= L->eStart && e < L->eEnd) CanonicalGamma(m->vox + 3 * (k / 6), k % 6, a + 2 * (e - L->eStart));
   }
+  PetscCall(VecRestoreArray(g, &a));
+  PetscCall(VKMaterialSetGamma(mat, g));
+  PetscCall(VecDestroy(&g));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Build(MPI_Comm, PetscInt, VKYarn *, VKMesh *, VKMaterial *);
+
+/* VKMaterialSetGamma records what changed: one tet's g_s changed on the
+ * first rank raises the material's state once and the state of that tet's
+ * domain only; the same values again change nothing; a negative value is
+ * refused and leaves the material as it was. */
+static PetscErrorCode TestGammaState(MPI_Comm comm)
+{
+  VKYarn           y;
+  VKMesh           m;
+  VKMaterial       mat;
+  Vec              g;
+  PetscScalar     *a;
+  PetscObjectState s0, s1, s2, *d0, *d1;
+  PetscMPIInt      rank, size;
+  PetscInt         nd, target = -1, others = 0, err;
+  PetscReal        before;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCall(Build(comm, 2 * size, &y, &m, &mat));
+  nd = m->ndomains;
+  PetscCall(PetscMalloc2(nd, &d0, nd, &d1));
+  PetscCall(VKMaterialGetState(mat, &s0));
+  for (PetscInt d = 0; d < nd; d++) PetscCall(VKMaterialGetDomainState(mat, d, &d0[d]));
+  PetscCall(VKMaterialCreateGammaVec(mat, &g));
+  PetscCall(VKMaterialGetGamma(mat, g));
+  PetscCall(VecGetArray(g, &a));
+  if (rank == 0) {
+    a[0] *= 2;
+    target = m->tet_domain[m->layout.eStart];
+  }
+  PetscCall(VecRestoreArray(g, &a));
+  PetscCall(VKMaterialSetGamma(mat, g));
+  PetscCall(VKMaterialGetState(mat, &s1));
+  for (PetscInt d = 0; d < nd; d++) {
+    PetscCall(VKMaterialGetDomainState(mat, d, &d1[d]));
+    if (d != target && d1[d] != d0[d]) others++;
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &others, 1, MPIU_INT, MPI_SUM, comm));
+  PetscCallMPI(MPI_Bcast(&target, 1, MPIU_INT, 0, comm));
+  PetscCall(VKTestCheck((PetscBool)(s1 == s0 + 1 && others == 0 && (rank != 0 || d1[target] == d0[target] + 1)), NULL, "VKMaterialSetGamma: one tet changed in domain %d of %d raises the material state by %d (1) and no other domain's state (%d changed)", (int)target, (int)nd, (int)(s1 - s0), (int)others));
+  PetscCall(VKMaterialSetGamma(mat, g));
+  PetscCall(VKMaterialGetState(mat, &s2));
+  PetscCall(VKTestCheck((PetscBool)(s2 == s1), NULL, "VKMaterialSetGamma with the values it has leaves the state alone (%d -> %d)", (int)s1, (int)s2));
+  before = mat->gamma[1];
+  PetscCall(VecGetArray(g, &a));
+  if (rank == size - 1) a[1] = -1;
+  PetscCall(VecRestoreArray(g, &a));
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+  err = VKMaterialSetGamma(mat, g);
+  PetscCall(PetscPopErrorHandler());
+  PetscCall(VKMaterialGetState(mat, &s2));
+  PetscCall(VKTestCheck((PetscBool)(err == PETSC_ERR_FP && s2 == s1 && mat->gamma[1] == before), NULL, "VKMaterialSetGamma refuses a negative g_v (error %d) and leaves the material and its state as they were", (int)err));
+  PetscCall(PetscFree2(d0, d1));
+  PetscCall(VecDestroy(&g));
+  PetscCall(VKMaterialDestroy(&mat));
+  PetscCall(VKMeshDestroy(&m));
+  PetscCall(VKYarnDestroy(&y));
   PetscFunctionReturn(0);
 }
 
@@ -129,6 +200,7 @@ int main(int argc, char **argv)
   PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(TestGammaState(PETSC_COMM_WORLD));
   PetscCall(Build(PETSC_COMM_WORLD, size, &y, &m, &mat));
   PetscCall(VKMeshCreateNodeVec(m, 3, &x));
   PetscCall(VecDuplicate(x, &dx));

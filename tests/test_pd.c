@@ -11,6 +11,7 @@
  *    every iteration, so this holds for any PD tolerance);
  *  - a handle holds the nodes of every tet that embeds a yarn vertex in its
  *    box, so the held yarn vertices follow the handle exactly;
+ *  - K follows a change of the material (VKMaterialSetGamma) by itself;
  *  - the same trajectory with 1 and 2 ranks (in-process against a
  *    one-rank build on PETSC_COMM_SELF).
  * ranks: 1 2
@@ -147,6 +148,39 @@ static PetscErrorCode TestEmbeddedHandles(VKMaterial mat)
   PetscCall(VecDestroy(&all));
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&y));
+  PetscCall(VKPDDestroy(&pd));
+  PetscCall(VKSceneDestroy(&s));
+  PetscFunctionReturn(0);
+}
+
+/* The PD sees VKMaterialSetGamma by the material's state: K is rebuilt at
+ * the next set-up, and rebuilt back when the material returns. */
+static PetscErrorCode TestMaterialChange(VKMaterial mat)
+{
+  VKScene   s;
+  VKPD      pd;
+  Vec       g;
+  PetscReal lo[3], hi[3], n0, n1, n2;
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(mat->comm, &s));
+  PetscCall(VKCurvesBoundingBox(&mat->mesh->yarn->curves, lo, hi));
+  PetscCall(VKSceneSetUp(s, lo, hi));
+  PetscCall(VKPDCreate(mat, s, &pd));
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(MatNorm(pd->K, NORM_FROBENIUS, &n0));
+  PetscCall(VKMaterialCreateGammaVec(mat, &g));
+  PetscCall(VKMaterialGetGamma(mat, g));
+  PetscCall(VecScale(g, 2));
+  PetscCall(VKMaterialSetGamma(mat, g));
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(MatNorm(pd->K, NORM_FROBENIUS, &n1));
+  PetscCall(VecScale(g, 0.5));
+  PetscCall(VKMaterialSetGamma(mat, g));
+  PetscCall(VKPDSetUp(pd));
+  PetscCall(MatNorm(pd->K, NORM_FROBENIUS, &n2));
+  PetscCall(VKTestCheck((PetscBool)(n1 > 1.01 * n0 && PetscAbsReal(n2 - n0) <= 1e-12 * n0), NULL, "K follows VKMaterialSetGamma without a call to the PD: |K| %.6e, with gamma doubled %.6e, back %.6e", (double)n0, (double)n1, (double)n2));
+  PetscCall(VecDestroy(&g));
   PetscCall(VKPDDestroy(&pd));
   PetscCall(VKSceneDestroy(&s));
   PetscFunctionReturn(0);
@@ -414,6 +448,7 @@ int main(int argc, char **argv)
   PetscCall(Build(PETSC_COMM_WORLD, &y, &m, &mat));
   PetscCall(TestRestEquilibrium(mat));
   PetscCall(TestEmbeddedHandles(mat));
+  PetscCall(TestMaterialChange(mat));
   PetscCall(TestMonotoneAndNewton(mat));
   PetscCall(TestTSMomentum(mat));
   PetscCall(TestRanks(mat));

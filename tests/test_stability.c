@@ -83,12 +83,20 @@ static PetscErrorCode Setup(Patch *p, Scene which, PetscReal gz, VKScene *s, Pet
   }
   PetscCall(VKMaterialSetUp(p->mat));
   if (which == VOID) {
-    PetscReal cx = m->grid.origin[0] + 0.5 * m->grid.h * m->grid.dims[0];
+    PetscReal    cx = m->grid.origin[0] + 0.5 * m->grid.h * m->grid.dims[0];
+    Vec          g;
+    PetscScalar *a;
+    PetscCall(VKMaterialCreateGammaVec(p->mat, &g));
+    PetscCall(VKMaterialGetGamma(p->mat, g));
+    PetscCall(VecGetArray(g, &a));
     for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
       const PetscInt *t = m->tet + 4 * (L->eStart + e);
       PetscReal       x = 0.25 * (m->x[3 * t[0]] + m->x[3 * t[1]] + m->x[3 * t[2]] + m->x[3 * t[3]]);
-      if (x < cx) p->mat->gamma[2 * e] = p->mat->gamma[2 * e + 1] = 0;
+      if (x < cx) a[2 * e] = a[2 * e + 1] = 0;
     }
+    PetscCall(VecRestoreArray(g, &a));
+    PetscCall(VKMaterialSetGamma(p->mat, g));
+    PetscCall(VecDestroy(&g));
   }
   if (which == DT30) {
     *dt = 1.0 / 30;

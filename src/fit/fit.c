@@ -235,42 +235,22 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
 
 PetscErrorCode VKFitCreateGammaVec(VKFit fit, Vec *g)
 {
-  const VKLayout *L = &fit->mesh->layout;
-
   PetscFunctionBegin;
-  PetscCall(VecCreateMPI(fit->comm, 2 * (L->eEnd - L->eStart), 2 * fit->mesh->ne, g));
+  PetscCall(VKMaterialCreateGammaVec(fit->mat, g));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKFitGetGamma(VKFit fit, Vec g)
 {
-  const VKLayout *L = &fit->mesh->layout;
-  PetscScalar    *a;
-
   PetscFunctionBegin;
-  PetscCall(VKMaterialSetUp(fit->mat));
-  PetscCall(VecGetArray(g, &a));
-  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) a[i] = fit->mat->gamma[i];
-  PetscCall(VecRestoreArray(g, &a));
+  PetscCall(VKMaterialGetGamma(fit->mat, g));
   PetscFunctionReturn(0);
 }
 
+/* the PD sees the material's state change and rebuilds K at its next set-up */
 PetscErrorCode VKFitSetGamma(VKFit fit, Vec g)
 {
-  const VKLayout    *L = &fit->mesh->layout;
-  const PetscScalar *a;
-  PetscInt           bad = -1, any;
-
   PetscFunctionBegin;
-  PetscCall(VKMaterialSetUp(fit->mat));
-  PetscCall(VecGetArrayRead(g, &a));
-  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) {
-    if (!(a[i] >= 0 && a[i] < PETSC_INFINITY) && bad < 0) bad = 2 * L->eStart + i;
-    fit->mat->gamma[i] = a[i];
-  }
-  PetscCall(VecRestoreArrayRead(g, &a));
-  PetscCallMPI(MPI_Allreduce(&bad, &any, 1, MPIU_INT, MPI_MAX, fit->comm));
-  PetscCheck(any < 0, fit->comm, PETSC_ERR_FP, "Material parameter %d (tet %d, %s) is negative or not finite", (int)any, (int)(any / 2), any % 2 ? "g_v" : "g_s");
-  PetscCall(VKPDMaterialChanged(fit->pd));
+  PetscCall(VKMaterialSetGamma(fit->mat, g));
   PetscFunctionReturn(0);
 }

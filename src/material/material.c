@@ -34,6 +34,7 @@ PetscErrorCode VKMaterialDestroy(VKMaterial *mat)
   PetscFunctionBegin;
   if (!*mat) PetscFunctionReturn(0);
   PetscCall(PetscFree((*mat)->gamma));
+  PetscCall(PetscFree((*mat)->domain_state));
   PetscCall(PetscFree(*mat));
   PetscFunctionReturn(0);
 }
@@ -101,7 +102,73 @@ PetscErrorCode VKMaterialSetUp(VKMaterial m)
       m->gamma[2 * e]     = m->gamma_s;
       m->gamma[2 * e + 1] = m->gamma_v;
     }
+  if (!m->domain_state) PetscCall(PetscCalloc1(m->mesh->ndomains + 1, &m->domain_state));
+  m->state++;
   m->setup = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialCreateGammaVec(VKMaterial m, Vec *g)
+{
+  const VKLayout *L = &m->mesh->layout;
+
+  PetscFunctionBegin;
+  PetscCall(VecCreateMPI(m->comm, 2 * (L->eEnd - L->eStart), 2 * m->mesh->ne, g));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetGamma(VKMaterial m, Vec g)
+{
+  const VKLayout *L = &m->mesh->layout;
+  PetscScalar    *a;
+
+  PetscFunctionBegin;
+  PetscCall(VKMaterialSetUp(m));
+  PetscCall(VecGetArray(g, &a));
+  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) a[i] = m->gamma[i];
+  PetscCall(VecRestoreArray(g, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialSetGamma(VKMaterial m, Vec g)
+{
+  const VKLayout    *L = &m->mesh->layout;
+  const PetscScalar *a;
+  PetscInt           bad = -1, any, changed = 0, anychanged;
+
+  PetscFunctionBegin;
+  PetscCall(VKMaterialSetUp(m));
+  PetscCall(VecGetArrayRead(g, &a));
+  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart) && bad < 0; i++)
+    if (!(a[i] >= 0 && a[i] < PETSC_INFINITY)) bad = 2 * L->eStart + i;
+  PetscCallMPI(MPI_Allreduce(&bad, &any, 1, MPIU_INT, MPI_MAX, m->comm));
+  if (any >= 0) PetscCall(VecRestoreArrayRead(g, &a));
+  PetscCheck(any < 0, m->comm, PETSC_ERR_FP, "Material parameter %d (tet %d, %s) is negative or not finite; the material is left as it was", (int)any, (int)(any / 2), any % 2 ? "g_v" : "g_s");
+  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) {
+    if (a[i] != m->gamma[i]) {
+      m->domain_state[m->mesh->tet_domain[L->eStart + i / 2]]++;
+      changed = 1;
+    }
+    m->gamma[i] = a[i];
+  }
+  PetscCall(VecRestoreArrayRead(g, &a));
+  PetscCallMPI(MPI_Allreduce(&changed, &anychanged, 1, MPIU_INT, MPI_MAX, m->comm));
+  if (anychanged) m->state++;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetState(VKMaterial m, PetscObjectState *state)
+{
+  PetscFunctionBegin;
+  *state = m->state;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetDomainState(VKMaterial m, PetscInt d, PetscObjectState *state)
+{
+  PetscFunctionBegin;
+  PetscCheck(d >= 0 && d < m->mesh->ndomains, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "Domain %d of a mesh of %d domains", (int)d, (int)m->mesh->ndomains);
+  *state = m->domain_state ? m->domain_state[d] : 0;
   PetscFunctionReturn(0);
 }
 
@@ -284,6 +351,9 @@ PetscErrorCode VKMaterialLoadH5(VKMaterial m, const char path[])
   if (!m->gamma) PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->gamma));
   VKCallCollective(m->comm, LoadMaterial(m, path));
   PetscCall(PetscStrncpy(m->file, path, sizeof(m->file)));
+  if (!m->domain_state) PetscCall(PetscCalloc1(m->mesh->ndomains + 1, &m->domain_state));
+  for (PetscInt d = 0; d < m->mesh->ndomains; d++) m->domain_state[d]++;
+  m->state++;
   m->setup = PETSC_TRUE;
   PetscFunctionReturn(0);
 }

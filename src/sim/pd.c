@@ -237,7 +237,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   /* what the scene holds and how hard colliders push are the model, not the
    * solver: one setting for every PD (the fit's too), without the prefix */
   PetscOptionsBegin(pd->comm, NULL, "Projective dynamics: the model, shared by every PD", "VKPD");
-  PetscCall(PetscOptionsEnum("-pd_handle_nodes", "Mesh nodes a scene handle holds: embedded (the nodes of every tet that embeds a yarn vertex in the box, so the embedded yarns move as in volknit yls) or box (the nodes in the box)", "VKPDSetUp", VKPDHandleNodesTypes, (PetscEnum)pd->handle_nodes, (PetscEnum *)&pd->handle_nodes, NULL));
+  PetscCall(PetscOptionsEnum("-pd_handle_nodes", "Mesh nodes a scene handle holds: embedded (the nodes in the box and those of every tet that embeds a yarn vertex in it, so the embedded yarns move as in volknit yls) or box (the nodes in the box only)", "VKPDSetUp", VKPDHandleNodesTypes, (PetscEnum)pd->handle_nodes, (PetscEnum *)&pd->handle_nodes, NULL));
   PetscCall(PetscOptionsReal("-pd_contact_weight", "Weight of the collider constraints relative to each node's diagonal of K (penetration ~ force / weight)", "VKPDSolve", pd->contact_weight, &pd->contact_weight, NULL));
   PetscOptionsEnd();
   PetscCheck(pd->contact_weight > 0 && pd->contact_weight < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_contact_weight must be positive and finite, got %g", (double)pd->contact_weight);
@@ -272,17 +272,21 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscFunctionReturn(0);
 }
 
-/* The handle of every mesh node (-1: free), by -pd_handle_nodes.  With
- * "embedded" a node takes the handle of any yarn vertex embedded in one of
- * its tets whose rest position (N x_rest) lies in the handle's box; a
- * node claimed by two handles takes the lower-numbered one, as a point in
- * two boxes does. */
+/* The handle of every mesh node (-1: free), by -pd_handle_nodes.  A node
+ * in a handle's box is held by it; with "embedded" a node also takes the
+ * handle of any yarn vertex embedded in one of its tets whose rest
+ * position (N x_rest) lies in the box, so every held yarn vertex follows
+ * its handle exactly.  (The box's own nodes stay held: a node without yarn
+ * mass between held ones would otherwise be free to slide where the
+ * material has no stiffness, e.g. inside a stretch band.)  A node claimed
+ * by two handles takes the lower-numbered one, as a point in two boxes
+ * does. */
 static PetscErrorCode NodeHandles(VKPD pd, PetscInt node_of[], PetscInt held[])
 {
   VKMesh mesh = pd->mesh;
 
   PetscFunctionBegin;
-  for (PetscInt i = 0; i < mesh->nv; i++) node_of[i] = pd->handle_nodes == VK_PD_HANDLE_BOX ? VKSceneHandleOf(pd->scene, mesh->x + 3 * i) : -1;
+  for (PetscInt i = 0; i < mesh->nv; i++) node_of[i] = VKSceneHandleOf(pd->scene, mesh->x + 3 * i);
   if (pd->handle_nodes == VK_PD_HANDLE_EMBEDDED) {
     PetscCheck(mesh->ny > 0, pd->comm, PETSC_ERR_ARG_WRONG, "-pd_handle_nodes embedded needs the mesh's yarn embedding, and this mesh has none; use -pd_handle_nodes box");
     for (PetscInt k = 0; k < mesh->ny; k++) {
@@ -452,6 +456,7 @@ static PetscErrorCode AssembleK(VKPD pd)
   PetscCall(MatSetOption(pd->Kel, MAT_SPD, PETSC_TRUE));
   PetscCall(KSPSetOperators(pd->ksp, pd->Kel, pd->Kel));
   PetscCall(KSPSetUp(pd->ksp));
+  PetscCall(VKMaterialGetState(pd->mat, &pd->mat_state));
   pd->kset = PETSC_TRUE;
   PetscCall(PetscLogEventEnd(VK_EVENT_PDSetUp, 0, 0, 0, 0));
   PetscFunctionReturn(0);
@@ -462,6 +467,11 @@ PetscErrorCode VKPDSetUp(VKPD pd)
   PetscFunctionBegin;
   PetscCheck(pd->scene->setup, pd->comm, PETSC_ERR_ORDER, "Call VKSceneSetUp() before VKPDSetUp()");
   PetscCall(VKMaterialSetUp(pd->mat));
+  if (pd->kset) { /* the material changed since K was built (VKMaterialSetGamma) */
+    PetscObjectState state;
+    PetscCall(VKMaterialGetState(pd->mat, &state));
+    if (state != pd->mat_state) pd->kset = PETSC_FALSE;
+  }
   if (pd->damping != pd->scene->damping) { /* -scene_damping is read after VKPDCreate */
     pd->damping = pd->scene->damping;
     pd->kset    = PETSC_FALSE;
