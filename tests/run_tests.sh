@@ -104,6 +104,11 @@ if timeout "$TIMEOUT" bin/volknit mesh -yarn_pattern rib1x1 -yarn_wales 30 -yarn
    && timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 > "$d30.sim.log" 2>&1 \
    && [ -s "$d30/sim.h5" ]; then ok
 else not_ok "30 x 30 rib: volknit mesh to file, then volknit sim -n 2 from it (see $d30.mesh.log, $d30.sim.log)"; fi
+# a mesh of 1 domain simulated on 2 ranks: said, not silently all on rank 0
+if timeout "$TIMEOUT" bin/volknit mesh -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -dd_domains 1 -o "$out/dd1" > "$out/dd1.log" 2>&1 \
+   && timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$out/dd1" -scene_duration 0.01 >> "$out/dd1.log" 2>&1 \
+   && grep -q 'WARNING: the mesh has 1 domain for 2 ranks, so 1 rank holds no tets' "$out/dd1.log"; then ok
+else not_ok "a 1-domain mesh on 2 ranks: expected the warning that rank 1 holds no tets (see $out/dd1.log)"; fi
 # a duration that is no multiple of the step (1/150 s) or of the output
 # interval (1/30 s): the frames fall on k x the interval and the last one
 # on the duration (the last step is shortened)

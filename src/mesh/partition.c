@@ -117,12 +117,14 @@ PetscErrorCode VKMeshPartition(VKMesh m)
   PetscFunctionReturn(0);
 }
 
-/* Rank ranges from the domain ranges: domain d lives on rank floor(d P / D). */
+/* Rank ranges from the domain ranges: domain d lives on rank floor(d P / D).
+ * With fewer domains than ranks some ranks hold nothing: said on stderr. */
 PetscErrorCode VKMeshFinishDomains(VKMesh m)
 {
   PetscInt D = m->ndomains, P = m->size;
 
   PetscFunctionBegin;
+  if (D < P) PetscCall(PetscFPrintf(m->comm, PETSC_STDERR, "volknit: WARNING: the mesh has %d domain%s for %d ranks, so %d rank%s no tets and do%s no work; write it with -dd_domains %d or more (volknit mesh)\n", (int)D, D == 1 ? "" : "s", (int)P, (int)(P - D), P - D == 1 ? " holds" : "s hold", P - D == 1 ? "es" : "", (int)P));
   PetscCall(PetscFree(m->rank_tet_start));
   PetscCall(PetscFree(m->rank_node_start));
   PetscCall(PetscMalloc1(P + 1, &m->rank_tet_start));
