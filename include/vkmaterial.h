@@ -23,7 +23,9 @@ PETSC_EXTERN void VKSVD3Compute(const PetscReal F[], VKSVD3 *);
 PETSC_EXTERN void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], VKSVD3 *);
 /* n <= VK_SVD3_BATCH matrices at once (F and W0: 9 n entries, W0 may be
  * NULL), faster per matrix than one at a time. */
-#define VK_SVD3_BATCH 4
+#ifndef VK_SVD3_BATCH
+  #define VK_SVD3_BATCH 4 /* doubles in a 256-bit vector; make ARCH='-march=native -DVK_SVD3_BATCH=8' for 512 */
+#endif
 PETSC_EXTERN void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKSVD3 svd[]);
 /* Eigen-decomposition of a symmetric 3x3 matrix: A = Q diag(l) Q^T. */
 PETSC_EXTERN void VKSymEig3(const PetscReal A[], PetscReal l[], PetscReal Q[]);
