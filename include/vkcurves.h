@@ -38,6 +38,12 @@ static inline PetscInt VKCurveNumSegments(const VKCurves *c, PetscInt i)
 PETSC_EXTERN PetscInt       VKCurvesNumSegments(const VKCurves *);
 /* seg[2 s], seg[2 s + 1]: the vertices of segment s (PetscMalloc'ed) */
 PETSC_EXTERN PetscErrorCode VKCurvesGetSegments(const VKCurves *, PetscInt *nseg, PetscInt **seg);
+/* One polyline per curve in XDMF's mixed-topology layout: for each curve
+ * 2 (the polyline cell type), its node count, then its vertices in order,
+ * the first repeated at the end of a closed curve (PetscMalloc'ed, *len
+ * entries), so ParaView's Tube filter draws each yarn as one smooth tube. */
+PETSC_EXTERN PetscErrorCode VKCurvesGetPolylines(const VKCurves *, PetscInt *len, PetscInt **cells);
+PETSC_EXTERN PetscInt       VKCurvesPolylineLength(const VKCurves *); /* len of the above */
 /* segment -> curve index (PetscMalloc'ed) */
 PETSC_EXTERN PetscErrorCode VKCurvesGetSegmentCurves(const VKCurves *, PetscInt **curve);
 PETSC_EXTERN PetscErrorCode VKCurvesLength(const VKCurves *, PetscReal *);

@@ -110,6 +110,9 @@ PETSC_EXTERN PetscErrorCode VKXdmfCollectionEnd(FILE *);
 PETSC_EXTERN PetscErrorCode VKXdmfTime(FILE *, PetscReal t);
 /* topology: "Tetrahedron" (4 nodes) or "Polyline" (2 nodes per segment) */
 PETSC_EXTERN PetscErrorCode VKXdmfTopology(FILE *, const char type[], PetscInt ncells, PetscInt nper, const char h5name[], const char dataset[]);
+/* a "Mixed" topology of ncells cells from a flat array of len entries
+ * (VKCurvesGetPolylines) */
+PETSC_EXTERN PetscErrorCode VKXdmfTopologyMixed(FILE *, PetscInt ncells, PetscInt len, const char h5name[], const char dataset[]);
 PETSC_EXTERN PetscErrorCode VKXdmfGeometry(FILE *, PetscInt npoints, const char h5name[], const char dataset[]);
 /* center "Node" or "Cell"; ncomp 1 (Scalar) or 3 (Vector); isint: Int or Float */
 PETSC_EXTERN PetscErrorCode VKXdmfAttribute(FILE *, const char name[], const char center[], PetscInt n, PetscInt ncomp, PetscBool isint, const char h5name[], const char dataset[]);

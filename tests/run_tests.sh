@@ -351,6 +351,22 @@ for key in best_uniform_gamma_s_Pa best_uniform_gamma_v_Pa; do
 done
 if close "$(json_num "$rd/s1/report/report.json" rel 1)" "$(json_num "$rd/s2/report/report.json" rel 1)" 1e-6; then ok
 else not_ok "run sweep: the uniform material's REL differs between 1 and 2 ranks"; fi
+# every dataset the XDMF files of runs on 1 and 2 ranks name (yarn, yls,
+# mesh, sim; yarns as one polyline per curve) exists with the stated shape
+xdmf_problems() { # file.xdmf: one line per DataItem whose dataset is missing or has another shape
+  local dir; dir=$(dirname "$1")
+  sed -n 's/.*Dimensions="\([0-9 ]*\)".*>\([^:<]*\):\([^<]*\)<.*/\1|\2|\3/p' "$1" | sort -u | while IFS='|' read -r dims file path; do
+    shape=$(h5ls "$dir/$file$path" 2>/dev/null | sed -n 's/.*Dataset {\([^}]*\)}.*/\1/p' | tr -d ',')
+    [ "$shape" = "$dims" ] || echo "$1: $file:$path is {$shape}, Dimensions \"$dims\""
+  done
+}
+for n in 1 2; do
+  files=$(find "$rd/s$n" -name '*.xdmf' | sort)
+  problems=$(for f in $files; do xdmf_problems "$f"; done)
+  nfiles=$(echo "$files" | grep -c xdmf)
+  if [ "$nfiles" -ge 4 ] && [ -z "$problems" ] && grep -q 'TopologyType="Mixed"' "$rd/s$n/yls.xdmf" "$rd/s$n/yarn.xdmf"; then ok
+  else not_ok "XDMF of the -n $n run ($nfiles files): $problems"; fi
+done
 stamp=$(stat -c %Y "$rd/s1/yls.h5" 2>/dev/null)
 if sweep_run "s1" 1 -run_sweep_material uniform && grep -q 'is up to date' "$rd/s1.log" && ! grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(stat -c %Y "$rd/s1/yls.h5")" = "$stamp" ]; then ok
 else not_ok "run sweep: the same reference options reran the yarn-level reference (see $rd/s1.log)"; fi

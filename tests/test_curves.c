@@ -4,7 +4,8 @@
  * from duplicate points), Catmull-Rom interpolation of the control points,
  * parallel-transport frames against an independent Rodrigues rotation,
  * the radius estimate on yarns at a known contact distance, projected
- * crossings, the radix sort and the spatial hash against brute force. */
+ * crossings, the radix sort and the spatial hash against brute force, and
+ * the one-polyline-per-curve layout of the XDMF outputs. */
 #include <vkcurves.h>
 #include <vkyarn.h>
 #include <vkutil.h>
@@ -13,6 +14,41 @@
 static PetscReal Dist(const PetscReal *a, const PetscReal *b)
 {
   return PetscSqrtReal(PetscSqr(a[0] - b[0]) + PetscSqr(a[1] - b[1]) + PetscSqr(a[2] - b[2]));
+}
+
+/* One polyline per curve (XDMF mixed topology): rebuilt from the cells,
+ * the curves of a knit come back vertex for vertex, closed ones closed. */
+static PetscErrorCode TestPolylines(void)
+{
+  VKYarn    y;
+  VKCurves  c;
+  PetscInt  len, *cells, k = 0, bad = 0, closed = 0, open = 0;
+  PetscReal ring[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+
+  PetscFunctionBegin;
+  PetscCall(VKYarnCreate(PETSC_COMM_SELF, &y));
+  PetscCall(VKYarnSetKnit(y, "rib1x1", 2, 2));
+  PetscCall(VKYarnSetUp(y));
+  PetscCall(VKCurvesAdd(&y->curves, 4, ring, PETSC_TRUE)); /* and a closed curve */
+  c = y->curves;
+  PetscCall(VKCurvesGetPolylines(&c, &len, &cells));
+  for (PetscInt i = 0; i < c.n && !bad; i++) {
+    PetscInt m = VKCurveSize(&c, i), nodes;
+    if (k + 2 > len || cells[k] != 2) bad = 1;
+    nodes = cells[k + 1];
+    k += 2;
+    if (bad || nodes != m + (c.closed[i] ? 1 : 0) || k + nodes > len) bad = 2;
+    for (PetscInt j = 0; j < m && !bad; j++)
+      if (cells[k + j] != c.start[i] + j) bad = 3;
+    if (!bad && c.closed[i] && cells[k + m] != c.start[i]) bad = 4;
+    k += nodes;
+    if (c.closed[i]) closed++;
+    else open++;
+  }
+  PetscCall(VKTestCheck((PetscBool)(!bad && k == len && len == VKCurvesPolylineLength(&c) && closed >= 1 && open >= 1), NULL, "one polyline per curve: %d open and %d closed curves rebuilt vertex for vertex from %d entries (failure %d)", (int)open, (int)closed, (int)len, (int)bad));
+  PetscCall(PetscFree(cells));
+  PetscCall(VKYarnDestroy(&y));
+  PetscFunctionReturn(0);
 }
 
 static PetscErrorCode TestResample(void)
@@ -292,6 +328,7 @@ int main(int argc, char **argv)
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
   VKTestInit(PETSC_COMM_WORLD);
   PetscCall(TestResample());
+  PetscCall(TestPolylines());
   PetscCall(TestCatmullRom());
   PetscCall(TestFrames());
   PetscCall(TestRadius());

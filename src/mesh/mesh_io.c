@@ -62,7 +62,6 @@ static PetscErrorCode WriteMeshXdmf(void *ctx, VKOutput *out)
 {
   VKMesh   m    = (VKMesh)ctx;
   FILE    *fp   = out->fp;
-  PetscInt nseg = VKCurvesNumSegments(&m->yarn->curves);
 
   PetscFunctionBegin;
   PetscCall(VKXdmfBegin(fp));
@@ -74,10 +73,9 @@ static PetscErrorCode WriteMeshXdmf(void *ctx, VKOutput *out)
   PetscCall(VKXdmfAttribute(fp, "mass", "Node", m->nv, 1, PETSC_FALSE, "mesh.h5", "/mesh/node_mass"));
   PetscCall(VKXdmfAttribute(fp, "interface", "Node", m->nv, 1, PETSC_TRUE, "mesh.h5", "/mesh/node_interface"));
   PetscCall(VKXdmfGridEnd(fp));
-  PetscCall(VKXdmfGridBegin(fp, "yarn"));
-  PetscCall(VKXdmfTopology(fp, "Polyline", nseg, 2, "mesh.h5", "/yarn/segments"));
+  PetscCall(VKXdmfGridBegin(fp, "yarn")); /* one polyline (cell) per curve */
+  PetscCall(VKXdmfTopologyMixed(fp, m->yarn->curves.n, VKCurvesPolylineLength(&m->yarn->curves), "mesh.h5", "/yarn/polylines"));
   PetscCall(VKXdmfGeometry(fp, m->ny, "mesh.h5", "/embedding/yarn_x"));
-  PetscCall(VKXdmfAttribute(fp, "curve", "Cell", nseg, 1, PETSC_TRUE, "mesh.h5", "/yarn/segment_curve"));
   PetscCall(VKXdmfGridEnd(fp));
   PetscCall(VKXdmfEnd(fp));
   PetscFunctionReturn(0);

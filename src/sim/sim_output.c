@@ -121,7 +121,7 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   VKSim      sim  = (VKSim)ctx;
   SimOutput *o    = (SimOutput *)sim->out;
   FILE      *fp   = out->fp;
-  PetscInt   nseg = VKCurvesNumSegments(&sim->mesh->yarn->curves);
+  PetscInt   npoly = VKCurvesPolylineLength(&sim->mesh->yarn->curves);
   char       ds[64];
 
   PetscFunctionBegin;
@@ -131,7 +131,7 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
     for (PetscInt f = 0; f < o->n; f++) {
       PetscCall(VKXdmfGridBegin(fp, part ? "yarn" : "mesh"));
       PetscCall(VKXdmfTime(fp, o->time[f]));
-      if (part) PetscCall(VKXdmfTopology(fp, "Polyline", nseg, 2, "sim.h5", "/yarn/segments"));
+      if (part) PetscCall(VKXdmfTopologyMixed(fp, sim->mesh->yarn->curves.n, npoly, "sim.h5", "/yarn/polylines")); /* one polyline per curve */
       else PetscCall(VKXdmfTopology(fp, "Tetrahedron", sim->mesh->ne, 4, "sim.h5", "/mesh/tets"));
       PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, part ? "yarn" : "x"));
       PetscCall(VKXdmfGeometry(fp, part ? sim->mesh->ny : sim->mesh->nv, "sim.h5", ds));

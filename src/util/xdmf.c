@@ -46,6 +46,15 @@ PetscErrorCode VKXdmfTopology(FILE *fp, const char type[], PetscInt ncells, Pets
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKXdmfTopologyMixed(FILE *fp, PetscInt ncells, PetscInt len, const char h5name[], const char dataset[])
+{
+  PetscFunctionBegin;
+  fprintf(fp, "   <Topology TopologyType=\"Mixed\" NumberOfElements=\"%lld\">\n", (long long)ncells);
+  fprintf(fp, "    <DataItem Dimensions=\"%lld 1\" %s Format=\"HDF\">%s:%s</DataItem>\n", (long long)len, IntType(), h5name, dataset);
+  fputs("   </Topology>\n", fp);
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKXdmfGeometry(FILE *fp, PetscInt npoints, const char h5name[], const char dataset[])
 {
   PetscFunctionBegin;

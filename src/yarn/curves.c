@@ -89,6 +89,32 @@ PetscErrorCode VKCurvesGetSegments(const VKCurves *c, PetscInt *nseg, PetscInt *
   PetscFunctionReturn(0);
 }
 
+PetscInt VKCurvesPolylineLength(const VKCurves *c)
+{
+  PetscInt n = 0;
+
+  for (PetscInt i = 0; i < c->n; i++) n += 2 + VKCurveSize(c, i) + (c->closed[i] ? 1 : 0);
+  return n;
+}
+
+PetscErrorCode VKCurvesGetPolylines(const VKCurves *c, PetscInt *len, PetscInt **cells)
+{
+  PetscInt n = VKCurvesPolylineLength(c);
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(n + 1, cells));
+  *len = n;
+  n    = 0;
+  for (PetscInt i = 0; i < c->n; i++) {
+    PetscInt b = c->start[i], m = VKCurveSize(c, i);
+    (*cells)[n++] = 2;
+    (*cells)[n++] = m + (c->closed[i] ? 1 : 0);
+    for (PetscInt k = 0; k < m; k++) (*cells)[n++] = b + k;
+    if (c->closed[i]) (*cells)[n++] = b;
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKCurvesGetSegmentCurves(const VKCurves *c, PetscInt **curve)
 {
   PetscInt s = 0;

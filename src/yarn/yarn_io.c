@@ -3,6 +3,8 @@
  *   /yarn/curve_start    (n+1) x 1 vertex offsets of the curves
  *   /yarn/closed         n x 1    1 for closed curves
  *   /yarn/segments       nseg x 2 vertex pairs (XDMF polyline topology)
+ *   /yarn/polylines      len x 1  one polyline per curve (XDMF mixed topology,
+ *                                 VKCurvesGetPolylines; written, never read)
  *   /yarn/segment_curve  nseg x 1 curve of each segment
  *   /yarn/normal         nseg x 3 rest frame normal n1
  *   /yarn/bind           nb x 2   glued vertex pairs
@@ -21,10 +23,11 @@
 
 PetscErrorCode VKYarnWriteToH5(VKYarn y, VKH5 *h)
 {
-  PetscInt nseg, *seg, *segcurve, *closed;
+  PetscInt nseg, *seg, *segcurve, *closed, npoly, *poly;
 
   PetscFunctionBegin;
   PetscCall(VKCurvesGetSegments(&y->curves, &nseg, &seg));
+  PetscCall(VKCurvesGetPolylines(&y->curves, &npoly, &poly));
   PetscCall(VKCurvesGetSegmentCurves(&y->curves, &segcurve));
   PetscCall(PetscMalloc1(y->curves.n, &closed));
   for (PetscInt i = 0; i < y->curves.n; i++) closed[i] = y->curves.closed[i] ? 1 : 0;
@@ -32,6 +35,7 @@ PetscErrorCode VKYarnWriteToH5(VKYarn y, VKH5 *h)
   PetscCall(VKH5WriteInt(h, "/yarn/curve_start", y->curves.n + 1, 1, y->curves.start));
   PetscCall(VKH5WriteInt(h, "/yarn/closed", y->curves.n, 1, closed));
   PetscCall(VKH5WriteInt(h, "/yarn/segments", nseg, 2, seg));
+  PetscCall(VKH5WriteInt(h, "/yarn/polylines", npoly, 1, poly));
   PetscCall(VKH5WriteInt(h, "/yarn/segment_curve", nseg, 1, segcurve));
   PetscCall(VKH5WriteReal(h, "/yarn/normal", nseg, 3, y->normal));
   PetscCall(VKH5WriteInt(h, "/yarn/bind", y->nbind, 2, y->bind));
@@ -45,6 +49,7 @@ PetscErrorCode VKYarnWriteToH5(VKYarn y, VKH5 *h)
   PetscCall(PetscFree(closed));
   PetscCall(PetscFree(segcurve));
   PetscCall(PetscFree(seg));
+  PetscCall(PetscFree(poly));
   PetscFunctionReturn(0);
 }
 
@@ -116,7 +121,12 @@ static PetscErrorCode WriteXdmfOutput(void *ctx, VKOutput *out)
 
   PetscFunctionBegin;
   PetscCall(VKXdmfBegin(out->fp));
+  /* one polyline per curve, for smooth tubes; the segments carry the per-segment fields */
   PetscCall(VKXdmfGridBegin(out->fp, "yarn"));
+  PetscCall(VKXdmfTopologyMixed(out->fp, y->curves.n, VKCurvesPolylineLength(&y->curves), "yarn.h5", "/yarn/polylines"));
+  PetscCall(VKXdmfGeometry(out->fp, y->curves.nv, "yarn.h5", "/yarn/x"));
+  PetscCall(VKXdmfGridEnd(out->fp));
+  PetscCall(VKXdmfGridBegin(out->fp, "yarn segments"));
   PetscCall(VKXdmfTopology(out->fp, "Polyline", nseg, 2, "yarn.h5", "/yarn/segments"));
   PetscCall(VKXdmfGeometry(out->fp, y->curves.nv, "yarn.h5", "/yarn/x"));
   PetscCall(VKXdmfAttribute(out->fp, "curve", "Cell", nseg, 1, PETSC_TRUE, "yarn.h5", "/yarn/segment_curve"));

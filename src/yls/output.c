@@ -120,6 +120,16 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   for (PetscInt f = 0; f < o->n; f++) {
     PetscCall(VKXdmfGridBegin(fp, "yarn"));
     PetscCall(VKXdmfTime(fp, o->row[NCOL * f]));
+    PetscCall(VKXdmfTopologyMixed(fp, y->yarn->curves.n, VKCurvesPolylineLength(&y->yarn->curves), "yls.h5", "/yarn/polylines")); /* one polyline per curve */
+    PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/x", (int)f));
+    PetscCall(VKXdmfGeometry(fp, y->model.nv, "yls.h5", ds));
+    PetscCall(VKXdmfGridEnd(fp));
+  }
+  PetscCall(VKXdmfCollectionEnd(fp));
+  PetscCall(VKXdmfCollectionBegin(fp, "yarn segments")); /* the per-segment frame normals */
+  for (PetscInt f = 0; f < o->n; f++) {
+    PetscCall(VKXdmfGridBegin(fp, "yarn segments"));
+    PetscCall(VKXdmfTime(fp, o->row[NCOL * f]));
     PetscCall(VKXdmfTopology(fp, "Polyline", y->model.nseg, 2, "yls.h5", "/yarn/segments"));
     PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/x", (int)f));
     PetscCall(VKXdmfGeometry(fp, y->model.nv, "yls.h5", ds));
