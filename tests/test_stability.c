@@ -9,6 +9,8 @@
  * Each must finish without NaN or Inf, with finite energies.  Then a NaN
  * is provoked (gravity 1e300): the run stops with PETSC_ERR_NOT_CONVERGED
  * naming the step and iteration, and sim.h5 holds the last good frame.
+ * Last, the per-frame fields of sim.h5 (energy density, velocity) integrate
+ * to the run's elastic and kinetic energies.
  * ranks: 1 2
  */
 #include <vksim.h>
@@ -207,7 +209,6 @@ static PetscErrorCode TestNaN(const char dir[])
   ierr = VKSimRun(sim);
   PetscCall(PetscPopErrorHandler());
   PetscCall(VKTestCheck((PetscBool)(ierr == PETSC_ERR_NOT_CONVERGED), NULL, "gravity 1e300: the run stops with PETSC_ERR_NOT_CONVERGED (got %d)", (int)ierr));
-  PetscCall(PetscLogStagePop()); /* VKSimRun's stage, left by the error */
   PetscCall(VKPathJoin(dir, "sim.h5", path, sizeof(path)));
   PetscCall(VKFileExists(PETSC_COMM_WORLD, path, &exists));
   if (exists) {
@@ -218,6 +219,65 @@ static PetscErrorCode TestNaN(const char dir[])
     PetscCall(VKH5Close(&h));
   }
   PetscCall(VKTestCheck((PetscBool)(exists && frames == 2 && strstr(status, "step 1 ") && strstr(status, "PD iteration 0") && strstr(status, "non-finite")), NULL, "sim.h5 holds the last good frame (t = 0, written twice: as frame 0 and as the last good state): %d frames, status \"%s\"", (int)frames, status));
+  PetscCall(VKSimDestroy(&sim));
+  PetscCall(VKSceneDestroy(&s));
+  PetscCall(PatchDestroy(&p));
+  PetscFunctionReturn(0);
+}
+
+/* The fields of sim.h5's last frame integrate to the run's energies:
+ * sum_e psi_e V_e is the elastic energy and sum_i m_i |v_i|^2 / 2 the
+ * kinetic energy in /sim/energy; J = det F never exceeds its bounds from
+ * the stretches, stretch_min^3 <= J <= stretch_max^3 where J > 0. */
+static PetscErrorCode TestFields(const char base[])
+{
+  Patch      p;
+  VKScene    s;
+  VKSim      sim;
+  PetscReal  dt, T, *psi, *vel, *J, *smax, *smin, *energy, Ee = 0, Ek = 0, worst = 0;
+  PetscInt   n, frames, bad = 0;
+  char       dir[PETSC_MAX_PATH_LEN], path[PETSC_MAX_PATH_LEN], ds[64];
+  VKH5       h;
+
+  PetscFunctionBegin;
+  PetscCall(PetscSNPrintf(dir, sizeof(dir), "%s/fields", base));
+  PetscCall(Build(PETSC_COMM_WORLD, &p));
+  PetscCall(Setup(&p, DT30, -9.81, &s, &dt, &T));
+  PetscCall(VKSimCreate(p.mat, s, &sim));
+  sim->quiet = PETSC_TRUE;
+  PetscCall(TSSetTimeStep(sim->ts, dt));
+  PetscCall(TSSetMaxTime(sim->ts, T));
+  PetscCall(VKSimSetOutputDirectory(sim, dir));
+  PetscCall(VKSimRun(sim));
+  PetscCall(VKPathJoin(dir, "sim.h5", path, sizeof(path)));
+  PetscCall(VKH5Open(path, &h));
+  PetscCall(VKH5ReadAttrInt(&h, "/sim", "frames", &frames));
+  PetscCall(VKH5ReadReal(&h, "/sim/energy", 3, &n, &energy));
+#define READ(name, cols, out) \
+  do { \
+    PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)(frames - 1), name)); \
+    PetscCall(VKH5ReadReal(&h, ds, cols, &n, out)); \
+  } while (0)
+  READ("psi", 1, &psi);
+  READ("J", 1, &J);
+  READ("stretch_max", 1, &smax);
+  READ("stretch_min", 1, &smin);
+  READ("velocity", 3, &vel);
+#undef READ
+  PetscCall(VKH5Close(&h));
+  for (PetscInt e = 0; e < p.m->ne; e++) {
+    Ee += psi[e] * p.m->vol[e];
+    if (J[e] > 0 && (J[e] > (1 + 1e-12) * PetscPowReal(smax[e], 3) || J[e] < (1 - 1e-12) * PetscPowReal(smin[e], 3))) bad++;
+  }
+  for (PetscInt i = 0; i < p.m->nv; i++) Ek += 0.5 * p.m->mass[i] * (PetscSqr(vel[3 * i]) + PetscSqr(vel[3 * i + 1]) + PetscSqr(vel[3 * i + 2]));
+  worst = PetscMax(PetscAbsReal(Ee - energy[3 * (frames - 1)]) / PetscMax(energy[3 * (frames - 1)], PETSC_SMALL), PetscAbsReal(Ek - energy[3 * (frames - 1) + 1]) / PetscMax(energy[3 * (frames - 1) + 1], PETSC_SMALL));
+  PetscCall(VKTestCheck((PetscBool)(worst <= 1e-10 && bad == 0 && Ee > 0 && Ek > 0), NULL, "sim.h5 fields of the last frame: sum psi V = %.6e J and sum m v^2/2 = %.6e J against the run's %.6e and %.6e (worst %.1e relative); J within its stretches' bounds in all but %d tets", (double)Ee, (double)Ek, (double)energy[3 * (frames - 1)], (double)energy[3 * (frames - 1) + 1], (double)worst, (int)bad));
+  PetscCall(PetscFree(psi));
+  PetscCall(PetscFree(J));
+  PetscCall(PetscFree(smax));
+  PetscCall(PetscFree(smin));
+  PetscCall(PetscFree(vel));
+  PetscCall(PetscFree(energy));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&s));
   PetscCall(PatchDestroy(&p));
@@ -254,6 +314,7 @@ int main(int argc, char **argv)
     PetscCall(PetscFree(xs));
   }
   PetscCall(TestNaN(dir));
+  PetscCall(TestFields(dir));
   {
     int rc = VKTestFinish();
     PetscCall(PetscFinalize());

@@ -2,10 +2,15 @@
  *   DIR/sim.h5    /mesh/tets, /mesh/node_mass, /yarn/... (the yarn model),
  *                 /frames/NNNNNN/x (n_V x 3 node positions),
  *                 /frames/NNNNNN/yarn (n_Y x 3, x^Y = N x^V, Eq. 4),
+ *                 /frames/NNNNNN/velocity (n_V x 3), and per tet J (volume
+ *                 ratio), psi (energy density, J/m^3), stretch_max,
+ *                 stretch_min (singular values of F), inverted (J <= 0);
+ *                 /material/g_s, /material/g_v, /mesh/tet_domain per tet,
  *                 /sim/time, /sim/energy (elastic, kinetic, potential);
  *                 attributes of /sim: status, frames, wall_time and its
  *                 split time_local, time_global, time_other (s)
- *   DIR/sim.xdmf  two temporal collections (mesh, yarn) for ParaView
+ *   DIR/sim.xdmf  two temporal collections (mesh with all those fields, named
+ *                 with their units; yarn) for ParaView
  *   DIR/sim.json  steps, PD iterations, residual reached, time split,
  *                 inverted tets, energies, status (completed, unconverged:
  *                 some step ended above its tolerance, unmeasured:
@@ -24,8 +29,9 @@ typedef struct {
   VKOutput   h5out;
   VKH5       h5;
   PetscBool  open;
-  VecScatter scatter;
-  Vec        xseq;
+  VecScatter scatter, tscatter;
+  Vec        xseq, vseq, tf, tfseq; /* node and tet fields, and their copies on rank 0 */
+  PetscReal *col;                   /* one tet field column */
   PetscReal *xy;
   PetscInt   n, cap;
   PetscReal *time, *energy;
@@ -46,6 +52,30 @@ static PetscErrorCode WriteStatic(VKSim sim, SimOutput *o)
   PetscCall(VKH5WriteAttrString(&o->h5, "/", "units", "m, kg, s, J"));
   PetscCall(VKH5WriteAttrString(&o->h5, "/", "scene", sim->scene->name));
   PetscFunctionReturn(0);
+}
+
+/* Columns k of a rank-0 array of `per` values per tet as datasets (ints
+ * where isint; the inverted flag comes from J, column 0, when name is
+ * "inverted"). */
+static PetscErrorCode WriteTetColumns(SimOutput *o, Vec seq, PetscInt per, const char *const names[], const PetscBool isint[], PetscInt ne)
+{
+  const PetscScalar *a;
+  PetscErrorCode     ierr = 0;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArrayRead(seq, &a));
+  for (PetscInt k = 0; k < per && !ierr; k++) {
+    for (PetscInt e = 0; e < ne; e++) o->col[e] = a[per * e + k];
+    if (isint[k]) {
+      PetscInt *ic;
+      PetscCall(PetscMalloc1(ne + 1, &ic));
+      for (PetscInt e = 0; e < ne; e++) ic[e] = (PetscInt)o->col[e];
+      ierr = VKH5WriteInt(&o->h5, names[k], ne, 1, ic);
+      PetscCall(PetscFree(ic));
+    } else ierr = VKH5WriteReal(&o->h5, names[k], ne, 1, o->col);
+  }
+  PetscCall(VecRestoreArrayRead(seq, &a));
+  PetscFunctionReturn(ierr);
 }
 
 PetscErrorCode VKSimOutputOpen(VKSim sim)
@@ -70,6 +100,26 @@ PetscErrorCode VKSimOutputOpen(VKSim sim)
   }
   PetscCall(VKCollective(sim->comm, ierr, "Creating sim.h5"));
   PetscCall(VecScatterCreateToZero(sim->x, &o->scatter, &o->xseq));
+  PetscCall(VecDuplicate(o->xseq, &o->vseq));
+  {
+    Vec mf, mfseq; /* the material and the domains, constant over the run */
+    VecScatter ms;
+    PetscCall(VKSimCreateTetFieldVec(sim, 3, &mf));
+    PetscCall(VKSimTetMaterial(sim, mf));
+    PetscCall(VecScatterCreateToZero(mf, &ms, &mfseq));
+    PetscCall(VecScatterBegin(ms, mf, mfseq, INSERT_VALUES, SCATTER_FORWARD));
+    PetscCall(VecScatterEnd(ms, mf, mfseq, INSERT_VALUES, SCATTER_FORWARD));
+    if (rank == 0) {
+      PetscCall(PetscMalloc1(sim->mesh->ne + 1, &o->col));
+      ierr = WriteTetColumns(o, mfseq, 3, (const char *const[]){"/material/g_s", "/material/g_v", "/mesh/tet_domain"}, (const PetscBool[]){PETSC_FALSE, PETSC_FALSE, PETSC_TRUE}, sim->mesh->ne);
+    }
+    PetscCall(VKCollective(sim->comm, ierr, "Writing the material to sim.h5"));
+    PetscCall(VecScatterDestroy(&ms));
+    PetscCall(VecDestroy(&mfseq));
+    PetscCall(VecDestroy(&mf));
+  }
+  PetscCall(VKSimCreateTetFieldVec(sim, VK_SIM_TET_FIELDS, &o->tf));
+  PetscCall(VecScatterCreateToZero(o->tf, &o->tscatter, &o->tfseq));
   PetscFunctionReturn(0);
 }
 
@@ -96,6 +146,11 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
   for (int k = 0; k < 3; k++) o->energy[3 * o->n + k] = sim->energy[k];
   PetscCall(VecScatterBegin(o->scatter, x, o->xseq, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(o->scatter, x, o->xseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterBegin(o->scatter, v, o->vseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(o->scatter, v, o->vseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VKSimTetFields(sim, x, o->tf));
+  PetscCall(VecScatterBegin(o->tscatter, o->tf, o->tfseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(o->tscatter, o->tf, o->tfseq, INSERT_VALUES, SCATTER_FORWARD));
   PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
   if (rank == 0) {
     const PetscScalar *xa;
@@ -106,6 +161,34 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
     ierr = VKH5WriteReal(&o->h5, name, sim->mesh->nv, 3, xa);
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/yarn", (int)o->n));
     if (!ierr) ierr = VKH5WriteReal(&o->h5, name, sim->mesh->ny, 3, o->xy);
+    if (!ierr) {
+      const PetscScalar *va;
+      PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/velocity", (int)o->n));
+      PetscCall(VecGetArrayRead(o->vseq, &va));
+      ierr = VKH5WriteReal(&o->h5, name, sim->mesh->nv, 3, va);
+      PetscCall(VecRestoreArrayRead(o->vseq, &va));
+    }
+    if (!ierr) {
+      char        n[VK_SIM_TET_FIELDS + 1][64];
+      const char *names[VK_SIM_TET_FIELDS + 1];
+      PetscBool   isint[VK_SIM_TET_FIELDS + 1] = {PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_TRUE};
+      const char *field[] = {"J", "psi", "stretch_max", "stretch_min", "inverted"};
+      PetscScalar *fa;
+      for (int k = 0; k <= VK_SIM_TET_FIELDS; k++) {
+        PetscCall(PetscSNPrintf(n[k], sizeof(n[k]), "/frames/%06d/%s", (int)o->n, field[k]));
+        names[k] = n[k];
+      }
+      ierr = WriteTetColumns(o, o->tfseq, VK_SIM_TET_FIELDS, names, isint, sim->mesh->ne);
+      if (!ierr) { /* the inverted flag from J */
+        PetscInt *inv;
+        PetscCall(PetscMalloc1(sim->mesh->ne + 1, &inv));
+        PetscCall(VecGetArray(o->tfseq, &fa));
+        for (PetscInt e = 0; e < sim->mesh->ne; e++) inv[e] = fa[VK_SIM_TET_FIELDS * e] <= 0;
+        PetscCall(VecRestoreArray(o->tfseq, &fa));
+        ierr = VKH5WriteInt(&o->h5, names[VK_SIM_TET_FIELDS], sim->mesh->ne, 1, inv);
+        PetscCall(PetscFree(inv));
+      }
+    }
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
     if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", t);
     PetscCall(VecRestoreArrayRead(o->xseq, &xa));
@@ -113,6 +196,35 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
   PetscCall(VKCollective(sim->comm, ierr, "Writing a frame to sim.h5"));
   o->n++;
   PetscCall(PetscLogEventEnd(VK_EVENT_Write, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* The fields of mesh frame f, named with their units for ParaView's legend. */
+static PetscErrorCode MeshAttributes(FILE *fp, VKMesh m, PetscInt f)
+{
+  static const struct {
+    const char *name, *dataset, *center;
+    PetscInt    ncomp;
+    PetscBool   isint, perframe;
+  } a[] = {
+    {"velocity [m/s]",            "velocity",         "Node", 3, PETSC_FALSE, PETSC_TRUE },
+    {"volume ratio J",            "J",                "Cell", 1, PETSC_FALSE, PETSC_TRUE },
+    {"energy density psi [J/m^3]", "psi",             "Cell", 1, PETSC_FALSE, PETSC_TRUE },
+    {"largest stretch",           "stretch_max",      "Cell", 1, PETSC_FALSE, PETSC_TRUE },
+    {"smallest stretch",          "stretch_min",      "Cell", 1, PETSC_FALSE, PETSC_TRUE },
+    {"inverted",                  "inverted",         "Cell", 1, PETSC_TRUE,  PETSC_TRUE },
+    {"g_s [Pa]",                  "/material/g_s",    "Cell", 1, PETSC_FALSE, PETSC_FALSE},
+    {"g_v [Pa]",                  "/material/g_v",    "Cell", 1, PETSC_FALSE, PETSC_FALSE},
+    {"domain",                    "/mesh/tet_domain", "Cell", 1, PETSC_TRUE,  PETSC_FALSE}
+  };
+  char ds[64];
+
+  PetscFunctionBegin;
+  for (size_t k = 0; k < sizeof(a) / sizeof(a[0]); k++) {
+    if (a[k].perframe) PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, a[k].dataset));
+    else PetscCall(PetscStrncpy(ds, a[k].dataset, sizeof(ds)));
+    PetscCall(VKXdmfAttribute(fp, a[k].name, a[k].center, a[k].center[0] == 'N' ? m->nv : m->ne, a[k].ncomp, a[k].isint, "sim.h5", ds));
+  }
   PetscFunctionReturn(0);
 }
 
@@ -135,6 +247,7 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
       else PetscCall(VKXdmfTopology(fp, "Tetrahedron", sim->mesh->ne, 4, "sim.h5", "/mesh/tets"));
       PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, part ? "yarn" : "x"));
       PetscCall(VKXdmfGeometry(fp, part ? sim->mesh->ny : sim->mesh->nv, "sim.h5", ds));
+      if (!part) PetscCall(MeshAttributes(fp, sim->mesh, f));
       PetscCall(VKXdmfGridEnd(fp));
     }
     PetscCall(VKXdmfCollectionEnd(fp));
@@ -283,7 +396,12 @@ PetscErrorCode VKSimOutputDestroy(VKSim sim)
     (void)VKOutputAbandon(&o->h5out);
   }
   PetscCall(VecScatterDestroy(&o->scatter));
+  PetscCall(VecScatterDestroy(&o->tscatter));
   PetscCall(VecDestroy(&o->xseq));
+  PetscCall(VecDestroy(&o->vseq));
+  PetscCall(VecDestroy(&o->tf));
+  PetscCall(VecDestroy(&o->tfseq));
+  PetscCall(PetscFree(o->col));
   PetscCall(PetscFree(o->xy));
   PetscCall(PetscFree(o->time));
   PetscCall(PetscFree(o->energy));

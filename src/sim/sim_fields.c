@@ -1,0 +1,64 @@
+/* sim_fields.c: per-tet fields of a frame for the time series (DESIGN §7,
+ * issue 25): the volume ratio J = det F, the elastic energy density
+ * psi(F) = E_e / V_e (paper Eq. 7-8), and the largest and smallest
+ * singular values of F (principal stretches; the smallest is negative in
+ * an inverted tet).  Computed on the owned tets into a Vec of
+ * VK_SIM_TET_FIELDS entries per tet, in the mesh's tet order, so that the
+ * frame writer gathers it like the node positions. */
+#include "simimpl.h"
+#include <vkmaterial.h>
+
+PetscErrorCode VKSimCreateTetFieldVec(VKSim sim, PetscInt per, Vec *f)
+{
+  const VKLayout *L = &sim->mesh->layout;
+
+  PetscFunctionBegin;
+  PetscCall(VecCreateMPI(sim->comm, per * (L->eEnd - L->eStart), per * sim->mesh->ne, f));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
+{
+  VKMesh             m = sim->mesh;
+  const VKLayout    *L = &m->layout;
+  const PetscScalar *a;
+  PetscScalar       *fa;
+  Vec                loc;
+
+  PetscFunctionBegin;
+  PetscCall(VKMeshGetLocalPositions(x, &loc, &a));
+  PetscCall(VecGetArray(f, &fa));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    const PetscReal *G = m->G + 12 * (L->eStart + e), vol = m->vol[L->eStart + e];
+    PetscReal        X[12], F[9], E;
+    VKSVD3           svd;
+    VKLayoutGatherTet(L, e, a, X);
+    VKTetDeformation(G, X, F);
+    VKSVD3Compute(F, &svd);
+    PetscCall(VKTetEvaluate(G, vol, X, &sim->mat->band, sim->mat->gamma[2 * e], sim->mat->gamma[2 * e + 1], PETSC_FALSE, &E, NULL, NULL, NULL));
+    fa[VK_SIM_TET_FIELDS * e + 0] = svd.s[0] * svd.s[1] * svd.s[2];
+    fa[VK_SIM_TET_FIELDS * e + 1] = E / vol;
+    fa[VK_SIM_TET_FIELDS * e + 2] = svd.s[0];
+    fa[VK_SIM_TET_FIELDS * e + 3] = svd.s[2];
+  }
+  PetscCall(VecRestoreArray(f, &fa));
+  PetscCall(VKMeshRestoreLocalPositions(x, &loc, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimTetMaterial(VKSim sim, Vec f)
+{
+  VKMesh          m = sim->mesh;
+  const VKLayout *L = &m->layout;
+  PetscScalar    *fa;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(f, &fa));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    fa[3 * e + 0] = sim->mat->gamma[2 * e];
+    fa[3 * e + 1] = sim->mat->gamma[2 * e + 1];
+    fa[3 * e + 2] = m->tet_domain[L->eStart + e];
+  }
+  PetscCall(VecRestoreArray(f, &fa));
+  PetscFunctionReturn(0);
+}
