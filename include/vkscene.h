@@ -78,6 +78,9 @@ PETSC_EXTERN PetscErrorCode VKSceneView(VKScene, PetscViewer);
  * constant step writes its frames at k x the interval (volknit sim, and
  * the fit's rollout of it). */
 PETSC_EXTERN PetscReal VKSceneFrameStep(VKScene, PetscReal dt);
+/* The frames a run writes: t = 0, k x the output interval, and the
+ * duration when it is not one of them. */
+PETSC_EXTERN PetscInt VKSceneFrameCount(VKScene);
 PETSC_EXTERN PetscErrorCode VKSceneDestroy(VKScene *);
 
 /* The handle (first matching box) that holds a point of rest position X,

@@ -140,3 +140,18 @@ PETSC_EXTERN PetscErrorCode VKYarnWriteToH5(VKYarn, VKH5 *);
 PETSC_EXTERN PetscErrorCode VKYarnLoadFromH5(VKYarn, VKH5 *);
 /* yarn.h5, yarn.xdmf, yarn.json into dir */
 PETSC_EXTERN PetscErrorCode VKYarnWriteOutputs(VKYarn, const char dir[]);
+
+/* A preview picture of a run's yarns (src/yarn/preview.c): the writer keeps
+ * the first, the middle (of expected_frames) and the last frame of the
+ * yarn positions, then draws them from above and from the side with
+ * gnuplot into DIR/<name> (a missing gnuplot is a message, no file). */
+typedef struct {
+  const VKCurves *curves;
+  PetscInt        middle;
+  PetscReal      *x[3], t[3];
+  PetscBool       have[3];
+} VKPreview;
+PETSC_EXTERN PetscErrorCode VKPreviewCreate(const VKCurves *, PetscInt expected_frames, VKPreview *);
+PETSC_EXTERN PetscErrorCode VKPreviewKeep(VKPreview *, PetscInt frame, PetscReal t, const PetscReal x[]);
+PETSC_EXTERN PetscErrorCode VKPreviewDraw(VKPreview *, const char who[], const char dir[], const char name[], const char title[]);
+PETSC_EXTERN PetscErrorCode VKPreviewDestroy(VKPreview *);

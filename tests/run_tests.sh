@@ -367,6 +367,21 @@ for n in 1 2; do
   if [ "$nfiles" -ge 4 ] && [ -z "$problems" ] && grep -q 'TopologyType="Mixed"' "$rd/s$n/yls.xdmf" "$rd/s$n/yarn.xdmf"; then ok
   else not_ok "XDMF of the -n $n run ($nfiles files): $problems"; fi
 done
+# the preview pictures of the 2-rank run's yarn-level and homogenized
+# runs: valid PNG files (signature), not blank (variance of the red
+# channel, read back by gnuplot), named in the JSON summaries
+png_variance() { # file.png: the variance of its red channel
+  gnuplot -e "set table '$1.txt'; plot '$1' binary filetype=png with rgbimage; unset table" > /dev/null 2>&1
+  awk 'NF >= 5 && $1 + 0 == $1 { n++; s += $3; q += $3 * $3 } END { if (n) print q / n - (s / n) ^ 2; else print 0 }' "$1.txt"
+  rm -f "$1.txt"
+}
+for pv in "$rd/s2/yls_preview.png:$rd/s2/yls.json" "$(find "$rd/s2/sweep" -name sim_preview.png | head -n 1):$(dirname "$(find "$rd/s2/sweep" -name sim_preview.png | head -n 1)")/sim.json"; do
+  png=${pv%%:*}; js=${pv#*:}
+  sig=$(head -c 8 "$png" 2>/dev/null | od -An -tx1 | tr -d ' \n')
+  var=$(png_variance "$png")
+  if [ "$sig" = "89504e470d0a1a0a" ] && awk -v v="$var" 'BEGIN { exit !(v > 100) }' && grep -q '"preview": "[a-z]*_preview.png"' "$js"; then ok
+  else not_ok "preview picture $png: signature '$sig', red-channel variance '$var' (> 100 expected), named in $js"; fi
+done
 stamp=$(stat -c %Y "$rd/s1/yls.h5" 2>/dev/null)
 if sweep_run "s1" 1 -run_sweep_material uniform && grep -q 'is up to date' "$rd/s1.log" && ! grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(stat -c %Y "$rd/s1/yls.h5")" = "$stamp" ]; then ok
 else not_ok "run sweep: the same reference options reran the yarn-level reference (see $rd/s1.log)"; fi

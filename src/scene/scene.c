@@ -205,6 +205,13 @@ PetscErrorCode VKSceneSetUp(VKScene s, const PetscReal lo[], const PetscReal hi[
   PetscFunctionReturn(0);
 }
 
+PetscInt VKSceneFrameCount(VKScene s)
+{
+  PetscReal q = s->duration / s->output_interval, k = PetscFloorReal(q + 1e-9);
+
+  return (PetscInt)k + 1 + (q - k > 1e-9 ? 1 : 0);
+}
+
 PetscReal VKSceneFrameStep(VKScene s, PetscReal dt)
 {
   PetscReal n = PetscCeilReal(s->output_interval / dt * (1 - 1e-9));

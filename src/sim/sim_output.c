@@ -11,6 +11,8 @@
  *                 split time_local, time_global, time_other (s)
  *   DIR/sim.xdmf  two temporal collections (mesh with all those fields, named
  *                 with their units; yarn) for ParaView
+ *   DIR/sim_preview.png  the embedded yarns at the first, middle and last
+ *                 frame from above and from the side (gnuplot)
  *   DIR/sim.json  steps, PD iterations, residual reached, time split,
  *                 inverted tets, energies, status (completed, unconverged:
  *                 some step ended above its tolerance, unmeasured:
@@ -19,6 +21,7 @@
  * a temporary name and renamed when the run ends (also after a failure,
  * with every good frame up to it). */
 #include "simimpl.h"
+#include <unistd.h>
 #include <vkio.h>
 #include <vkutil.h>
 #include <vklog.h>
@@ -32,6 +35,8 @@ typedef struct {
   VecScatter scatter, tscatter;
   Vec        xseq, vseq, tf, tfseq; /* node and tet fields, and their copies on rank 0 */
   PetscReal *col;                   /* one tet field column */
+  VKPreview  preview;               /* rank 0 */
+  PetscBool  has_preview;
   PetscReal *xy;
   PetscInt   n, cap;
   PetscReal *time, *energy;
@@ -97,6 +102,7 @@ PetscErrorCode VKSimOutputOpen(VKSim sim)
     ierr = VKOutputBegin(path, PETSC_FALSE, &o->h5out);
     if (!ierr) ierr = WriteStatic(sim, o);
     if (!ierr) ierr = PetscMalloc1(3 * sim->mesh->ny + 1, &o->xy);
+    if (!ierr) ierr = VKPreviewCreate(&sim->mesh->yarn->curves, VKSceneFrameCount(sim->scene), &o->preview);
   }
   PetscCall(VKCollective(sim->comm, ierr, "Creating sim.h5"));
   PetscCall(VecScatterCreateToZero(sim->x, &o->scatter, &o->xseq));
@@ -157,6 +163,7 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
     char               name[64];
     PetscCall(VecGetArrayRead(o->xseq, &xa));
     PetscCall(VKMeshApplyEmbedding(sim->mesh, xa, o->xy));
+    PetscCall(VKPreviewKeep(&o->preview, o->n, t, o->xy));
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/x", (int)o->n));
     ierr = VKH5WriteReal(&o->h5, name, sim->mesh->nv, 3, xa);
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/yarn", (int)o->n));
@@ -292,6 +299,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONString(&j, "status", c->failure ? "failed" : status));
   }
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
+  if (((SimOutput *)sim->out)->has_preview) PetscCall(VKJSONString(&j, "preview", "sim_preview.png"));
   PetscCall(VKJSONInt(&j, "ranks", size));
   PetscCall(VKJSONInt(&j, "nodes", sim->mesh->nv));
   PetscCall(VKJSONInt(&j, "tets", sim->mesh->ne));
@@ -366,6 +374,13 @@ static PetscErrorCode CloseRank0(VKSim sim, const char failure[])
   PetscCall(VKOutputCommit(&o->h5out));
   PetscCall(VKPathJoin(sim->dir, "sim.xdmf", path, sizeof(path)));
   PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteXdmf, sim));
+  {
+    char title[128];
+    PetscCall(PetscSNPrintf(title, sizeof(title), "volknit sim: scene %s, embedded yarns", sim->scene->name));
+    PetscCall(VKPreviewDraw(&o->preview, "volknit sim", sim->dir, "sim_preview.png", title));
+    PetscCall(VKPathJoin(sim->dir, "sim_preview.png", path, sizeof(path)));
+    o->has_preview = (PetscBool)(access(path, F_OK) == 0);
+  }
   PetscCall(VKPathJoin(sim->dir, "sim.json", path, sizeof(path)));
   PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteJSON, &ctx));
   PetscFunctionReturn(0);
@@ -402,6 +417,7 @@ PetscErrorCode VKSimOutputDestroy(VKSim sim)
   PetscCall(VecDestroy(&o->tf));
   PetscCall(VecDestroy(&o->tfseq));
   PetscCall(PetscFree(o->col));
+  PetscCall(VKPreviewDestroy(&o->preview));
   PetscCall(PetscFree(o->xy));
   PetscCall(PetscFree(o->time));
   PetscCall(PetscFree(o->energy));

@@ -2,8 +2,11 @@
  *   DIR/yls.h5    /yarn/... (the yarn model), /frames/NNNNNN/x (n_Y x 3
  *                 positions), /frames/NNNNNN/normal (n1 per segment, by
  *                 time-parallel transport), /yls/time, /yls/energy
- *   DIR/yls.xdmf  a temporal collection of polylines with the normals as a
- *                 cell attribute, for ParaView
+ *   DIR/yls.xdmf  temporal collections for ParaView: the yarns as one
+ *                 polyline per curve, and their segments with the normals
+ *                 as a cell attribute
+ *   DIR/yls_preview.png  the yarns at the first, middle and last frame from
+ *                 above and from the side (gnuplot)
  *   DIR/yls.csv   one row per frame: time, energies (stretch, bending,
  *                 contact, glue, kinetic, gravity), contact pairs, minimum
  *                 distance between non-adjacent segments over 2r, Newton
@@ -13,6 +16,7 @@
  * writes; files are written under temporary names and renamed at the end,
  * also after a failure, with every good frame up to it. */
 #include "ylsimpl.h"
+#include <unistd.h>
 #include <vkio.h>
 
 #define YLS_FORMAT "volknit-yls 1"
@@ -24,6 +28,8 @@ typedef struct {
   PetscBool  open;
   PetscInt   n, cap, its_last;
   PetscReal *row; /* NCOL per frame */
+  VKPreview  preview; /* rank 0 */
+  PetscBool  has_preview;
 } YLSOutput;
 
 static const char *const columns[NCOL] = {"time", "stretch", "bending", "contact", "glue", "kinetic", "gravity", "contact_pairs", "min_distance_over_2r", "newton_its", "wall_time"};
@@ -53,6 +59,7 @@ PetscErrorCode VKYLSOutputOpen(VKYLS y)
     if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "format", YLS_FORMAT);
     if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "units", "m, kg, s, J");
     if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "scene", y->scene->name);
+    if (!ierr) ierr = VKPreviewCreate(&y->yarn->curves, VKSceneFrameCount(y->scene), &o->preview);
   }
   PetscCall(VKCollective(y->comm, ierr, "Creating yls.h5"));
   PetscFunctionReturn(0);
@@ -99,6 +106,7 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
     if (!ierr) ierr = VKH5WriteReal(&o->h5, name, y->model.nseg, 3, y->normal);
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
     if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", y->t);
+    if (!ierr) ierr = VKPreviewKeep(&o->preview, o->n, y->t, y->xall);
   }
   PetscCall(VKCollective(y->comm, ierr, "Writing a frame to yls.h5"));
   o->n++;
@@ -191,6 +199,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONString(&j, "format", "volknit-yls-summary 1"));
   PetscCall(VKJSONString(&j, "scene", y->scene->name));
   PetscCall(VKJSONString(&j, "status", VKYLSStatus(y, c->failure)));
+  if (((YLSOutput *)y->out)->has_preview) PetscCall(VKJSONString(&j, "preview", "yls_preview.png"));
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
   PetscCall(VKJSONInt(&j, "unconverged_steps", y->stats.unconverged_steps));
   if (y->stats.unconverged_steps) PetscCall(VKJSONInt(&j, "first_unconverged_step", y->stats.first_unconverged_step));
@@ -278,6 +287,13 @@ static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
   PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteXdmf, y));
   PetscCall(VKPathJoin(y->dir, "yls.csv", path, sizeof(path)));
   PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteCSV, y));
+  {
+    char title[128];
+    PetscCall(PetscSNPrintf(title, sizeof(title), "volknit yls: scene %s, yarns", y->scene->name));
+    PetscCall(VKPreviewDraw(&o->preview, "volknit yls", y->dir, "yls_preview.png", title));
+    PetscCall(VKPathJoin(y->dir, "yls_preview.png", path, sizeof(path)));
+    o->has_preview = (PetscBool)(access(path, F_OK) == 0);
+  }
   PetscCall(VKPathJoin(y->dir, "yls.json", path, sizeof(path)));
   PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteJSON, &ctx));
   PetscFunctionReturn(0);
@@ -309,6 +325,7 @@ PetscErrorCode VKYLSOutputDestroy(VKYLS y)
     (void)VKOutputAbandon(&o->h5out);
   }
   PetscCall(PetscFree(o->row));
+  PetscCall(VKPreviewDestroy(&o->preview));
   PetscCall(PetscFree(y->out));
   PetscFunctionReturn(0);
 }
