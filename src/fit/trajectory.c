@@ -530,7 +530,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
 {
   VKFit      fit = T[0]->fit;
   PetscInt   n   = 2 * r, it, bad;
-  PetscReal *grad, *P, *gt, *Pt, *l, *Q, *dq, *work, *scratch, loss, lt, obj, ot, lambda = -1, cap = PetscLogReal(fit->traj_max_factor), gnorm = 0;
+  PetscReal *grad, *P, *gt, *Pt, *l, *Q, *dq, *work, *scratch, loss, loss0, lt, obj, ot, lambda = -1, cap = PetscLogReal(fit->traj_max_factor), gnorm = 0;
   Vec        trial, work_v;
   PetscBool  ok;
   VKFitStageReason why = VK_FIT_STAGE_ITERATION_LIMIT;
@@ -555,13 +555,23 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
   if (lossf)
     for (PetscInt i = 0; i < nt; i++) PetscCall(PetscArraycpy(lossf[i], T[i]->lossf, T[i]->nf));
   if (fit->traj_prior > 0 && !T[0]->gref) PetscCall(VKFitTrajectorySetPriorReference(T[0], gamma, loss));
-  obj = loss;
+  obj   = loss;
+  loss0 = loss;
   PetscCall(VKFitTrajectoryAddPrior(T[0], r, gamma, &obj, grad, P));
   for (PetscInt j = 0; j < n; j++) gnorm += grad[j] * grad[j];
   PetscCall(Record(T[0], r, 0, loss, PetscSqrtReal(gnorm), 0));
   for (it = 1; it <= fit->gn_its; it++) {
     PetscBool accepted = PETSC_FALSE, failed = PETSC_FALSE;
     PetscReal change   = 0, lmax = 0;
+    /* Converged when the data loss is within what the rollouts resolve: the
+     * equilibria place positions to about -fit_eq_rtol of the motion (the
+     * loss to eq_rtol^2 of staying at rest), and double precision the
+     * misfit to about 1e-16 of the stage's first.  Below that a trial
+     * "improves" on noise, by a hair, for as many iterations as allowed. */
+    if (loss <= PetscMax(PetscSqr(fit->eq_rtol) * (nt > 1 ? (PetscReal)nt : T[0]->rest_loss), 1e-16 * loss0)) {
+      why = VK_FIT_STAGE_CONVERGED;
+      break;
+    }
     VKSymEigN(n, P, l, Q, work);
     for (PetscInt k = 0; k < n; k++) lmax = PetscMax(lmax, l[k]);
     if (lambda < 0) lambda = fit->kappa * lmax;
