@@ -102,7 +102,8 @@ static PetscErrorCode TestForceExtension(MPI_Comm comm)
   r.s->handle[0].axis[2]   = 1;
   r.s->duration            = 1;
   y->dt                    = 10; /* one step is the static solve up to 1e-... of inertia */
-  y->cv = y->cs = 0;
+  r.s->damping             = 0; /* the drag is the scene's (-scene_damping) */
+  y->cs                    = 0;
   PetscCall(VKYLSSetUp(y));
   PetscCall(SNESSetTolerances(y->snes, 1e-11, 1e-12, PETSC_DEFAULT, 200, PETSC_MAX_INT));
   for (int k = 0; k < 3; k++) PetscCall(VKYLSStep(y)); /* the inertia of the first step dies out */
@@ -168,7 +169,7 @@ static PetscErrorCode TestCrossing(MPI_Comm comm, PetscReal **xout)
   r.s->handle[0].axis[2]   = 1;
   r.s->duration            = 0.05;
   y->dt                    = 1e-4;
-  y->cv                    = 1e4; /* overdamped: falls at g / c_v = 1 m/s, 0.1 r per step */
+  r.s->damping             = 1e4; /* overdamped: falls at g / c_v = 1 m/s, 0.1 r per step */
   PetscCall(VKYLSSetUp(y));
   W = 0;
   for (PetscInt i = n; i < 2 * n; i++) W += y->model.mass[i] * G;
@@ -202,7 +203,8 @@ static PetscErrorCode TestConservation(MPI_Comm comm)
   PetscFunctionBegin;
   PetscCall(RunCreate(comm, NULL, &r));
   y = r.yls;
-  y->cv = y->cs = 0;
+  r.s->damping  = 0;
+  y->cs         = 0;
   y->dt         = 1e-3;
   r.s->duration = 1;
   PetscCall(VKYLSSetUp(y));
@@ -314,7 +316,8 @@ static PetscErrorCode TestStiffFalls(MPI_Comm comm, const char dir[])
   y                = r.yls;
   r.s->gravity[2]  = -g;
   y->par.ks        = 1e6;
-  y->cv = y->cs    = 0;
+  r.s->damping     = 0;
+  y->cs            = 0;
   y->dt            = dt;
   PetscCall(VKYLSSetUp(y));
   for (PetscInt i = 0; i < y->model.nv; i++) {
