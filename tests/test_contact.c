@@ -61,6 +61,7 @@ static PetscErrorCode RunCreate(MPI_Comm comm, Case which, PetscReal T, Run *r)
   r->L    = PetscMax(hi[0] - lo[0], hi[1] - lo[1]);
   PetscCall(VKSceneCreate(comm, &r->s));
   r->s->relative   = PETSC_FALSE; /* metres */
+  r->s->damping    = 0;           /* no drag: the incline is compared with a frictional rigid block */
   r->s->ncolliders = 1;
   c                = &r->s->collider[0];
   if (which == DRAPE) { /* sphere of radius L/2 under the patch centre, its top 0.05 L below the patch */
