@@ -2,7 +2,8 @@
  * issue 25): the volume ratio J = det F, the elastic energy density
  * psi(F) = E_e / V_e (paper Eq. 7-8), and the largest and smallest
  * singular values of F (principal stretches; the smallest is negative in
- * an inverted tet).  Computed on the owned tets into a Vec of
+ * an inverted tet) and the inverted flag (J <= 0), from one SVD per tet.
+ * Computed on the owned tets into a Vec of
  * VK_SIM_TET_FIELDS entries per tet, in the mesh's tet order, so that the
  * frame writer gathers it like the node positions. */
 #include "simimpl.h"
@@ -29,17 +30,18 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
   PetscCall(VKMeshGetLocalPositions(x, &loc, &a));
   PetscCall(VecGetArray(f, &fa));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    const PetscReal *G = m->G + 12 * (L->eStart + e), vol = m->vol[L->eStart + e];
-    PetscReal        X[12], F[9], E;
-    VKSVD3           svd;
+    const PetscReal *G = m->G + 12 * (L->eStart + e);
+    PetscReal        X[12], F[9], J;
+    VKPsiState       st;
     VKLayoutGatherTet(L, e, a, X);
     VKTetDeformation(G, X, F);
-    VKSVD3Compute(F, &svd);
-    PetscCall(VKTetEvaluate(G, vol, X, &sim->mat->band, sim->mat->gamma[2 * e], sim->mat->gamma[2 * e + 1], PETSC_FALSE, &E, NULL, NULL, NULL));
-    fa[VK_SIM_TET_FIELDS * e + 0] = svd.s[0] * svd.s[1] * svd.s[2];
-    fa[VK_SIM_TET_FIELDS * e + 1] = E / vol;
-    fa[VK_SIM_TET_FIELDS * e + 2] = svd.s[0];
-    fa[VK_SIM_TET_FIELDS * e + 3] = svd.s[2];
+    PetscCall(VKPsiProject(F, NULL, &sim->mat->band, &st));
+    J                             = st.svd.s[0] * st.svd.s[1] * st.svd.s[2];
+    fa[VK_SIM_TET_FIELDS * e + 0] = J;
+    fa[VK_SIM_TET_FIELDS * e + 1] = sim->mat->gamma[2 * e] * st.psi_s + sim->mat->gamma[2 * e + 1] * st.psi_v;
+    fa[VK_SIM_TET_FIELDS * e + 2] = st.svd.s[0];
+    fa[VK_SIM_TET_FIELDS * e + 3] = st.svd.s[2];
+    fa[VK_SIM_TET_FIELDS * e + 4] = J <= 0;
   }
   PetscCall(VecRestoreArray(f, &fa));
   PetscCall(VKMeshRestoreLocalPositions(x, &loc, &a));

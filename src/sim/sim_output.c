@@ -59,9 +59,8 @@ static PetscErrorCode WriteStatic(VKSim sim, SimOutput *o)
   PetscFunctionReturn(0);
 }
 
-/* Columns k of a rank-0 array of `per` values per tet as datasets (ints
- * where isint; the inverted flag comes from J, column 0, when name is
- * "inverted"). */
+/* Each column k of a rank-0 array of `per` values per tet as the dataset
+ * names[k] (integers where isint[k]). */
 static PetscErrorCode WriteTetColumns(SimOutput *o, Vec seq, PetscInt per, const char *const names[], const PetscBool isint[], PetscInt ne)
 {
   const PetscScalar *a;
@@ -176,25 +175,15 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
       PetscCall(VecRestoreArrayRead(o->vseq, &va));
     }
     if (!ierr) {
-      char        n[VK_SIM_TET_FIELDS + 1][64];
-      const char *names[VK_SIM_TET_FIELDS + 1];
-      PetscBool   isint[VK_SIM_TET_FIELDS + 1] = {PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_TRUE};
-      const char *field[] = {"J", "psi", "stretch_max", "stretch_min", "inverted"};
-      PetscScalar *fa;
-      for (int k = 0; k <= VK_SIM_TET_FIELDS; k++) {
+      char        n[VK_SIM_TET_FIELDS][64];
+      const char *names[VK_SIM_TET_FIELDS];
+      const PetscBool isint[VK_SIM_TET_FIELDS] = {PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_TRUE};
+      const char     *field[VK_SIM_TET_FIELDS] = {"J", "psi", "stretch_max", "stretch_min", "inverted"};
+      for (int k = 0; k < VK_SIM_TET_FIELDS; k++) {
         PetscCall(PetscSNPrintf(n[k], sizeof(n[k]), "/frames/%06d/%s", (int)o->n, field[k]));
         names[k] = n[k];
       }
       ierr = WriteTetColumns(o, o->tfseq, VK_SIM_TET_FIELDS, names, isint, sim->mesh->ne);
-      if (!ierr) { /* the inverted flag from J */
-        PetscInt *inv;
-        PetscCall(PetscMalloc1(sim->mesh->ne + 1, &inv));
-        PetscCall(VecGetArray(o->tfseq, &fa));
-        for (PetscInt e = 0; e < sim->mesh->ne; e++) inv[e] = fa[VK_SIM_TET_FIELDS * e] <= 0;
-        PetscCall(VecRestoreArray(o->tfseq, &fa));
-        ierr = VKH5WriteInt(&o->h5, names[VK_SIM_TET_FIELDS], sim->mesh->ne, 1, inv);
-        PetscCall(PetscFree(inv));
-      }
     }
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
     if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", t);

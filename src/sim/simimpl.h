@@ -13,9 +13,9 @@ PETSC_INTERN PetscErrorCode VKSimOutputClose(VKSim, const char failure[]);
 PETSC_INTERN PetscErrorCode VKSimOutputDestroy(VKSim);
 
 /* Per-tet fields (sim_fields.c): a Vec of `per` entries per owned tet;
- * J, psi (J/m^3), largest and smallest singular value of F at positions x;
- * and g_s, g_v, domain (3 per tet). */
-#define VK_SIM_TET_FIELDS 4
+ * J, psi (J/m^3), largest and smallest singular value of F, inverted flag
+ * at positions x; and g_s, g_v, domain (3 per tet). */
+#define VK_SIM_TET_FIELDS 5
 PETSC_INTERN PetscErrorCode VKSimCreateTetFieldVec(VKSim, PetscInt per, Vec *);
 PETSC_INTERN PetscErrorCode VKSimTetFields(VKSim, Vec x, Vec f);
 PETSC_INTERN PetscErrorCode VKSimTetMaterial(VKSim, Vec f);
