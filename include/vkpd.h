@@ -78,8 +78,9 @@ typedef enum {
 PETSC_EXTERN const char *const VKPDTypes[];
 
 /* Which mesh nodes a scene handle holds (-pd_handle_nodes). */
+#define VK_PD_HANDLE_WEIGHT_TOL 1e-6 /* embedding weights below this do not make a node held: a held yarn vertex follows its handle to this fraction of its nodes' motion */
 typedef enum {
-  VK_PD_HANDLE_EMBEDDED, /* the nodes in the box and every node of a tet that embeds a yarn vertex inside it: the embedded yarns follow the handle exactly, as in volknit yls */
+  VK_PD_HANDLE_EMBEDDED, /* the nodes in the box and every node of a tet that embeds a yarn vertex inside it: the embedded yarns follow the handle exactly (to VK_PD_HANDLE_WEIGHT_TOL), as in volknit yls */
   VK_PD_HANDLE_BOX       /* the nodes inside the box */
 } VKPDHandleNodes;
 PETSC_EXTERN const char *const VKPDHandleNodesTypes[];

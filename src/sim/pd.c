@@ -275,8 +275,13 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
 /* The handle of every mesh node (-1: free), by -pd_handle_nodes.  A node
  * in a handle's box is held by it; with "embedded" a node also takes the
  * handle of any yarn vertex embedded in one of its tets whose rest
- * position (N x_rest) lies in the box, so every held yarn vertex follows
- * its handle exactly.  (The box's own nodes stay held: a node without yarn
+ * position (N x_rest) lies in the box and whose weight on it is not
+ * zero, so every held yarn vertex follows its handle exactly.  (A vertex
+ * on a face shared by two tets may be embedded in either, depending on the
+ * node numbering of the decomposition and on the last bits of a relaxed
+ * yarn; its weight on the node opposite that face is zero up to
+ * round-off, so skipping weights below VK_PD_HANDLE_WEIGHT_TOL gives every
+ * decomposition the same held nodes.)  (The box's own nodes stay held: a node without yarn
  * mass between held ones would otherwise be free to slide where the
  * material has no stiffness, e.g. inside a stretch band.)  A node claimed
  * by two handles takes the lower-numbered one, as a point in two boxes
@@ -300,7 +305,7 @@ static PetscErrorCode NodeHandles(VKPD pd, PetscInt node_of[], PetscInt held[])
       if (h < 0) continue;
       held[h]++;
       for (int a = 0; a < 4; a++)
-        if (node_of[t[a]] < 0 || h < node_of[t[a]]) node_of[t[a]] = h;
+        if (PetscAbsReal(w[a]) > VK_PD_HANDLE_WEIGHT_TOL && (node_of[t[a]] < 0 || h < node_of[t[a]])) node_of[t[a]] = h;
     }
   }
   PetscFunctionReturn(0);
