@@ -44,7 +44,20 @@
  * factorization of the whole operator (registered by VKPDCreate). */
 #define PCCOLUMNS "columns"
 PETSC_EXTERN PetscErrorCode VKPCCreate_Columns(PC);
-/* Registers the PC type columns and the TS type pd (src/sim/package.c);
+/* PC type "cms" (pc_cms.c): component mode synthesis over domains
+ * (DESIGN §9), a two-level PCMG whose coarse space holds every boundary
+ * row and the lowest interior modes of each domain.  Its domains are
+ * disjoint sets of a rank's own rows (default: one per rank), its options
+ * -pc_cms_modes (under the PC's prefix) and, for the PCMG, the prefix
+ * <pc prefix>cms_. */
+#define PCCMS "cms"
+PETSC_EXTERN PetscErrorCode VKPCCreate_CMS(PC);
+PETSC_EXTERN PetscErrorCode PCCMSSetSubdomains(PC, PetscInt n, IS is[]);
+PETSC_EXTERN PetscErrorCode PCCMSSetModes(PC, PetscInt k);
+/* After set-up: the subspace Q (owned by the PC) and how many of this
+ * rank's columns of it are boundary columns; the rest are interior modes. */
+PETSC_EXTERN PetscErrorCode PCCMSGetSubspace(PC, Mat *Q, PetscInt *nboundary);
+/* Registers the PC types columns and cms and the TS type pd (src/sim/package.c);
  * the driver calls it at start-up, VKPDCreate and VKSimCreate for library
  * users. */
 PETSC_EXTERN PetscErrorCode VKSimInitializePackage(void);

@@ -256,6 +256,14 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCheck(pd->newton_rtol >= 0 && pd->newton_rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_newton_rtol must be in [0, 1), got %g", pd->prefix, (double)pd->newton_rtol);
   PetscCall(KSPSetFromOptions(pd->ksp));
   {
+    PC        pc;
+    PetscBool iscms, preonly;
+    PetscCall(KSPGetPC(pd->ksp, &pc));
+    PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
+    PetscCall(PetscObjectTypeCompare((PetscObject)pd->ksp, KSPPREONLY, &preonly));
+    if (iscms && preonly) PetscCall(KSPSetType(pd->ksp, KSPCG)); /* cms preconditions; CG iterates to -pd_global_ksp_rtol */
+  }
+  {
     PC             pc;
     MatSolverType  st;
     PetscMPIInt    size;
@@ -387,6 +395,32 @@ static PetscErrorCode ForceScales(VKPD pd)
 
 /* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e (+ the collider weights
  * w_i on free nodes when the scene has colliders), then Kel. */
+/* PC cms learns the mesh's domains (those of this rank's nodes, one row
+ * of the scalar K per node) as index sets. */
+static PetscErrorCode SetCMSDomains(VKPD pd)
+{
+  VKMesh    mesh = pd->mesh;
+  VKLayout *L    = &mesh->layout;
+  PC        pc;
+  PetscBool iscms;
+  IS       *is;
+  PetscInt  n = 0;
+
+  PetscFunctionBegin;
+  PetscCall(KSPGetPC(pd->ksp, &pc));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
+  if (!iscms) PetscFunctionReturn(0);
+  PetscCall(PetscMalloc1(mesh->ndomains + 1, &is));
+  for (PetscInt d = 0; d < mesh->ndomains; d++) {
+    PetscInt lo = PetscMax(mesh->domain_node_start[d], L->nStart), hi = PetscMin(mesh->domain_node_start[d + 1], L->nEnd);
+    if (hi > lo) PetscCall(ISCreateStride(PETSC_COMM_SELF, hi - lo, lo, 1, &is[n++]));
+  }
+  PetscCall(PCCMSSetSubdomains(pc, n, is));
+  for (PetscInt d = 0; d < n; d++) PetscCall(ISDestroy(&is[d]));
+  PetscCall(PetscFree(is));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode AssembleK(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
@@ -460,6 +494,7 @@ static PetscErrorCode AssembleK(VKPD pd)
   PetscCall(MatZeroRowsColumns(pd->Kel, pd->nhandle, pd->handle_row, pd->kdiag, NULL, NULL));
   PetscCall(MatSetOption(pd->Kel, MAT_SPD, PETSC_TRUE));
   PetscCall(KSPSetOperators(pd->ksp, pd->Kel, pd->Kel));
+  PetscCall(SetCMSDomains(pd));
   PetscCall(KSPSetUp(pd->ksp));
   PetscCall(VKMaterialGetState(pd->mat, &pd->mat_state));
   pd->kset = PETSC_TRUE;

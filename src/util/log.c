@@ -6,6 +6,7 @@ PetscLogStage VK_STAGE_YARN, VK_STAGE_MESH, VK_STAGE_SIM, VK_STAGE_YLS, VK_STAGE
 PetscLogEvent VK_EVENT_YarnBuild, VK_EVENT_YarnRead, VK_EVENT_YarnResample, VK_EVENT_YarnFrames, VK_EVENT_YarnBind, VK_EVENT_YarnRadius;
 PetscLogEvent VK_EVENT_Voxelize, VK_EVENT_Tets, VK_EVENT_Lump, VK_EVENT_Embed, VK_EVENT_DualGraph, VK_EVENT_Partition, VK_EVENT_Layout, VK_EVENT_Write;
 PetscLogEvent VK_EVENT_PDSetUp, VK_EVENT_PDLocal, VK_EVENT_PDGlobal, VK_EVENT_PDNewton, VK_EVENT_PDCollide;
+PetscLogEvent VK_EVENT_CMSSetUp, VK_EVENT_CMSFactor, VK_EVENT_CMSEigen, VK_EVENT_CMSCoarse;
 PetscLogEvent VK_EVENT_YLSAssemble, VK_EVENT_YLSPairs, VK_EVENT_YLSSolve;
 PetscLogEvent VK_EVENT_FitY2V, VK_EVENT_FitEquilibrium, VK_EVENT_FitAdjoint, VK_EVENT_FitKKT, VK_EVENT_FitEigen;
 
@@ -49,6 +50,10 @@ PetscErrorCode VKInitializePackage(void)
   PetscCall(PetscLogEventRegister("PDGlobal", VK_CLASSID, &VK_EVENT_PDGlobal));
   PetscCall(PetscLogEventRegister("PDNewton", VK_CLASSID, &VK_EVENT_PDNewton));
   PetscCall(PetscLogEventRegister("PDCollide", VK_CLASSID, &VK_EVENT_PDCollide));
+  PetscCall(PetscLogEventRegister("CMSSetUp", VK_CLASSID, &VK_EVENT_CMSSetUp));
+  PetscCall(PetscLogEventRegister("CMSFactor", VK_CLASSID, &VK_EVENT_CMSFactor));
+  PetscCall(PetscLogEventRegister("CMSEigen", VK_CLASSID, &VK_EVENT_CMSEigen));
+  PetscCall(PetscLogEventRegister("CMSCoarse", VK_CLASSID, &VK_EVENT_CMSCoarse));
   PetscCall(PetscLogEventRegister("YLSAssemble", VK_CLASSID, &VK_EVENT_YLSAssemble));
   PetscCall(PetscLogEventRegister("YLSPairs", VK_CLASSID, &VK_EVENT_YLSPairs));
   PetscCall(PetscLogEventRegister("YLSSolve", VK_CLASSID, &VK_EVENT_YLSSolve));
