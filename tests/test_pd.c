@@ -13,10 +13,12 @@
  *    box, so the held yarn vertices follow the handle exactly;
  *  - K follows a change of the material (VKMaterialSetGamma) by itself;
  *  - the same trajectory with 1 and 2 ranks (in-process against a
- *    one-rank build on PETSC_COMM_SELF).
+ *    one-rank build on PETSC_COMM_SELF), also with the global step by
+ *    PC cms (CG to 1e-10) against the direct solve on one rank.
  * ranks: 1 2
  */
 #include <vksim.h>
+#include <slepcsys.h>
 #include "vktest.h"
 #include "meshcompare.h"
 
@@ -381,7 +383,7 @@ static PetscErrorCode TestTSMomentum(VKMaterial mat)
 }
 
 /* A hang-and-stretch trajectory; final positions by node key. */
-static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton, PetscReal **xk)
+static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton, PetscBool cms, PetscReal **xk)
 {
   VKScene s;
   VKSim   sim;
@@ -396,6 +398,12 @@ static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton
   sim->pd->max_it      = 2000;
   sim->pd->newton_its  = newton;
   sim->pd->newton_rtol = 1e-11;
+  if (cms) { /* as -pd_global_pc_type cms sets it */
+    PC pc;
+    PetscCall(KSPSetType(sim->pd->ksp, KSPCG));
+    PetscCall(KSPGetPC(sim->pd->ksp, &pc));
+    PetscCall(PCSetType(pc, PCCMS));
+  }
   PetscCall(TSSetTimeStep(sim->ts, 1.0 / 150));
   PetscCall(TSSetMaxTime(sim->ts, 5.0 / 150));
   PetscCall(VKSimRun(sim));
@@ -416,18 +424,18 @@ static PetscErrorCode TestRanks(VKMaterial mat)
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(mat->comm, &size));
   PetscCall(Build(PETSC_COMM_SELF, &ys, &ms, &mats));
-  for (int pass = 0; pass < 2; pass++) {
+  for (int pass = 0; pass < 3; pass++) { /* pass 2: the global step by CMS (CG to 1e-10) on the distributed mesh */
     PetscReal rtol = pass ? 1e-4 : 1e-6, tol = pass ? 1e-6 : 1e-8;
     PetscInt  newton = pass ? 0 : 10;
-    PetscCall(Trajectory(mat, rtol, newton, &xp));
-    PetscCall(Trajectory(mats, rtol, newton, &xs));
+    PetscCall(Trajectory(mat, rtol, newton, (PetscBool)(pass == 2), &xp));
+    PetscCall(Trajectory(mats, rtol, newton, PETSC_FALSE, &xs));
     d     = 0;
     scale = 0;
     for (PetscInt i = 0; i < 3 * ms->nv; i++) {
       d     = PetscMax(d, PetscAbsReal(xp[i] - xs[i]));
       scale = PetscMax(scale, PetscAbsReal(xs[i]));
     }
-    PetscCall(VKTestCheck((PetscBool)(d <= tol * scale), NULL, "5 steps with %d ranks and with one (PD rtol %g%s): max difference %.2e of the patch size", (int)size, (double)rtol, newton ? " + Newton" : "", (double)(d / scale)));
+    PetscCall(VKTestCheck((PetscBool)(d <= tol * scale), NULL, "5 steps with %d ranks and with one (PD rtol %g%s%s): max difference %.2e of the patch size", (int)size, (double)rtol, newton ? " + Newton" : "", pass == 2 ? ", global step by PC cms" : "", (double)(d / scale)));
     PetscCall(PetscFree(xp));
     PetscCall(PetscFree(xs));
   }
@@ -443,7 +451,7 @@ int main(int argc, char **argv)
   VKMesh     m;
   VKMaterial mat;
 
-  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL)); /* PC cms computes its modes with SLEPc */
   VKTestInit(PETSC_COMM_WORLD);
   PetscCall(Build(PETSC_COMM_WORLD, &y, &m, &mat));
   PetscCall(TestRestEquilibrium(mat));
@@ -457,7 +465,7 @@ int main(int argc, char **argv)
   PetscCall(VKYarnDestroy(&y));
   {
     int rc = VKTestFinish();
-    PetscCall(PetscFinalize());
+    PetscCall(SlepcFinalize());
     return rc;
   }
 }
