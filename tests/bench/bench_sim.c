@@ -9,6 +9,7 @@ static const char help[] = "Benchmark of the homogenized PD simulator (issue 3):
  * residual reached, ms per step (total, local, global), ns per tet per
  * local step, and the set-up (assembly + factorization) time. */
 #include <vksim.h>
+#include <slepcsys.h>
 #include <vkutil.h>
 
 int main(int argc, char **argv)
@@ -27,7 +28,7 @@ int main(int argc, char **argv)
   char           name[64];
   PC             pc;
 
-  PetscCall(PetscInitialize(&argc, &argv, NULL, help));
+  PetscCall(SlepcInitialize(&argc, &argv, NULL, help)); /* PC cms computes its modes with SLEPc */
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscOptionsBegin(PETSC_COMM_WORLD, NULL, "bench_sim options", NULL);
   PetscCall(PetscOptionsInt("-bench_wales", "Stitches across", NULL, wales, &wales, NULL));
@@ -101,6 +102,6 @@ int main(int argc, char **argv)
   PetscCall(VKMaterialDestroy(&mat));
   PetscCall(VKMeshDestroy(&mesh));
   PetscCall(VKYarnDestroy(&yarn));
-  PetscCall(PetscFinalize());
+  PetscCall(SlepcFinalize());
   return 0;
 }

@@ -46,6 +46,9 @@ run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 15 $PD_FIXED -pd_global_pc_ty
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 15
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 15 -pd_type pd -pd_max_it 2000
 run $MPIEXEC -n 2 bin/bench/bench_sim $PD_FIXED -pd_global_ksp_type cg -pd_global_pc_type gamg -pd_global_ksp_rtol 1e-8
+# the CMS solver (DESIGN §9): CG to 1e-10 preconditioned by two-level CMS, 8 and 32 domains
+run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 5 $PD_FIXED -pd_global_pc_type cms -dd_domains 8
+run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 5 $PD_FIXED -pd_global_pc_type cms -dd_domains 32
 run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED
 run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED -pd_global_pc_type cholesky -pd_global_pc_factor_mat_solver_type mumps
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED
