@@ -393,8 +393,6 @@ static PetscErrorCode ForceScales(VKPD pd)
   PetscFunctionReturn(0);
 }
 
-/* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e (+ the collider weights
- * w_i on free nodes when the scene has colliders), then Kel. */
 /* PC cms learns the mesh's domains (those of this rank's nodes, one row
  * of the scalar K per node) as index sets. */
 static PetscErrorCode SetCMSDomains(VKPD pd)
@@ -421,6 +419,8 @@ static PetscErrorCode SetCMSDomains(VKPD pd)
   PetscFunctionReturn(0);
 }
 
+/* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e (+ the collider weights
+ * w_i on free nodes when the scene has colliders), then Kel. */
 static PetscErrorCode AssembleK(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
