@@ -188,27 +188,24 @@ static PetscErrorCode FactorInterior(Mat Kii, Mat *F)
 
 /* dom[i]: the local domain of local row i; bnd[i]: whether it couples to a
  * row outside its domain. */
-static PetscErrorCode ClassifyRows(PC pc, Mat A, PetscInt dom[], PetscBool bnd[])
+static PetscErrorCode ClassifyRows(Mat A, PetscInt ndom, IS is[], PetscInt dom[], PetscBool bnd[])
 {
-  PC_CMS  *cms = (PC_CMS *)pc->data;
-  MPI_Comm comm;
   PetscInt rs, re;
 
   PetscFunctionBegin;
-  PetscCall(PetscObjectGetComm((PetscObject)pc, &comm));
   PetscCall(MatGetOwnershipRange(A, &rs, &re));
   for (PetscInt i = 0; i < re - rs; i++) dom[i] = -1;
-  for (PetscInt d = 0; d < cms->n; d++) {
+  for (PetscInt d = 0; d < ndom; d++) {
     const PetscInt *idx;
     PetscInt        n;
-    PetscCall(ISGetLocalSize(cms->is[d], &n));
-    PetscCall(ISGetIndices(cms->is[d], &idx));
+    PetscCall(ISGetLocalSize(is[d], &n));
+    PetscCall(ISGetIndices(is[d], &idx));
     for (PetscInt j = 0; j < n; j++) {
       PetscCheck(idx[j] >= rs && idx[j] < re, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "PC cms: local domain %d names row %d, which this rank does not own (rows %d..%d)", (int)d, (int)idx[j], (int)rs, (int)re - 1);
       PetscCheck(dom[idx[j] - rs] < 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "PC cms: row %d is in local domains %d and %d; domains must not overlap", (int)idx[j], (int)dom[idx[j] - rs], (int)d);
       dom[idx[j] - rs] = d;
     }
-    PetscCall(ISRestoreIndices(cms->is[d], &idx));
+    PetscCall(ISRestoreIndices(is[d], &idx));
   }
   for (PetscInt i = 0; i < re - rs; i++) {
     const PetscInt    *cols;
@@ -225,7 +222,7 @@ static PetscErrorCode ClassifyRows(PC pc, Mat A, PetscInt dom[], PetscBool bnd[]
 }
 
 /* Q and the counts for PCView. */
-static PetscErrorCode BuildSubspace(PC pc, Mat A)
+static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscInt ndom, IS is[])
 {
   PC_CMS   *cms = (PC_CMS *)pc->data;
   MPI_Comm  comm;
@@ -240,14 +237,14 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A)
   PetscCall(MatGetOwnershipRange(A, &rs, &re));
   m = re - rs;
   PetscCall(PetscMalloc4(m + 1, &dom, m + 1, &bnd, m + 1, &col, m + 1, &dnnz));
-  PetscCall(ClassifyRows(pc, A, dom, bnd));
-  PetscCall(PetscCalloc4(cms->n + 1, &nI, cms->n + 1, &nB, cms->n + 1, &k, cms->n + 1, &moff));
+  PetscCall(ClassifyRows(A, ndom, is, dom, bnd));
+  PetscCall(PetscCalloc4(ndom + 1, &nI, ndom + 1, &nB, ndom + 1, &k, ndom + 1, &moff));
   for (PetscInt i = 0; i < m; i++) {
     if (bnd[i]) nB[dom[i]]++;
     else nI[dom[i]]++;
     nb += bnd[i];
   }
-  for (PetscInt d = 0; d < cms->n; d++) {
+  for (PetscInt d = 0; d < ndom; d++) {
     k[d]    = PetscMin(cms->modes, nI[d]);
     moff[d] = nmodes;
     nmodes += k[d];
@@ -257,11 +254,11 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A)
   PetscCallMPI(MPI_Scan(&ncol, &cstart, 1, MPIU_INT, MPI_SUM, comm));
   cstart -= ncol;
   /* the reduced column of every boundary row, and the index sets */
-  PetscCall(PetscMalloc4(cms->n + 1, &isI, cms->n + 1, &isB, cms->n + 1, &Kii, cms->n + 1, &Kib));
+  PetscCall(PetscMalloc4(ndom + 1, &isI, ndom + 1, &isB, ndom + 1, &Kii, ndom + 1, &Kib));
   {
     PetscInt **ri, **rb, *fi, *fb, c = cstart;
-    PetscCall(PetscMalloc4(cms->n + 1, &ri, cms->n + 1, &rb, cms->n + 1, &fi, cms->n + 1, &fb));
-    for (PetscInt d = 0; d < cms->n; d++) {
+    PetscCall(PetscMalloc4(ndom + 1, &ri, ndom + 1, &rb, ndom + 1, &fi, ndom + 1, &fb));
+    for (PetscInt d = 0; d < ndom; d++) {
       PetscCall(PetscMalloc1(nI[d] + 1, &ri[d]));
       PetscCall(PetscMalloc1(nB[d] + 1, &rb[d]));
       fi[d] = fb[d] = 0;
@@ -272,20 +269,20 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A)
         rb[dom[i]][fb[dom[i]]++] = rs + i;
       } else ri[dom[i]][fi[dom[i]]++] = rs + i;
     }
-    for (PetscInt d = 0; d < cms->n; d++) {
+    for (PetscInt d = 0; d < ndom; d++) {
       PetscCall(ISCreateGeneral(PETSC_COMM_SELF, nI[d], ri[d], PETSC_OWN_POINTER, &isI[d]));
       PetscCall(ISCreateGeneral(PETSC_COMM_SELF, nB[d], rb[d], PETSC_OWN_POINTER, &isB[d]));
     }
     PetscCall(PetscFree4(ri, rb, fi, fb));
   }
-  PetscCall(MatCreateSubMatrices(A, cms->n, isI, isI, MAT_INITIAL_MATRIX, &Kii));
-  PetscCall(MatCreateSubMatrices(A, cms->n, isI, isB, MAT_INITIAL_MATRIX, &Kib));
+  PetscCall(MatCreateSubMatrices(A, ndom, isI, isI, MAT_INITIAL_MATRIX, &Kii));
+  PetscCall(MatCreateSubMatrices(A, ndom, isI, isB, MAT_INITIAL_MATRIX, &Kib));
   for (PetscInt i = 0; i < m; i++) dnnz[i] = bnd[i] ? 1 : nB[dom[i]] + k[dom[i]];
   PetscCall(MatCreateAIJ(comm, m, ncol, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnnz, 0, NULL, &cms->Q));
   PetscCall(MatSetOption(cms->Q, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   for (PetscInt i = 0; i < m; i++)
     if (bnd[i]) PetscCall(MatSetValue(cms->Q, rs + i, col[i], 1.0, INSERT_VALUES));
-  for (PetscInt d = 0; d < cms->n; d++) {
+  for (PetscInt d = 0; d < ndom; d++) {
     Mat                F, Psi = NULL, Phi = NULL;
     const PetscInt    *ri, *rb;
     const PetscScalar *pa = NULL, *fa = NULL;
@@ -331,9 +328,9 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A)
   PetscCall(MatAssemblyBegin(cms->Q, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(cms->Q, MAT_FINAL_ASSEMBLY));
   { /* counts for PCView */
-    PetscInt  loc[4] = {cms->n, 0, nb, nmodes}, glob[4], mx[2] = {0, 0}, gmx[2];
+    PetscInt  loc[4] = {ndom, 0, nb, nmodes}, glob[4], mx[2] = {0, 0}, gmx[2];
     PetscReal l[2] = {-lmin, lmax}, gl[2];
-    for (PetscInt d = 0; d < cms->n; d++) {
+    for (PetscInt d = 0; d < ndom; d++) {
       loc[1] += nI[d];
       mx[0] = PetscMax(mx[0], nI[d]);
       mx[1] = PetscMax(mx[1], nB[d]);
@@ -350,9 +347,9 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A)
     cms->lambda_min = -gl[0];
     cms->lambda_max = gl[1];
   }
-  PetscCall(MatDestroySubMatrices(cms->n, &Kii));
-  PetscCall(MatDestroySubMatrices(cms->n, &Kib));
-  for (PetscInt d = 0; d < cms->n; d++) {
+  PetscCall(MatDestroySubMatrices(ndom, &Kii));
+  PetscCall(MatDestroySubMatrices(ndom, &Kib));
+  for (PetscInt d = 0; d < ndom; d++) {
     PetscCall(ISDestroy(&isI[d]));
     PetscCall(ISDestroy(&isB[d]));
   }
@@ -414,16 +411,16 @@ static PetscErrorCode PCSetUp_CMS(PC pc)
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_CMSSetUp, 0, 0, 0, 0));
-  if (!cms->n) { /* one domain: this rank's rows */
-    PetscInt rs, re;
-    PetscCall(MatGetOwnershipRange(pc->pmat, &rs, &re));
-    PetscCall(PetscFree(cms->is));
-    PetscCall(PetscMalloc1(1, &cms->is));
-    PetscCall(ISCreateStride(PETSC_COMM_SELF, re - rs, rs, 1, &cms->is[0]));
-    cms->n = 1;
-  }
   PetscCall(MatDestroy(&cms->Q));
-  PetscCall(BuildSubspace(pc, pc->pmat));
+  if (cms->n) PetscCall(BuildSubspace(pc, pc->pmat, cms->n, cms->is));
+  else { /* no domains given: one, this rank's rows */
+    PetscInt rs, re;
+    IS       all;
+    PetscCall(MatGetOwnershipRange(pc->pmat, &rs, &re));
+    PetscCall(ISCreateStride(PETSC_COMM_SELF, re - rs, rs, 1, &all));
+    PetscCall(BuildSubspace(pc, pc->pmat, 1, &all));
+    PetscCall(ISDestroy(&all));
+  }
   PetscCall(SetUpTwoLevel(pc));
   PetscCall(PetscLogEventEnd(VK_EVENT_CMSSetUp, 0, 0, 0, 0));
   PetscFunctionReturn(0);
