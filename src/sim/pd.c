@@ -261,7 +261,10 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
     PetscCall(KSPGetPC(pd->ksp, &pc));
     PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
     PetscCall(PetscObjectTypeCompare((PetscObject)pd->ksp, KSPPREONLY, &preonly));
-    if (iscms && preonly) PetscCall(KSPSetType(pd->ksp, KSPCG)); /* cms preconditions; CG iterates to -pd_global_ksp_rtol */
+    if (iscms && preonly) { /* cms preconditions; CG iterates to -pd_global_ksp_rtol.  Options again: PETSc reads no tolerances for preonly */
+      PetscCall(KSPSetType(pd->ksp, KSPCG));
+      PetscCall(KSPSetFromOptions(pd->ksp));
+    }
   }
   {
     PC             pc;
