@@ -52,11 +52,18 @@ PETSC_EXTERN PetscErrorCode VKPCCreate_Columns(PC);
  * <pc prefix>cms_. */
 #define PCCMS "cms"
 PETSC_EXTERN PetscErrorCode VKPCCreate_CMS(PC);
+/* Collective; domains equal to the current ones (as sets, on every rank)
+ * keep what the last set-up built. */
 PETSC_EXTERN PetscErrorCode PCCMSSetSubdomains(PC, PetscInt n, IS is[]);
 PETSC_EXTERN PetscErrorCode PCCMSSetModes(PC, PetscInt k);
-/* After set-up: the subspace Q (owned by the PC) and how many of this
- * rank's columns of it are boundary columns; the rest are interior modes. */
-PETSC_EXTERN PetscErrorCode PCCMSGetSubspace(PC, Mat *Q, PetscInt *nboundary);
+/* After set-up: the subspace Q and the reduced matrix K_r = Q^T K Q (both
+ * owned by the PC) and how many of this rank's columns of Q are boundary
+ * columns; the rest are interior modes. */
+PETSC_EXTERN PetscErrorCode PCCMSGetSubspace(PC, Mat *Q, Mat *Kr, PetscInt *nboundary);
+/* After set-up: how many domains (over all ranks) the last set-up rebuilt;
+ * a new matrix of the same pattern rebuilds only the domains whose K_II
+ * or K_IB changed. */
+PETSC_EXTERN PetscErrorCode PCCMSGetRebuiltDomains(PC, PetscInt *rebuilt, PetscInt *total);
 /* Registers the PC types columns and cms and the TS type pd (src/sim/package.c);
  * the driver calls it at start-up, VKPDCreate and VKSimCreate for library
  * users. */
@@ -164,7 +171,7 @@ struct _n_VKPD {
   PetscReal *tetW; /* per owned tet: W of its last SVD (warm start) */
   /* global step */
   Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
-  PetscReal kdiag;  /* diagonal put on eliminated rows */
+  PetscReal kdiag;  /* diagonal put on eliminated rows: the mean diagonal of K, kept while within 10x of it */
   PetscReal res_floor; /* round-off level of |grad Phi|: 1e-12 kdiag L (N) */
   PetscReal f_gravity, f_unit; /* |M g| over the free nodes; elastic force of a unit strain (N) */
   PetscReal f_reaction;        /* handle and collider reactions at the last evaluation (N) */

@@ -4,12 +4,15 @@
  *  - with 1, 2 and 4 domains per rank: CG converges, the true relative
  *    residual is <= 1e-10, and x equals the distributed MUMPS solve to
  *    the accuracy that residual allows (1e-8);
+ *  - K_r, assembled from Schur blocks and eigenvalues, equals Q^T K Q;
  *  - every interior mode column of the subspace is an eigenvector of its
  *    domain's K_II: |K q - lambda q| <= 1e-8 lambda |q| on the rows where
  *    q lives, and it vanishes on every boundary row;
  *  - a domain of one row (no interior rows) and rows eliminated like PD's
  *    handles (zeroed with a diagonal) are solved as well;
- *  - new values in the same pattern are used by the next solve;
+ *  - new values in the same pattern are used by the next solve; a change
+ *    inside one domain rebuilds that domain only, to a Q and K_r equal
+ *    to a full set-up's, and a change on boundary rows rebuilds none;
  *  - overlapping domains and rows in no domain are refused with a message.
  * ranks: 1 2 3
  */
@@ -121,7 +124,7 @@ static PetscErrorCode TestModes(Mat K, PetscInt ndom)
 {
   KSP          ksp;
   PC           pc;
-  Mat          Q;
+  Mat          Q, Kr;
   Vec          q, w;
   PetscInt     nb, cs, ce, *counts, total = 0, checked = 0;
   PetscMPIInt  size, rank;
@@ -133,7 +136,17 @@ static PetscErrorCode TestModes(Mat K, PetscInt ndom)
   PetscCall(CMSKSP(K, ndom, PETSC_FALSE, &ksp));
   PetscCall(KSPSetUp(ksp));
   PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCCMSGetSubspace(pc, &Q, &nb));
+  PetscCall(PCCMSGetSubspace(pc, &Q, &Kr, &nb));
+  { /* K_r, assembled from its blocks, is Galerkin's Q^T K Q */
+    Mat       G;
+    PetscReal d, gn;
+    PetscCall(MatPtAP(K, Q, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &G));
+    PetscCall(MatNorm(G, NORM_FROBENIUS, &gn));
+    PetscCall(MatAXPY(G, -1, Kr, DIFFERENT_NONZERO_PATTERN));
+    PetscCall(MatNorm(G, NORM_FROBENIUS, &d));
+    PetscCall(VKTestCheck((PetscBool)(d <= 1e-9 * gn), NULL, "%d domain(s) per rank: K_r from its blocks equals Q^T K Q to %.1e relative (<= 1e-9)", (int)ndom, (double)(d / gn)));
+    PetscCall(MatDestroy(&G));
+  }
   PetscCall(MatGetOwnershipRangeColumn(Q, &cs, &ce));
   PetscCall(MatCreateVecs(Q, NULL, &q));
   PetscCall(VecDuplicate(q, &w));
@@ -225,6 +238,97 @@ static PetscErrorCode TestNewValues(Mat K)
   PetscFunctionReturn(0);
 }
 
+/* |A - B| / |B| in the Frobenius norm, A and B of the same pattern. */
+static PetscErrorCode RelativeDifference(Mat A, Mat B, PetscReal *d)
+{
+  Mat       D;
+  PetscReal nb;
+
+  PetscFunctionBegin;
+  PetscCall(MatDuplicate(A, MAT_COPY_VALUES, &D));
+  PetscCall(MatAXPY(D, -1, B, DIFFERENT_NONZERO_PATTERN));
+  PetscCall(MatNorm(D, NORM_FROBENIUS, d));
+  PetscCall(MatNorm(B, NORM_FROBENIUS, &nb));
+  *d /= nb;
+  PetscCall(MatDestroy(&D));
+  PetscFunctionReturn(0);
+}
+
+/* The Q and K_r of pc against those of a full set-up on K with the same
+ * domains. */
+static PetscErrorCode CompareWithFullSetUp(Mat K, PC pc, PetscReal *dq, PetscReal *dk)
+{
+  KSP fresh;
+  PC  pcf;
+  Mat Q, Kr, Qf, Krf;
+
+  PetscFunctionBegin;
+  PetscCall(CMSKSP(K, 2, PETSC_FALSE, &fresh));
+  PetscCall(KSPSetUp(fresh));
+  PetscCall(KSPGetPC(fresh, &pcf));
+  PetscCall(PCCMSGetSubspace(pc, &Q, &Kr, NULL));
+  PetscCall(PCCMSGetSubspace(pcf, &Qf, &Krf, NULL));
+  PetscCall(RelativeDifference(Q, Qf, dq));
+  PetscCall(RelativeDifference(Kr, Krf, dk));
+  PetscCall(KSPDestroy(&fresh));
+  PetscFunctionReturn(0);
+}
+
+/* A material change confined to one domain (rank 0's first of 2): the
+ * next set-up rebuilds that domain only, and its Q and K_r equal those of
+ * a full set-up on the new matrix; a change on a boundary row only
+ * rebuilds no domain, and K_r still takes it in. */
+static PetscErrorCode TestRebuild(PetscInt m)
+{
+  KSP                ksp;
+  PC                 pc;
+  Mat                K;
+  PetscInt           rs, re, hi, rebuilt, total, its;
+  PetscReal          dq, dk, res, diff;
+  PetscMPIInt        rank, size;
+  KSPConvergedReason reason;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscCall(Laplacian(m, 0.1, &K));
+  PetscCall(CMSKSP(K, 2, PETSC_FALSE, &ksp));
+  PetscCall(KSPSetUp(ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(MatGetOwnershipRange(K, &rs, &re));
+  hi = rs + (re - rs) / 2; /* SplitRows' first domain is [rs, hi) */
+  if (!rank) /* stiffer springs between x-neighbours inside that domain, as a material change does */
+    for (PetscInt r = rs; r + 1 < hi; r++) {
+      if (r % m == m - 1) continue;
+      PetscCall(MatSetValue(K, r, r, 0.5, ADD_VALUES));
+      PetscCall(MatSetValue(K, r + 1, r + 1, 0.5, ADD_VALUES));
+      PetscCall(MatSetValue(K, r, r + 1, -0.5, ADD_VALUES));
+      PetscCall(MatSetValue(K, r + 1, r, -0.5, ADD_VALUES));
+    }
+  PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(KSPSetOperators(ksp, K, K));
+  PetscCall(KSPSetUp(ksp));
+  PetscCall(PCCMSGetRebuiltDomains(pc, &rebuilt, &total));
+  PetscCall(CompareWithFullSetUp(K, pc, &dq, &dk));
+  PetscCall(VKTestCheck((PetscBool)(rebuilt == 1 && total == 2 * size && dq <= 1e-13 && dk <= 1e-13), NULL, "a change inside one domain of %d rebuilds %d domain(s) (1); Q and K_r differ from a full set-up's by %.1e and %.1e (<= 1e-13)", (int)total, (int)rebuilt, (double)dq, (double)dk));
+  PetscCall(SolveAndCompare(K, ksp, &res, &diff, &its, &reason));
+  PetscCall(VKTestCheck((PetscBool)(reason > 0 && res <= 1e-10 && diff <= 1e-8), NULL, "after the per-domain rebuild: residual %.1e, from MUMPS %.1e", (double)res, (double)diff));
+
+  if (!rank) PetscCall(MatSetValue(K, hi - 1, hi - 1, 1.0, ADD_VALUES)); /* the domain's last row couples to the next domain's first */
+  PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(KSPSetOperators(ksp, K, K));
+  PetscCall(KSPSetUp(ksp));
+  PetscCall(PCCMSGetRebuiltDomains(pc, &rebuilt, NULL));
+  PetscCall(CompareWithFullSetUp(K, pc, &dq, &dk));
+  PetscCall(SolveAndCompare(K, ksp, &res, &diff, &its, &reason));
+  PetscCall(VKTestCheck((PetscBool)(rebuilt == 0 && dq <= 1e-13 && dk <= 1e-13 && reason > 0 && res <= 1e-10 && diff <= 1e-8), NULL, "a change on a boundary row only rebuilds %d domains (0); Q and K_r differ from a full set-up's by %.1e and %.1e; residual %.1e, from MUMPS %.1e", (int)rebuilt, (double)dq, (double)dk, (double)res, (double)diff));
+  PetscCall(KSPDestroy(&ksp));
+  PetscCall(MatDestroy(&K));
+  PetscFunctionReturn(0);
+}
+
 /* Domains that overlap, or leave a row out: an error naming it. */
 static PetscErrorCode TestBadDomains(Mat K)
 {
@@ -284,6 +388,7 @@ int main(int argc, char **argv)
   PetscCall(TestBadDomains(K));
   PetscCall(MatDestroy(&K));
   PetscCall(TestEliminated(12));
+  PetscCall(TestRebuild(16));
   {
     int rc = VKTestFinish();
     PetscCall(SlepcFinalize());

@@ -17,9 +17,15 @@
  * so the reduced matrix K_r = Q^T K Q is the Schur complement on the
  * boundary rows beside the diagonal of the modes' eigenvalues.
  *
+ * A new matrix with the same nonzero pattern (a fit's material change)
+ * rebuilds only the domains whose K_II or K_IB changed, found by
+ * comparing them with the copies kept from the last set-up; K_r is then
+ * recomputed in place and refactored numerically.
+ *
  * The solve is PETSc's two-level machinery: a PCMG (prefix
  * <pc prefix>cms_) with interpolation Q, the coarse operator K_r = Q^T K Q
- * (MatPtAP) factored once (MUMPS LU, distributed), and Chebyshev-accelerated
+ * (assembled from the blocks above) factored once (MUMPS Cholesky,
+ * distributed), and Chebyshev-accelerated
  * Jacobi smoothing on the full K (the paper's A-Jacobi), run under an
  * outer Krylov method (the PD makes it CG) to the requested residual. */
 #include <vkpd.h>
@@ -28,17 +34,33 @@
 #include <slepceps.h>
 #include <petsc/private/pcimpl.h>
 
+/* One domain's pieces, kept between set-ups so that a new matrix that
+ * changes only some domains rebuilds only theirs. */
 typedef struct {
-  PetscInt  n;     /* this rank's domains */
-  IS       *is;    /* their rows (global numbers, owned by this rank) */
-  PetscInt  modes; /* interior modes per domain (-pc_cms_modes) */
-  Mat       Q;     /* the subspace: rows of K by reduced columns */
-  Mat       Kr;    /* the reduced matrix Q^T K Q */
-  PC        mg;    /* the two-level solve */
+  IS        isI, isB;   /* interior and boundary rows (global numbers) */
+  Mat        Kii, Kib;  /* the values its columns of Q were built from */
+  Mat        S;         /* K_BI Psi (dense nB x nB, symmetrized): its part of the Schur complement */
+  PetscInt   k;         /* interior modes */
+  PetscInt   mode0;     /* global reduced column of its first mode */
+  PetscReal *lambda;    /* their eigenvalues */
+} CMSDomain;
+
+typedef struct {
+  PetscInt   n;     /* this rank's domains as given (PCCMSSetSubdomains) */
+  IS        *is;    /* their rows (global numbers, owned by this rank) */
+  PetscInt   modes; /* interior modes per domain (-pc_cms_modes) */
+  /* the structure of the last full set-up */
+  PetscInt   ndom;  /* domains in use: n, or 1 (this rank's rows) */
+  CMSDomain *dom;
+  PetscBool *bnd;   /* per local row: on its domain's boundary */
+  PetscInt  *col;   /* per local boundary row: its reduced column */
+  Mat        Q;     /* the subspace: rows of K by reduced columns */
+  Mat        Kr;    /* the reduced matrix Q^T K Q */
+  PC         mg;    /* the two-level solve */
   /* what the set-up found, for PCView (sums and extremes over all ranks) */
-  PetscInt  nb_local; /* this rank's boundary columns of Q (its first ones) */
-  PetscInt  ndomains, ninterior, nboundary, nmodes, nint_max, nbnd_max;
-  PetscReal lambda_min, lambda_max;
+  PetscInt   nb_local; /* this rank's boundary columns of Q (its first ones) */
+  PetscInt   ndomains, ninterior, nboundary, nmodes, nint_max, nbnd_max, rebuilt;
+  PetscReal  lambda_min, lambda_max;
 } PC_CMS;
 
 static PetscErrorCode PCCMSSetSubdomains_CMS(PC pc, PetscInt n, IS is[])
@@ -47,6 +69,12 @@ static PetscErrorCode PCCMSSetSubdomains_CMS(PC pc, PetscInt n, IS is[])
 
   PetscFunctionBegin;
   PetscCheck(n >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "PCCMSSetSubdomains: %d domains on this rank", (int)n);
+  if (n == cms->n) { /* the same domains again (the PD passes them at every assembly): keep what was built */
+    PetscBool same = PETSC_TRUE, all;
+    for (PetscInt d = 0; d < n && same; d++) PetscCall(ISEqual(is[d], cms->is[d], &same));
+    PetscCall(MPIU_Allreduce(&same, &all, 1, MPIU_BOOL, MPI_LAND, PetscObjectComm((PetscObject)pc)));
+    if (all) PetscFunctionReturn(0);
+  }
   for (PetscInt d = 0; d < n; d++) PetscCall(PetscObjectReference((PetscObject)is[d]));
   for (PetscInt d = 0; d < cms->n; d++) PetscCall(ISDestroy(&cms->is[d]));
   PetscCall(PetscFree(cms->is));
@@ -84,7 +112,7 @@ PetscErrorCode PCCMSSetModes(PC pc, PetscInt k)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode PCCMSGetSubspace(PC pc, Mat *Q, PetscInt *nboundary)
+PetscErrorCode PCCMSGetSubspace(PC pc, Mat *Q, Mat *Kr, PetscInt *nboundary)
 {
   PC_CMS   *cms;
   PetscBool iscms;
@@ -96,7 +124,24 @@ PetscErrorCode PCCMSGetSubspace(PC pc, Mat *Q, PetscInt *nboundary)
   cms = (PC_CMS *)pc->data;
   PetscCheck(cms->Q, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "PCCMSGetSubspace: set the PC up first");
   if (Q) *Q = cms->Q;
+  if (Kr) *Kr = cms->Kr;
   if (nboundary) *nboundary = cms->nb_local;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode PCCMSGetRebuiltDomains(PC pc, PetscInt *rebuilt, PetscInt *total)
+{
+  PC_CMS   *cms;
+  PetscBool iscms;
+
+  PetscFunctionBegin;
+  PetscValidHeaderSpecific(pc, PC_CLASSID, 1);
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
+  PetscCheck(iscms, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_WRONG, "PCCMSGetRebuiltDomains needs a PC of type cms");
+  cms = (PC_CMS *)pc->data;
+  PetscCheck(cms->Q, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "PCCMSGetRebuiltDomains: set the PC up first");
+  if (rebuilt) *rebuilt = cms->rebuilt;
+  if (total) *total = cms->ndomains;
   PetscFunctionReturn(0);
 }
 
@@ -112,9 +157,9 @@ static PetscErrorCode InverseMult(Mat S, Vec x, Vec y)
   PetscFunctionReturn(0);
 }
 
-/* The k lowest eigenpairs of K_II (factor F) into the dense nI x k Phi;
- * their eigenvalues widen [lmin, lmax]. */
-static PetscErrorCode InteriorModes(PC pc, PetscInt d, Mat Kii, Mat F, PetscInt k, Mat Phi, PetscReal *lmin, PetscReal *lmax)
+/* The k lowest eigenpairs of K_II (factor F): the vectors into the dense
+ * nI x k Phi, the values into lambda. */
+static PetscErrorCode InteriorModes(PC pc, PetscInt d, Mat Kii, Mat F, PetscInt k, Mat Phi, PetscReal lambda[])
 {
   EPS         eps;
   Mat         S = NULL;
@@ -150,13 +195,10 @@ static PetscErrorCode InteriorModes(PC pc, PetscInt d, Mat Kii, Mat F, PetscInt 
   PetscCheck(nconv >= k, PETSC_COMM_SELF, PETSC_ERR_CONV_FAILED, "PC cms: the interior eigensolve of local domain %d (%d interior rows) converged %d of %d modes (see -%scms_eps_view)", (int)d, (int)nI, (int)nconv, (int)k, prefix ? prefix : "");
   for (PetscInt j = 0; j < k; j++) {
     PetscScalar mu;
-    PetscReal   lambda;
     PetscCall(MatDenseGetColumnVecWrite(Phi, j, &v));
     PetscCall(EPSGetEigenpair(eps, j, &mu, NULL, v, NULL));
     PetscCall(MatDenseRestoreColumnVecWrite(Phi, j, &v));
-    lambda = small ? PetscRealPart(mu) : 1 / PetscRealPart(mu);
-    *lmin  = PetscMin(*lmin, lambda);
-    *lmax  = PetscMax(*lmax, lambda);
+    lambda[j] = small ? PetscRealPart(mu) : 1 / PetscRealPart(mu);
   }
   PetscCall(EPSDestroy(&eps));
   PetscCall(MatDestroy(&S));
@@ -221,185 +263,479 @@ static PetscErrorCode ClassifyRows(Mat A, PetscInt ndom, IS is[], PetscInt dom[]
   PetscFunctionReturn(0);
 }
 
-/* Q and the counts for PCView. */
-static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscInt ndom, IS is[])
+/* Forget the structure of the last full set-up. */
+static PetscErrorCode DestroyStructure(PC_CMS *cms)
 {
-  PC_CMS   *cms = (PC_CMS *)pc->data;
-  MPI_Comm  comm;
-  PetscInt  rs, re, m, nb = 0, nmodes = 0, cstart, ncol, *dom, *col, *nI, *nB, *k, *moff, *dnnz;
-  PetscBool *bnd;
-  IS        *isI, *isB;
-  Mat       *Kii, *Kib;
-  PetscReal  lmin = PETSC_MAX_REAL, lmax = 0;
+  PetscFunctionBegin;
+  for (PetscInt d = 0; d < cms->ndom; d++) {
+    PetscCall(ISDestroy(&cms->dom[d].isI));
+    PetscCall(ISDestroy(&cms->dom[d].isB));
+    PetscCall(MatDestroy(&cms->dom[d].Kii));
+    PetscCall(MatDestroy(&cms->dom[d].Kib));
+    PetscCall(MatDestroy(&cms->dom[d].S));
+    PetscCall(PetscFree(cms->dom[d].lambda));
+  }
+  PetscCall(PetscFree(cms->dom));
+  PetscCall(PetscFree2(cms->bnd, cms->col));
+  cms->ndom = 0;
+  PetscCall(MatDestroy(&cms->Q));
+  PetscCall(MatDestroy(&cms->Kr));
+  PetscFunctionReturn(0);
+}
+
+/* The domains in use: as given, or this rank's rows as one. */
+static PetscErrorCode GetDomains(PC pc, PetscInt *ndom, IS **is)
+{
+  PC_CMS  *cms = (PC_CMS *)pc->data;
+  PetscInt rs, re;
+
+  PetscFunctionBegin;
+  *ndom = cms->n ? cms->n : 1;
+  PetscCall(PetscMalloc1(*ndom, is));
+  if (cms->n) {
+    for (PetscInt d = 0; d < cms->n; d++) {
+      PetscCall(PetscObjectReference((PetscObject)cms->is[d]));
+      (*is)[d] = cms->is[d];
+    }
+  } else {
+    PetscCall(MatGetOwnershipRange(pc->pmat, &rs, &re));
+    PetscCall(ISCreateStride(PETSC_COMM_SELF, re - rs, rs, 1, &(*is)[0]));
+  }
+  PetscFunctionReturn(0);
+}
+
+/* The structure: which rows are boundary rows, the reduced column of each,
+ * the index sets of every domain, and Q's nonzero pattern with its
+ * boundary rows (identity) set; every domain's columns are still to come. */
+static PetscErrorCode BuildStructure(PC pc, Mat A, PetscInt ndom, const PetscInt dom[])
+{
+  PC_CMS  *cms = (PC_CMS *)pc->data;
+  MPI_Comm comm;
+  PetscInt rs, re, m, nb = 0, nmodes = 0, cstart, ncol, *nI, *nB, *dnnz, **ri, **rb, *fi, *fb, c;
 
   PetscFunctionBegin;
   PetscCall(PetscObjectGetComm((PetscObject)pc, &comm));
   PetscCall(MatGetOwnershipRange(A, &rs, &re));
   m = re - rs;
-  PetscCall(PetscMalloc4(m + 1, &dom, m + 1, &bnd, m + 1, &col, m + 1, &dnnz));
-  PetscCall(ClassifyRows(A, ndom, is, dom, bnd));
-  PetscCall(PetscCalloc4(ndom + 1, &nI, ndom + 1, &nB, ndom + 1, &k, ndom + 1, &moff));
+  PetscCall(PetscCalloc1(ndom + 1, &cms->dom));
+  cms->ndom = ndom;
+  PetscCall(PetscCalloc2(ndom + 1, &nI, ndom + 1, &nB));
   for (PetscInt i = 0; i < m; i++) {
-    if (bnd[i]) nB[dom[i]]++;
+    if (cms->bnd[i]) nB[dom[i]]++;
     else nI[dom[i]]++;
-    nb += bnd[i];
+    nb += cms->bnd[i];
   }
-  for (PetscInt d = 0; d < ndom; d++) {
-    k[d]    = PetscMin(cms->modes, nI[d]);
-    moff[d] = nmodes;
-    nmodes += k[d];
-  }
+  for (PetscInt d = 0; d < ndom; d++) nmodes += cms->dom[d].k = PetscMin(cms->modes, nI[d]);
   ncol          = nb + nmodes;
   cms->nb_local = nb;
   PetscCallMPI(MPI_Scan(&ncol, &cstart, 1, MPIU_INT, MPI_SUM, comm));
   cstart -= ncol;
-  /* the reduced column of every boundary row, and the index sets */
-  PetscCall(PetscMalloc4(ndom + 1, &isI, ndom + 1, &isB, ndom + 1, &Kii, ndom + 1, &Kib));
-  {
-    PetscInt **ri, **rb, *fi, *fb, c = cstart;
-    PetscCall(PetscMalloc4(ndom + 1, &ri, ndom + 1, &rb, ndom + 1, &fi, ndom + 1, &fb));
-    for (PetscInt d = 0; d < ndom; d++) {
-      PetscCall(PetscMalloc1(nI[d] + 1, &ri[d]));
-      PetscCall(PetscMalloc1(nB[d] + 1, &rb[d]));
-      fi[d] = fb[d] = 0;
-    }
-    for (PetscInt i = 0; i < m; i++) {
-      if (bnd[i]) {
-        col[i]                 = c++;
-        rb[dom[i]][fb[dom[i]]++] = rs + i;
-      } else ri[dom[i]][fi[dom[i]]++] = rs + i;
-    }
-    for (PetscInt d = 0; d < ndom; d++) {
-      PetscCall(ISCreateGeneral(PETSC_COMM_SELF, nI[d], ri[d], PETSC_OWN_POINTER, &isI[d]));
-      PetscCall(ISCreateGeneral(PETSC_COMM_SELF, nB[d], rb[d], PETSC_OWN_POINTER, &isB[d]));
-    }
-    PetscCall(PetscFree4(ri, rb, fi, fb));
+  for (PetscInt d = 0, c0 = cstart + nb; d < ndom; c0 += cms->dom[d++].k) {
+    cms->dom[d].mode0 = c0;
+    PetscCall(PetscMalloc1(cms->dom[d].k + 1, &cms->dom[d].lambda));
   }
-  PetscCall(MatCreateSubMatrices(A, ndom, isI, isI, MAT_INITIAL_MATRIX, &Kii));
-  PetscCall(MatCreateSubMatrices(A, ndom, isI, isB, MAT_INITIAL_MATRIX, &Kib));
-  for (PetscInt i = 0; i < m; i++) dnnz[i] = bnd[i] ? 1 : nB[dom[i]] + k[dom[i]];
+  PetscCall(PetscMalloc4(ndom + 1, &ri, ndom + 1, &rb, ndom + 1, &fi, ndom + 1, &fb));
+  for (PetscInt d = 0; d < ndom; d++) {
+    PetscCall(PetscMalloc1(nI[d] + 1, &ri[d]));
+    PetscCall(PetscMalloc1(nB[d] + 1, &rb[d]));
+    fi[d] = fb[d] = 0;
+  }
+  c = cstart;
+  for (PetscInt i = 0; i < m; i++) {
+    if (cms->bnd[i]) {
+      cms->col[i]              = c++;
+      rb[dom[i]][fb[dom[i]]++] = rs + i;
+    } else ri[dom[i]][fi[dom[i]]++] = rs + i;
+  }
+  for (PetscInt d = 0; d < ndom; d++) {
+    PetscCall(ISCreateGeneral(PETSC_COMM_SELF, nI[d], ri[d], PETSC_OWN_POINTER, &cms->dom[d].isI));
+    PetscCall(ISCreateGeneral(PETSC_COMM_SELF, nB[d], rb[d], PETSC_OWN_POINTER, &cms->dom[d].isB));
+  }
+  PetscCall(PetscFree4(ri, rb, fi, fb));
+  PetscCall(PetscMalloc1(m + 1, &dnnz));
+  for (PetscInt i = 0; i < m; i++) dnnz[i] = cms->bnd[i] ? 1 : nB[dom[i]] + cms->dom[dom[i]].k;
   PetscCall(MatCreateAIJ(comm, m, ncol, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnnz, 0, NULL, &cms->Q));
   PetscCall(MatSetOption(cms->Q, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   for (PetscInt i = 0; i < m; i++)
-    if (bnd[i]) PetscCall(MatSetValue(cms->Q, rs + i, col[i], 1.0, INSERT_VALUES));
-  for (PetscInt d = 0; d < ndom; d++) {
-    Mat                F, Psi = NULL, Phi = NULL;
-    const PetscInt    *ri, *rb;
-    const PetscScalar *pa = NULL, *fa = NULL;
-    PetscInt          *cols;
-    PetscScalar       *vals;
-    if (!nI[d]) continue; /* all boundary: its rows are the reduced space itself */
-    PetscCall(PetscLogEventBegin(VK_EVENT_CMSFactor, 0, 0, 0, 0));
-    PetscCall(FactorInterior(Kii[d], &F));
-    if (nB[d]) { /* Psi = -K_II^-1 K_IB, all boundary columns in one solve */
-      Mat B;
-      PetscCall(MatConvert(Kib[d], MATSEQDENSE, MAT_INITIAL_MATRIX, &B));
-      PetscCall(MatScale(B, -1));
-      PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, nI[d], nB[d], NULL, &Psi));
-      PetscCall(MatMatSolve(F, B, Psi));
-      PetscCall(MatDestroy(&B));
+    if (cms->bnd[i]) PetscCall(MatSetValue(cms->Q, rs + i, cms->col[i], 1.0, INSERT_VALUES));
+  PetscCall(PetscFree(dnnz));
+  PetscCall(PetscFree2(nI, nB));
+  PetscFunctionReturn(0);
+}
+
+/* Domain d's columns of Q from its K_II and K_IB: the boundary modes
+ * Psi = -K_II^-1 K_IB and the interior modes, written into its interior
+ * rows (Q must be assembled afterwards); and its part of K_r, the
+ * Schur term K_BI Psi and the modes' eigenvalues. */
+static PetscErrorCode BuildDomain(PC pc, PetscInt d)
+{
+  PC_CMS            *cms = (PC_CMS *)pc->data;
+  CMSDomain         *D   = &cms->dom[d];
+  Mat                F, Psi = NULL, Phi = NULL;
+  const PetscInt    *ri, *rb;
+  const PetscScalar *pa = NULL, *fa = NULL;
+  PetscInt          *cols, nI, nB, rs;
+  PetscScalar       *vals;
+
+  PetscFunctionBegin;
+  PetscCall(ISGetLocalSize(D->isI, &nI));
+  PetscCall(ISGetLocalSize(D->isB, &nB));
+  PetscCall(MatDestroy(&D->S));
+  if (!nI) PetscFunctionReturn(0); /* all boundary: its rows are the reduced space itself */
+  PetscCall(MatGetOwnershipRange(cms->Q, &rs, NULL));
+  PetscCall(PetscLogEventBegin(VK_EVENT_CMSFactor, 0, 0, 0, 0));
+  PetscCall(FactorInterior(D->Kii, &F));
+  if (nB) { /* Psi = -K_II^-1 K_IB, all boundary columns in one solve */
+    Mat B;
+    PetscCall(MatConvert(D->Kib, MATSEQDENSE, MAT_INITIAL_MATRIX, &B));
+    PetscCall(MatScale(B, -1));
+    PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, nI, nB, NULL, &Psi));
+    PetscCall(MatMatSolve(F, B, Psi));
+    PetscCall(MatDestroy(&B));
+    /* S = K_BI Psi = -K_BI K_II^-1 K_IB, symmetric up to the solve's round-off: made exactly so */
+    PetscCall(MatTransposeMatMult(D->Kib, Psi, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &D->S));
+    {
+      PetscScalar *sa;
+      PetscCall(MatDenseGetArray(D->S, &sa));
+      for (PetscInt i = 0; i < nB; i++)
+        for (PetscInt j = 0; j < i; j++) sa[i * nB + j] = sa[j * nB + i] = 0.5 * (sa[i * nB + j] + sa[j * nB + i]);
+      PetscCall(MatDenseRestoreArray(D->S, &sa));
     }
-    PetscCall(PetscLogEventEnd(VK_EVENT_CMSFactor, 0, 0, 0, 0));
-    if (k[d]) {
-      PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, nI[d], k[d], NULL, &Phi));
-      PetscCall(InteriorModes(pc, d, Kii[d], F, k[d], Phi, &lmin, &lmax));
-    }
-    PetscCall(MatDestroy(&F));
-    PetscCall(ISGetIndices(isI[d], &ri));
-    PetscCall(ISGetIndices(isB[d], &rb));
-    PetscCall(PetscMalloc2(nB[d] + k[d], &cols, nB[d] + k[d], &vals));
-    for (PetscInt b = 0; b < nB[d]; b++) cols[b] = col[rb[b] - rs];
-    for (PetscInt j = 0; j < k[d]; j++) cols[nB[d] + j] = cstart + nb + moff[d] + j;
-    if (Psi) PetscCall(MatDenseGetArrayRead(Psi, &pa));
-    if (Phi) PetscCall(MatDenseGetArrayRead(Phi, &fa));
-    for (PetscInt r = 0; r < nI[d]; r++) { /* dense arrays are column-major with leading dimension nI */
-      for (PetscInt b = 0; b < nB[d]; b++) vals[b] = pa[b * nI[d] + r];
-      for (PetscInt j = 0; j < k[d]; j++) vals[nB[d] + j] = fa[j * nI[d] + r];
-      PetscCall(MatSetValues(cms->Q, 1, &ri[r], nB[d] + k[d], cols, vals, INSERT_VALUES));
-    }
-    if (Psi) PetscCall(MatDenseRestoreArrayRead(Psi, &pa));
-    if (Phi) PetscCall(MatDenseRestoreArrayRead(Phi, &fa));
-    PetscCall(PetscFree2(cols, vals));
-    PetscCall(ISRestoreIndices(isI[d], &ri));
-    PetscCall(ISRestoreIndices(isB[d], &rb));
-    PetscCall(MatDestroy(&Psi));
-    PetscCall(MatDestroy(&Phi));
   }
+  PetscCall(PetscLogEventEnd(VK_EVENT_CMSFactor, 0, 0, 0, 0));
+  if (D->k) {
+    PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, nI, D->k, NULL, &Phi));
+    PetscCall(InteriorModes(pc, d, D->Kii, F, D->k, Phi, D->lambda));
+  }
+  PetscCall(MatDestroy(&F));
+  PetscCall(ISGetIndices(D->isI, &ri));
+  PetscCall(ISGetIndices(D->isB, &rb));
+  PetscCall(PetscMalloc2(nB + D->k, &cols, nB + D->k, &vals));
+  for (PetscInt b = 0; b < nB; b++) cols[b] = cms->col[rb[b] - rs];
+  for (PetscInt j = 0; j < D->k; j++) cols[nB + j] = D->mode0 + j;
+  if (Psi) PetscCall(MatDenseGetArrayRead(Psi, &pa));
+  if (Phi) PetscCall(MatDenseGetArrayRead(Phi, &fa));
+  for (PetscInt r = 0; r < nI; r++) { /* dense arrays are column-major with leading dimension nI */
+    for (PetscInt b = 0; b < nB; b++) vals[b] = pa[b * nI + r];
+    for (PetscInt j = 0; j < D->k; j++) vals[nB + j] = fa[j * nI + r];
+    PetscCall(MatSetValues(cms->Q, 1, &ri[r], nB + D->k, cols, vals, INSERT_VALUES));
+  }
+  if (Psi) PetscCall(MatDenseRestoreArrayRead(Psi, &pa));
+  if (Phi) PetscCall(MatDenseRestoreArrayRead(Phi, &fa));
+  PetscCall(PetscFree2(cols, vals));
+  PetscCall(ISRestoreIndices(D->isI, &ri));
+  PetscCall(ISRestoreIndices(D->isB, &rb));
+  PetscCall(MatDestroy(&Psi));
+  PetscCall(MatDestroy(&Phi));
+  PetscFunctionReturn(0);
+}
+
+/* Q for the matrix A: a full build when the structure is new (first
+ * set-up, new pattern, new domains, or rows that moved between interior
+ * and boundary), else only the domains whose K_II or K_IB changed. */
+static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
+{
+  PC_CMS   *cms = (PC_CMS *)pc->data;
+  MPI_Comm  comm;
+  PetscInt  ndom, rs, re, m, *dom, rebuilt = 0;
+  PetscBool *bnd;
+  IS        *is;
+  Mat       *Kii, *Kib;
+
+  PetscFunctionBegin;
+  PetscCall(PetscObjectGetComm((PetscObject)pc, &comm));
+  PetscCall(MatGetOwnershipRange(A, &rs, &re));
+  m = re - rs;
+  PetscCall(GetDomains(pc, &ndom, &is));
+  PetscCall(PetscMalloc2(m + 1, &dom, m + 1, &bnd));
+  PetscCall(ClassifyRows(A, ndom, is, dom, bnd));
+  if (reuse) { /* the same boundary rows on every rank, else start over */
+    PetscBool same = (PetscBool)(cms->ndom == ndom), all;
+    for (PetscInt i = 0; i < m && same; i++) same = (PetscBool)(bnd[i] == cms->bnd[i]);
+    PetscCall(MPIU_Allreduce(&same, &all, 1, MPIU_BOOL, MPI_LAND, comm));
+    reuse = all;
+  }
+  if (!reuse) {
+    PetscCall(DestroyStructure(cms));
+    PetscCall(PetscMalloc2(m + 1, &cms->bnd, m + 1, &cms->col));
+    PetscCall(PetscArraycpy(cms->bnd, bnd, m));
+    PetscCall(BuildStructure(pc, A, ndom, dom));
+  }
+  {
+    IS *isI, *isB;
+    PetscCall(PetscMalloc2(ndom, &isI, ndom, &isB));
+    for (PetscInt d = 0; d < ndom; d++) {
+      isI[d] = cms->dom[d].isI;
+      isB[d] = cms->dom[d].isB;
+    }
+    PetscCall(MatCreateSubMatrices(A, ndom, isI, isI, MAT_INITIAL_MATRIX, &Kii));
+    PetscCall(MatCreateSubMatrices(A, ndom, isI, isB, MAT_INITIAL_MATRIX, &Kib));
+    PetscCall(PetscFree2(isI, isB));
+  }
+  for (PetscInt d = 0; d < ndom; d++) {
+    CMSDomain *D       = &cms->dom[d];
+    PetscBool  changed = PETSC_TRUE, eq;
+    if (D->Kii) {
+      PetscCall(MatEqual(D->Kii, Kii[d], &eq));
+      changed = (PetscBool)!eq;
+      if (eq) {
+        PetscCall(MatEqual(D->Kib, Kib[d], &eq));
+        changed = (PetscBool)!eq;
+      }
+    }
+    if (changed) {
+      PetscCall(MatDestroy(&D->Kii));
+      PetscCall(MatDestroy(&D->Kib));
+      /* copies: matrices of MatCreateSubMatrices are destroyed together */
+      PetscCall(MatDuplicate(Kii[d], MAT_COPY_VALUES, &D->Kii));
+      PetscCall(MatDuplicate(Kib[d], MAT_COPY_VALUES, &D->Kib));
+      PetscCall(BuildDomain(pc, d));
+      rebuilt++;
+    }
+  }
+  PetscCall(MatDestroySubMatrices(ndom, &Kii));
+  PetscCall(MatDestroySubMatrices(ndom, &Kib));
   PetscCall(MatAssemblyBegin(cms->Q, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(cms->Q, MAT_FINAL_ASSEMBLY));
   { /* counts for PCView */
-    PetscInt  loc[4] = {ndom, 0, nb, nmodes}, glob[4], mx[2] = {0, 0}, gmx[2];
-    PetscReal l[2] = {-lmin, lmax}, gl[2];
+    PetscInt  loc[5] = {ndom, 0, cms->nb_local, 0, rebuilt}, glob[5], mx[2] = {0, 0}, gmx[2];
+    PetscReal l[2] = {-PETSC_MAX_REAL, 0}, gl[2];
     for (PetscInt d = 0; d < ndom; d++) {
-      loc[1] += nI[d];
-      mx[0] = PetscMax(mx[0], nI[d]);
-      mx[1] = PetscMax(mx[1], nB[d]);
+      PetscInt nI, nB;
+      PetscCall(ISGetLocalSize(cms->dom[d].isI, &nI));
+      PetscCall(ISGetLocalSize(cms->dom[d].isB, &nB));
+      loc[1] += nI;
+      loc[3] += cms->dom[d].k;
+      mx[0] = PetscMax(mx[0], nI);
+      mx[1] = PetscMax(mx[1], nB);
+      for (PetscInt j = 0; j < cms->dom[d].k; j++) {
+        l[0] = PetscMax(l[0], -cms->dom[d].lambda[j]);
+        l[1] = PetscMax(l[1], cms->dom[d].lambda[j]);
+      }
     }
-    PetscCall(MPIU_Allreduce(loc, glob, 4, MPIU_INT, MPI_SUM, comm));
+    PetscCall(MPIU_Allreduce(loc, glob, 5, MPIU_INT, MPI_SUM, comm));
     PetscCall(MPIU_Allreduce(mx, gmx, 2, MPIU_INT, MPI_MAX, comm));
     PetscCall(MPIU_Allreduce(l, gl, 2, MPIU_REAL, MPIU_MAX, comm));
     cms->ndomains   = glob[0];
     cms->ninterior  = glob[1];
     cms->nboundary  = glob[2];
     cms->nmodes     = glob[3];
+    cms->rebuilt    = glob[4];
     cms->nint_max   = gmx[0];
     cms->nbnd_max   = gmx[1];
     cms->lambda_min = -gl[0];
     cms->lambda_max = gl[1];
   }
-  PetscCall(MatDestroySubMatrices(ndom, &Kii));
-  PetscCall(MatDestroySubMatrices(ndom, &Kib));
-  for (PetscInt d = 0; d < ndom; d++) {
-    PetscCall(ISDestroy(&isI[d]));
-    PetscCall(ISDestroy(&isB[d]));
-  }
-  PetscCall(PetscFree4(isI, isB, Kii, Kib));
-  PetscCall(PetscFree4(nI, nB, k, moff));
-  PetscCall(PetscFree4(dom, bnd, col, dnnz));
+  for (PetscInt d = 0; d < ndom; d++) PetscCall(ISDestroy(&is[d]));
+  PetscCall(PetscFree(is));
+  PetscCall(PetscFree2(dom, bnd));
   PetscFunctionReturn(0);
 }
 
-/* The PCMG around Q: Galerkin coarse operator factored by a distributed
- * Cholesky, Chebyshev + Jacobi smoothing; options under <prefix>cms_. */
-static PetscErrorCode SetUpTwoLevel(PC pc)
+/* The reduced column of every row that row i of A couples to on other
+ * ranks: ghost[k] for the global row gidx[k] (sorted), -1 for interior
+ * rows; a scatter of this rank's columns to the ranks that need them. */
+static PetscErrorCode GhostColumns(PC pc, Mat A, PetscInt *nghost, PetscInt **gidx, PetscInt **ghost)
 {
-  PC_CMS     *cms = (PC_CMS *)pc->data;
-  const char *prefix;
-  KSP         smooth, coarse;
-  PC          sub;
+  PC_CMS            *cms = (PC_CMS *)pc->data;
+  PetscInt           rs, re, n = 0, cap = 16;
+  Vec                owned, g;
+  VecScatter         sc;
+  IS                 is;
+  PetscScalar       *oa;
+  const PetscScalar *ga;
 
   PetscFunctionBegin;
-  PetscCall(PCDestroy(&cms->mg));
-  PetscCall(PCCreate(PetscObjectComm((PetscObject)pc), &cms->mg));
-  PetscCall(PetscObjectIncrementTabLevel((PetscObject)cms->mg, (PetscObject)pc, 1));
-  PetscCall(PCGetOptionsPrefix(pc, &prefix));
-  PetscCall(PCSetOptionsPrefix(cms->mg, prefix));
-  PetscCall(PCAppendOptionsPrefix(cms->mg, "cms_"));
-  PetscCall(PCSetType(cms->mg, PCMG));
-  PetscCall(PCMGSetLevels(cms->mg, 2, NULL));
-  PetscCall(PCMGSetType(cms->mg, PC_MG_MULTIPLICATIVE));
-  PetscCall(PCMGSetGalerkin(cms->mg, PC_MG_GALERKIN_NONE));
-  PetscCall(PCMGSetInterpolation(cms->mg, 1, cms->Q));
-  PetscCall(PCMGGetSmoother(cms->mg, 1, &smooth));
-  PetscCall(KSPSetType(smooth, KSPCHEBYSHEV));
-  PetscCall(KSPSetTolerances(smooth, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, 2));
-  PetscCall(KSPGetPC(smooth, &sub));
-  PetscCall(PCSetType(sub, PCJACOBI));
-  PetscCall(PCMGGetCoarseSolve(cms->mg, &coarse));
-  PetscCall(VKKSPSetMUMPS(coarse, PCLU)); /* see below */
+  PetscCall(MatGetOwnershipRange(A, &rs, &re));
+  PetscCall(PetscMalloc1(cap, gidx));
+  for (PetscInt i = 0; i < re - rs; i++) {
+    const PetscInt *cols;
+    PetscInt        nc;
+    if (!cms->bnd[i]) continue; /* an interior row couples inside its domain only */
+    PetscCall(MatGetRow(A, rs + i, &nc, &cols, NULL));
+    for (PetscInt j = 0; j < nc; j++)
+      if (cols[j] < rs || cols[j] >= re) {
+        if (n == cap) PetscCall(PetscRealloc(sizeof(PetscInt) * (cap *= 2), gidx));
+        (*gidx)[n++] = cols[j];
+      }
+    PetscCall(MatRestoreRow(A, rs + i, &nc, &cols, NULL));
+  }
+  PetscCall(PetscSortRemoveDupsInt(&n, *gidx));
+  PetscCall(MatCreateVecs(A, &owned, NULL));
+  PetscCall(VecGetArray(owned, &oa));
+  for (PetscInt i = 0; i < re - rs; i++) oa[i] = cms->bnd[i] ? (PetscScalar)cms->col[i] : -1;
+  PetscCall(VecRestoreArray(owned, &oa));
+  PetscCall(VecCreateSeq(PETSC_COMM_SELF, n, &g));
+  PetscCall(ISCreateGeneral(PETSC_COMM_SELF, n, *gidx, PETSC_USE_POINTER, &is));
+  PetscCall(VecScatterCreate(owned, is, g, NULL, &sc));
+  PetscCall(VecScatterBegin(sc, owned, g, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, owned, g, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(PetscMalloc1(n + 1, ghost));
+  PetscCall(VecGetArrayRead(g, &ga));
+  for (PetscInt k = 0; k < n; k++) (*ghost)[k] = (PetscInt)PetscRealPart(ga[k]);
+  PetscCall(VecRestoreArrayRead(g, &ga));
+  PetscCall(VecScatterDestroy(&sc));
+  PetscCall(ISDestroy(&is));
+  PetscCall(VecDestroy(&g));
+  PetscCall(VecDestroy(&owned));
+  *nghost = n;
+  PetscFunctionReturn(0);
+}
+
+/* The reduced column of global row j: its own if a boundary row, -1 if
+ * interior. */
+static PetscInt ReducedColumn(PC_CMS *cms, PetscInt rs, PetscInt re, PetscInt j, PetscInt nghost, const PetscInt gidx[], const PetscInt ghost[])
+{
+  PetscInt k;
+
+  if (j >= rs && j < re) return cms->bnd[j - rs] ? cms->col[j - rs] : -1;
+  (void)PetscFindInt(j, nghost, gidx, &k);
+  return k >= 0 ? ghost[k] : -1;
+}
+
+/* K_r = Q^T K Q from its blocks (every domain's rows are on one rank, so
+ * every row of K_r is assembled where it is owned): on the boundary rows
+ * K_BB plus each domain's Schur term K_BI Psi, on the modes their
+ * eigenvalues (Psi makes the modes K-orthogonal to the boundary columns).
+ * Exactly symmetric; the same pattern when the structure is kept. */
+static PetscErrorCode AssembleReduced(PC pc, Mat A)
+{
+  PC_CMS  *cms = (PC_CMS *)pc->data;
+  PetscInt rs, re, nghost = 0, *gidx, *ghost, *cols, cap = 64;
+  PetscScalar *vals;
+
+  PetscFunctionBegin;
+  PetscCall(MatGetOwnershipRange(A, &rs, &re));
+  PetscCall(GhostColumns(pc, A, &nghost, &gidx, &ghost));
+  if (!cms->Kr) { /* preallocation: a bound per row */
+    PetscInt  m = cms->nb_local, *dnnz, *onnz, cs, ce, r = 0;
+    for (PetscInt d = 0; d < cms->ndom; d++) m += cms->dom[d].k;
+    PetscCall(PetscCalloc2(m + 1, &dnnz, m + 1, &onnz));
+    PetscCallMPI(MPI_Scan(&m, &ce, 1, MPIU_INT, MPI_SUM, PetscObjectComm((PetscObject)pc)));
+    cs = ce - m;
+    for (PetscInt d = 0; d < cms->ndom; d++) {
+      const PetscInt *rb;
+      PetscInt        nB;
+      PetscCall(ISGetLocalSize(cms->dom[d].isB, &nB));
+      PetscCall(ISGetIndices(cms->dom[d].isB, &rb));
+      for (PetscInt b = 0; b < nB; b++) {
+        const PetscInt *kc;
+        PetscInt        nc, row = cms->col[rb[b] - rs] - cs;
+        dnnz[row] = cms->dom[d].S ? nB : 0;
+        PetscCall(MatGetRow(A, rb[b], &nc, &kc, NULL));
+        for (PetscInt j = 0; j < nc; j++) {
+          PetscInt c = ReducedColumn(cms, rs, re, kc[j], nghost, gidx, ghost);
+          if (c < 0) continue;
+          if (c >= cs && c < ce) dnnz[row]++;
+          else onnz[row]++;
+        }
+        PetscCall(MatRestoreRow(A, rb[b], &nc, &kc, NULL));
+        dnnz[row] = PetscMin(dnnz[row], ce - cs);
+        r++;
+      }
+      PetscCall(ISRestoreIndices(cms->dom[d].isB, &rb));
+    }
+    for (; r < m; r++) dnnz[r] = 1; /* the modes */
+    PetscCall(MatCreateAIJ(PetscObjectComm((PetscObject)pc), m, m, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnnz, 0, onnz, &cms->Kr));
+    PetscCall(MatSetOption(cms->Kr, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+    PetscCall(PetscFree2(dnnz, onnz));
+  } else PetscCall(MatZeroEntries(cms->Kr));
+  PetscCall(PetscMalloc2(cap, &cols, cap, &vals));
+  for (PetscInt i = 0; i < re - rs; i++) { /* K_BB */
+    const PetscInt    *kc;
+    const PetscScalar *kv;
+    PetscInt           nc, n = 0;
+    if (!cms->bnd[i]) continue;
+    PetscCall(MatGetRow(A, rs + i, &nc, &kc, &kv));
+    if (nc > cap) {
+      PetscCall(PetscFree2(cols, vals));
+      cap = nc;
+      PetscCall(PetscMalloc2(cap, &cols, cap, &vals));
+    }
+    for (PetscInt j = 0; j < nc; j++) {
+      PetscInt c = ReducedColumn(cms, rs, re, kc[j], nghost, gidx, ghost);
+      if (c < 0) continue;
+      cols[n]   = c;
+      vals[n++] = kv[j];
+    }
+    PetscCall(MatRestoreRow(A, rs + i, &nc, &kc, &kv));
+    PetscCall(MatSetValues(cms->Kr, 1, &cms->col[i], n, cols, vals, ADD_VALUES));
+  }
+  PetscCall(PetscFree2(cols, vals));
+  for (PetscInt d = 0; d < cms->ndom; d++) {
+    CMSDomain *D = &cms->dom[d];
+    for (PetscInt j = 0; j < D->k; j++) {
+      PetscInt c = D->mode0 + j;
+      PetscCall(MatSetValue(cms->Kr, c, c, D->lambda[j], ADD_VALUES));
+    }
+    if (D->S) { /* symmetric: its column b is its row b */
+      const PetscInt    *rb;
+      const PetscScalar *sa;
+      PetscInt           nB, *bc;
+      PetscCall(ISGetLocalSize(D->isB, &nB));
+      PetscCall(ISGetIndices(D->isB, &rb));
+      PetscCall(PetscMalloc1(nB, &bc));
+      for (PetscInt b = 0; b < nB; b++) bc[b] = cms->col[rb[b] - rs];
+      PetscCall(MatDenseGetArrayRead(D->S, &sa));
+      for (PetscInt b = 0; b < nB; b++) PetscCall(MatSetValues(cms->Kr, 1, &bc[b], nB, bc, sa + b * nB, ADD_VALUES));
+      PetscCall(MatDenseRestoreArrayRead(D->S, &sa));
+      PetscCall(PetscFree(bc));
+      PetscCall(ISRestoreIndices(D->isB, &rb));
+    }
+  }
+  PetscCall(MatAssemblyBegin(cms->Kr, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(cms->Kr, MAT_FINAL_ASSEMBLY));
+  PetscCall(PetscFree(gidx));
+  PetscCall(PetscFree(ghost));
+  PetscFunctionReturn(0);
+}
+
+/* The PCMG around Q: coarse operator K_r = Q^T K Q factored by a
+ * distributed Cholesky, Chebyshev + Jacobi smoothing; options under
+ * <prefix>cms_.  When Q kept its pattern (a per-domain rebuild), K_r is
+ * reassembled in place and refactored numerically, and the smoother
+ * re-estimates its eigenvalues. */
+static PetscErrorCode SetUpTwoLevel(PC pc)
+{
+  PC_CMS *cms = (PC_CMS *)pc->data;
+
+  PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_CMSCoarse, 0, 0, 0, 0));
-  /* K_r by hand (MatPtAP) rather than PCMG's Galerkin product, so a
-   * per-domain rebuild can update it.  Factored by MUMPS LU: its Cholesky
-   * (AIJ or SBAIJ, SPD flag or not) returned NaN on the 30 x 30 rib with
-   * 8 domains on 2 ranks, where LU and the 1-rank Cholesky solve it (CG
-   * in 8 iterations); not understood yet. */
-  PetscCall(MatDestroy(&cms->Kr));
-  PetscCall(MatPtAP(pc->pmat, cms->Q, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &cms->Kr));
-  PetscCall(MatSetOption(cms->Kr, MAT_SPD, PETSC_FALSE));
-  PetscCall(MatSetOption(cms->Kr, MAT_SYMMETRIC, PETSC_TRUE));
-  PetscCall(KSPSetOperators(coarse, cms->Kr, cms->Kr));
+  /* K_r from its blocks rather than PCMG's Galerkin product Q^T K Q:
+   * far fewer flops with the dense Psi, exactly symmetric (MUMPS's
+   * Cholesky of the product, symmetric only to round-off, gave NaN on the
+   * 30 x 30 rib with 8 domains on 2 ranks), and after a per-domain
+   * rebuild only the changed domains' Schur terms are new. */
+  if (cms->mg && cms->Kr) PetscCall(AssembleReduced(pc, pc->pmat));
+  else {
+    const char *prefix;
+    KSP         smooth, coarse;
+    PC          sub;
+    PetscCall(MatDestroy(&cms->Kr));
+    PetscCall(AssembleReduced(pc, pc->pmat));
+    PetscCall(MatSetOption(cms->Kr, MAT_SPD, PETSC_TRUE));
+    PetscCall(PCDestroy(&cms->mg));
+    PetscCall(PCCreate(PetscObjectComm((PetscObject)pc), &cms->mg));
+    PetscCall(PetscObjectIncrementTabLevel((PetscObject)cms->mg, (PetscObject)pc, 1));
+    PetscCall(PCGetOptionsPrefix(pc, &prefix));
+    PetscCall(PCSetOptionsPrefix(cms->mg, prefix));
+    PetscCall(PCAppendOptionsPrefix(cms->mg, "cms_"));
+    PetscCall(PCSetType(cms->mg, PCMG));
+    PetscCall(PCMGSetLevels(cms->mg, 2, NULL));
+    PetscCall(PCMGSetType(cms->mg, PC_MG_MULTIPLICATIVE));
+    PetscCall(PCMGSetGalerkin(cms->mg, PC_MG_GALERKIN_NONE));
+    PetscCall(PCMGSetInterpolation(cms->mg, 1, cms->Q));
+    PetscCall(PCMGGetSmoother(cms->mg, 1, &smooth));
+    PetscCall(KSPSetType(smooth, KSPCHEBYSHEV));
+    PetscCall(KSPSetTolerances(smooth, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, 2));
+    PetscCall(KSPGetPC(smooth, &sub));
+    PetscCall(PCSetType(sub, PCJACOBI));
+    PetscCall(PCMGGetCoarseSolve(cms->mg, &coarse));
+    PetscCall(VKKSPSetMUMPS(coarse, PCCHOLESKY));
+    PetscCall(KSPSetOperators(coarse, cms->Kr, cms->Kr));
+    PetscCall(PCSetFromOptions(cms->mg));
+  }
   PetscCall(PCSetOperators(cms->mg, pc->mat, pc->pmat));
-  PetscCall(PCSetFromOptions(cms->mg));
   PetscCall(PCSetUp(cms->mg));
   PetscCall(PetscLogEventEnd(VK_EVENT_CMSCoarse, 0, 0, 0, 0));
   PetscFunctionReturn(0);
@@ -407,20 +743,12 @@ static PetscErrorCode SetUpTwoLevel(PC pc)
 
 static PetscErrorCode PCSetUp_CMS(PC pc)
 {
-  PC_CMS *cms = (PC_CMS *)pc->data;
+  PC_CMS   *cms   = (PC_CMS *)pc->data;
+  PetscBool reuse = (PetscBool)(pc->setupcalled && pc->flag == SAME_NONZERO_PATTERN && cms->Q);
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_CMSSetUp, 0, 0, 0, 0));
-  PetscCall(MatDestroy(&cms->Q));
-  if (cms->n) PetscCall(BuildSubspace(pc, pc->pmat, cms->n, cms->is));
-  else { /* no domains given: one, this rank's rows */
-    PetscInt rs, re;
-    IS       all;
-    PetscCall(MatGetOwnershipRange(pc->pmat, &rs, &re));
-    PetscCall(ISCreateStride(PETSC_COMM_SELF, re - rs, rs, 1, &all));
-    PetscCall(BuildSubspace(pc, pc->pmat, 1, &all));
-    PetscCall(ISDestroy(&all));
-  }
+  PetscCall(BuildSubspace(pc, pc->pmat, reuse));
   PetscCall(SetUpTwoLevel(pc));
   PetscCall(PetscLogEventEnd(VK_EVENT_CMSSetUp, 0, 0, 0, 0));
   PetscFunctionReturn(0);
@@ -459,6 +787,7 @@ static PetscErrorCode PCView_CMS(PC pc, PetscViewer viewer)
   PetscCall(PetscViewerASCIIPrintf(viewer, "  CMS: %d interior modes per domain\n", (int)cms->modes));
   if (!cms->mg) PetscFunctionReturn(0);
   PetscCall(PetscViewerASCIIPrintf(viewer, "  %d domains: %d interior rows (at most %d in a domain), %d boundary rows (at most %d in a domain)\n", (int)cms->ndomains, (int)cms->ninterior, (int)cms->nint_max, (int)cms->nboundary, (int)cms->nbnd_max));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  the last set-up built the pieces of %d of the %d domains (the others' K_II and K_IB were unchanged)\n", (int)cms->rebuilt, (int)cms->ndomains));
   PetscCall(PetscViewerASCIIPrintf(viewer, "  reduced space: %d columns (%d boundary, %d modes, eigenvalues of K_II in [%g, %g])\n", (int)(cms->nboundary + cms->nmodes), (int)cms->nboundary, (int)cms->nmodes, (double)(cms->nmodes ? cms->lambda_min : 0), (double)cms->lambda_max));
   PetscCall(PetscViewerASCIIPushTab(viewer));
   PetscCall(PCView(cms->mg, viewer));
@@ -471,8 +800,7 @@ static PetscErrorCode PCReset_CMS(PC pc)
   PC_CMS *cms = (PC_CMS *)pc->data;
 
   PetscFunctionBegin;
-  PetscCall(MatDestroy(&cms->Q));
-  PetscCall(MatDestroy(&cms->Kr));
+  PetscCall(DestroyStructure(cms));
   PetscCall(PCDestroy(&cms->mg));
   PetscFunctionReturn(0);
 }

@@ -428,7 +428,7 @@ static PetscErrorCode AssembleK(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
   VKLayout *L    = &pd->mesh->layout;
-  PetscReal dsum = 0, dt2 = pd->dt * pd->dt;
+  PetscReal dsum = 0, dt2 = pd->dt * pd->dt, kmean;
   PetscInt  N;
 
   PetscFunctionBegin;
@@ -459,14 +459,18 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscCall(MatGetDiagonal(pd->K, d));
     PetscCall(VecSum(d, &dsum));
     PetscCall(VecGetSize(d, &N));
-    pd->kdiag = dsum / N;
+    kmean = dsum / N;
+    /* kept across material changes of moderate size, so that a change in
+     * some domains leaves the eliminated rows of the others unchanged
+     * (PC cms rebuilds only the changed domains) */
+    if (!(pd->kdiag >= 0.1 * kmean && pd->kdiag <= 10 * kmean)) pd->kdiag = kmean;
     PetscCall(VecGetArrayRead(d, &da));
     pd->nhandle = pd->nscene;
     for (PetscInt i = 0; i < nown; i++) {
       pd->contact_w[i] = 0;
       if (pd->node_handle[i] >= 0 && pd->node_handle[i] < VK_SCENE_MAX) continue;
       pd->node_handle[i] = -1;
-      if (da[i] > 1e-14 * pd->kdiag) {
+      if (da[i] > 1e-14 * kmean) {
         if (pd->scene->ncolliders) pd->contact_w[i] = pd->contact_weight * da[i];
         continue;
       }
@@ -491,8 +495,10 @@ static PetscErrorCode AssembleK(VKPD pd)
     pd->res_floor = 1e-12 * pd->kdiag * L;
   }
   PetscCall(ForceScales(pd));
-  PetscCall(MatDestroy(&pd->Kel));
-  PetscCall(MatDuplicate(pd->K, MAT_COPY_VALUES, &pd->Kel));
+  /* Kel keeps its object and pattern across material changes, so the
+   * global PC refactors numerically (PC cms: only the changed domains) */
+  if (pd->Kel) PetscCall(MatCopy(pd->K, pd->Kel, SAME_NONZERO_PATTERN));
+  else PetscCall(MatDuplicate(pd->K, MAT_COPY_VALUES, &pd->Kel));
   PetscCallMPI(MPI_Allreduce(&pd->nhandle, &pd->nhandle_total, 1, MPIU_INT, MPI_SUM, pd->comm));
   PetscCall(MatZeroRowsColumns(pd->Kel, pd->nhandle, pd->handle_row, pd->kdiag, NULL, NULL));
   PetscCall(MatSetOption(pd->Kel, MAT_SPD, PETSC_TRUE));
