@@ -2,19 +2,75 @@ static const char help[] = "Benchmark of the homogenized PD simulator (issue 3):
                            "  -bench_wales <30> -bench_courses <30>   1x1 rib patch size (stitches)\n"
                            "  -bench_steps <5>   steps of the hang scene (gravity, top edge held)\n"
                            "  -bench_header      print the table header\n"
+                           "  -bench_material_changes <0>   instead of steps: time this many material\n"
+                           "      changes (all tets of domain 0 scaled by 1.1 or back, then all tets)\n"
+                           "      and the PD set-up after each\n"
                            "and every -pd_, -pd_global_, -ts_, -mat_ option.\n";
 
 /* bench_sim: a hanging 1x1 rib patch simulated for a few steps by PD; one
  * Markdown table row: size, ranks, global solver, PD iterations per step,
  * residual reached, ms per step (total, local, global), ns per tet per
- * local step, and the set-up (assembly + factorization) time. */
+ * local step, and the set-up (assembly + factorization) time.  With
+ * -bench_material_changes, a row of the other table: the time of the PD
+ * set-up after a material change in one domain and in all (issue 22:
+ * PC cms rebuilds only the changed domains). */
 #include <vksim.h>
 #include <slepcsys.h>
 #include <vkutil.h>
 
+/* The PD set-up's time after n material changes confined to domain 0
+ * (every g of its tets scaled by 1.1, then back), then after n changes of
+ * every tet, averaged; one table row. */
+static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble tfirst)
+{
+  VKPD           pd   = sim->pd;
+  VKMesh         mesh = pd->mesh;
+  const VKLayout *L   = &mesh->layout;
+  Vec            g;
+  PetscLogDouble t[2] = {0, 0};
+  PetscInt       rebuilt = -1;
+  PetscMPIInt    size;
+  PC             pc;
+  PetscBool      cms;
+  const char    *pctype;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscCall(KSPGetPC(pd->ksp, &pc));
+  PetscCall(PCGetType(pc, &pctype));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &cms));
+  PetscCall(VKMaterialCreateGammaVec(pd->mat, &g));
+  for (int all = 0; all < 2; all++)
+    for (PetscInt r = 0; r < n; r++) {
+      PetscScalar   *a;
+      PetscReal      f = r % 2 ? 1 / 1.1 : 1.1;
+      PetscLogDouble t0;
+      PetscCall(VKMaterialGetGamma(pd->mat, g));
+      PetscCall(VecGetArray(g, &a));
+      for (PetscInt e = 0; e < L->eEnd - L->eStart; e++)
+        if (all || mesh->tet_domain[L->eStart + e] == 0) a[2 * e] *= f, a[2 * e + 1] *= f;
+      PetscCall(VecRestoreArray(g, &a));
+      PetscCall(VKMaterialSetGamma(pd->mat, g));
+      PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
+      t0 = VKWallTime();
+      PetscCall(VKPDSetUp(pd));
+      PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
+      t[all] += VKWallTime() - t0;
+      if (cms && !all) PetscCall(PCCMSGetRebuiltDomains(pc, &rebuilt, NULL));
+    }
+  PetscCall(VecDestroy(&g));
+  {
+    char one[64];
+    if (cms) PetscCall(PetscSNPrintf(one, sizeof(one), "%.3f (%d)", t[0] / n, (int)rebuilt));
+    else PetscCall(PetscSNPrintf(one, sizeof(one), "%.3f", t[0] / n));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 | %d | %d | %d | %s | %.2f | %s | %.3f | %.1f |\n", (int)(3 * mesh->nv), (int)mesh->ndomains, (int)size, pctype, (double)tfirst, one, t[1] / n, t[1] / t[0]));
+  }
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
-  PetscInt       wales = 30, courses = 30, steps = 5;
+  PetscInt       wales = 30, courses = 30, steps = 5, changes = 0;
   PetscBool      header = PETSC_FALSE;
   VKYarn         yarn;
   VKMesh         mesh;
@@ -35,8 +91,12 @@ int main(int argc, char **argv)
   PetscCall(PetscOptionsInt("-bench_courses", "Stitches up", NULL, courses, &courses, NULL));
   PetscCall(PetscOptionsInt("-bench_steps", "Time steps", NULL, steps, &steps, NULL));
   PetscCall(PetscOptionsBool("-bench_header", "Print the table header", NULL, header, &header, NULL));
+  PetscCall(PetscOptionsInt("-bench_material_changes", "Time this many material changes of one domain, then of all, instead of steps", NULL, changes, &changes, NULL));
   PetscOptionsEnd();
-  if (header) {
+  if (header && changes) {
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| patch | DOFs | domains | ranks | global solver | first set-up s | one domain changed: set-up s (domains rebuilt) | all changed: set-up s | ratio all / one |\n"));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "|---|---|---|---|---|---|---|---|---|\n"));
+  } else if (header) {
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| patch | nodes | DOFs | tets | ranks | solver, global solve | its/step | |grad Phi| / f_scale (max) | ms/step | local ms | global ms | ns/tet/local step | set-up s |\n"));
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"));
   }
@@ -64,6 +124,16 @@ int main(int argc, char **argv)
   t0 = VKWallTime();
   PetscCall(VKSimSetUp(sim));
   tsetup = VKWallTime() - t0;
+  if (changes) {
+    PetscCall(TimeMaterialChanges(sim, changes, tsetup));
+    PetscCall(VKSimDestroy(&sim));
+    PetscCall(VKSceneDestroy(&scene));
+    PetscCall(VKMaterialDestroy(&mat));
+    PetscCall(VKMeshDestroy(&mesh));
+    PetscCall(VKYarnDestroy(&yarn));
+    PetscCall(SlepcFinalize());
+    return 0;
+  }
   PetscCall(VKSimRun(sim));
   PetscCall(VKTSPDGetStats(sim->ts, &st));
   PetscCall(KSPGetPC(sim->pd->ksp, &pc));
