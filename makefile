@@ -86,6 +86,14 @@ build/material/svd3.o: CFLAGS += $(VEC_FLAGS)
 # seventh of a yarn-level run.  Fortran rules keep the range reduction.
 build/rod/elements.o: CFLAGS += -fcx-fortran-rules
 
+# The option names in the sources, for the "did you mean" of an option
+# nobody read (src/app/options_check.c).
+build/known_options.inc: $(LIB_SRC) src/volknit.c
+	@mkdir -p $(@D)
+	grep -ho '"-[a-z][a-z0-9_]*"' $^ | sort -u | sed 's/$$/,/' > $@
+build/app/options_check.o: build/known_options.inc
+build/app/options_check.o: CFLAGS += -Ibuild
+
 build/%.o: src/%.c $(wildcard include/*.h src/*/*.h)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) -Isrc -c $< -o $@

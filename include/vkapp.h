@@ -20,3 +20,8 @@ PETSC_EXTERN PetscErrorCode  VKCommandYLS(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandFit(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandRun(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandReport(MPI_Comm);
+/* After a command: names every command-line option (argv) nobody read,
+ * with the closest known one; nbad counts them, or is 0 with
+ * -options_unused_ok (warnings).  Unread options from options files are
+ * listed in a note. */
+PETSC_EXTERN PetscErrorCode  VKCheckUnusedOptions(MPI_Comm, int argc, char **argv, PetscInt *nbad);

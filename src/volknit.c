@@ -14,7 +14,8 @@ static PetscErrorCode Usage(void)
   PetscFunctionBegin;
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%sCommands:\n", help));
   for (const VKCommand *c = VKCommands; c->name; c++) PetscCall(PetscPrintf(PETSC_COMM_WORLD, "  %-7s %s\n", c->name, c->summary));
-  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Common options: -o DIR (output directory, default out), -options_file FILE, -log_view\n"));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Common options: -o DIR (output directory, default out), -options_file FILE, -log_view,\n"
+                                          "  -options_unused_ok (an option no stage reads is a warning, not an error)\n"));
   PetscFunctionReturn(0);
 }
 
@@ -52,6 +53,17 @@ int main(int argc, char **argv)
     return hashelp ? 0 : 1;
   }
   ierr = Dispatch(cmd, &found);
+  PetscCall(PetscOptionsHasHelp(NULL, &hashelp));
+  if (!ierr && found && !hashelp) {
+    PetscInt nbad;
+    ierr = VKCheckUnusedOptions(PETSC_COMM_WORLD, argc, argv, &nbad);
+    if (!ierr && nbad) {
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "volknit %s: %d option(s) that nothing read: a misspelling, or an option of another command (-options_unused_ok makes this a warning)\n", cmd, (int)nbad));
+      PetscCall(PetscOptionsClear(NULL)); /* PETSc would list them again at exit */
+      PetscCall(SlepcFinalize());
+      return 1;
+    }
+  }
   if (!ierr && !found) {
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "volknit: unknown command '%s'\n", cmd));
     PetscCall(Usage());

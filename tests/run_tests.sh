@@ -81,6 +81,18 @@ while IFS='|' read -r expect args; do
 done < tests/bad/cases
 printf '%-22s       : %4d passed, %d failed\n' "broken inputs" "$bad_passed" "$((2 * k - bad_passed))"
 
+# a misspelled command-line option is an error naming the closest option; -options_unused_ok makes it a warning
+for n in 1 2; do
+  log="$out/unused.n$n.log"
+  if [ "$n" -eq 1 ]; then launch=""; else launch="$MPIEXEC -n $n"; fi
+  if ! timeout 120 $launch bin/volknit yarn -o "$out/unused.n$n" -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -yarn_walse 3 > "$log" 2>&1 \
+     && grep -q 'option -yarn_walse 3 was given but nothing read it (did you mean -yarn_wales?)' "$log" && ! grep -q 'PETSC ERROR' "$log"; then ok
+  else not_ok "volknit yarn -yarn_walse 3 (-n $n): expected a non-zero exit naming -yarn_wales, without a PETSc traceback (see $log)"; fi
+  if timeout 120 $launch bin/volknit yarn -o "$out/unused.n$n" -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -yarn_walse 3 -options_unused_ok > "$log" 2>&1 \
+     && grep -q 'warning: option -yarn_walse 3 was given but nothing read it' "$log"; then ok
+  else not_ok "volknit yarn -yarn_walse 3 -options_unused_ok (-n $n): expected exit 0 and a warning (see $log)"; fi
+done
+
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed
 cmp_failed=$failed
