@@ -201,8 +201,9 @@ fit_dir() { # name -> a fresh directory with the reference run's mesh.h5 and yls
 }
 fit_run() { # name ranks [options]: volknit fit in $fd/name, log in $fd/name.log
   d=$1; n=$2; shift 2
+  # one option set for every fit mode (the trajectory loss reads no -fit_nsamples), so unread ones only warn
   # shellcheck disable=SC2086
-  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit fit -o "$fd/$d" $FIT_OPTS "$@" > "$fd/$d.log" 2>&1
+  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit fit -o "$fd/$d" $FIT_OPTS -options_unused_ok "$@" > "$fd/$d.log" 2>&1
 }
 mkdir -p "$fd"
 # shellcheck disable=SC2086

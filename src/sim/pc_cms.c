@@ -69,11 +69,11 @@ static PetscErrorCode PCCMSSetSubdomains_CMS(PC pc, PetscInt n, IS is[])
 
   PetscFunctionBegin;
   PetscCheck(n >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "PCCMSSetSubdomains: %d domains on this rank", (int)n);
-  if (n == cms->n) { /* the same domains again (the PD passes them at every assembly): keep what was built */
-    PetscBool same = PETSC_TRUE, all;
+  { /* the same domains again on every rank (the PD passes them at every assembly): keep what was built */
+    PetscBool same = (PetscBool)(n == cms->n), all;
     for (PetscInt d = 0; d < n && same; d++) PetscCall(ISEqual(is[d], cms->is[d], &same));
     PetscCall(MPIU_Allreduce(&same, &all, 1, MPIU_BOOL, MPI_LAND, PetscObjectComm((PetscObject)pc)));
-    if (all) PetscFunctionReturn(0);
+    if (all && pc->setupcalled) PetscFunctionReturn(0);
   }
   for (PetscInt d = 0; d < n; d++) PetscCall(PetscObjectReference((PetscObject)is[d]));
   for (PetscInt d = 0; d < cms->n; d++) PetscCall(ISDestroy(&cms->is[d]));
