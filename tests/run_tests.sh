@@ -186,7 +186,8 @@ printf '%-22s       : examples ex1_chart_mesh, ex2_stretch with 1 and 2 ranks\n'
 fit_passed=$passed
 fit_failed=$failed
 fd="$out/fit"
-FIT_OPTS="-options_file options/stretch.opts -fit_nsamples 2 -fit_sample_by energy -fit_gd_its 3 -fit_gn_its 5 -fit_harmonic 1,10"
+# one option set for every fit mode (the trajectory loss reads no -fit_nsamples), so unread ones only warn
+FIT_OPTS="-options_file options/stretch.opts -fit_nsamples 2 -fit_sample_by energy -fit_gd_its 3 -fit_gn_its 5 -fit_harmonic 1,10 -options_unused_ok"
 compare_material() { # a b rtol what
   log="$fd/compare.$4.log"
   bin/tests/tool_compare_material "$1" "$2" "$3" > "$log" 2>&1
@@ -201,9 +202,8 @@ fit_dir() { # name -> a fresh directory with the reference run's mesh.h5 and yls
 }
 fit_run() { # name ranks [options]: volknit fit in $fd/name, log in $fd/name.log
   d=$1; n=$2; shift 2
-  # one option set for every fit mode (the trajectory loss reads no -fit_nsamples), so unread ones only warn
   # shellcheck disable=SC2086
-  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit fit -o "$fd/$d" $FIT_OPTS -options_unused_ok "$@" > "$fd/$d.log" 2>&1
+  timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit fit -o "$fd/$d" $FIT_OPTS "$@" > "$fd/$d.log" 2>&1
 }
 mkdir -p "$fd"
 # shellcheck disable=SC2086
