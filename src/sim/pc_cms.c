@@ -112,17 +112,26 @@ PetscErrorCode PCCMSSetModes(PC pc, PetscInt k)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode PCCMSGetSubspace(PC pc, Mat *Q, Mat *Kr, PetscInt *nboundary)
+/* The PC's data, after checking that it is a cms PC already set up. */
+static PetscErrorCode GetSetUpCMS(PC pc, const char caller[], PC_CMS **cms)
 {
-  PC_CMS   *cms;
   PetscBool iscms;
 
   PetscFunctionBegin;
   PetscValidHeaderSpecific(pc, PC_CLASSID, 1);
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
-  PetscCheck(iscms, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_WRONG, "PCCMSGetSubspace needs a PC of type cms");
-  cms = (PC_CMS *)pc->data;
-  PetscCheck(cms->Q, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "PCCMSGetSubspace: set the PC up first");
+  PetscCheck(iscms, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_WRONG, "%s needs a PC of type cms", caller);
+  *cms = (PC_CMS *)pc->data;
+  PetscCheck((*cms)->Q, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "%s: set the PC up first", caller);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode PCCMSGetSubspace(PC pc, Mat *Q, Mat *Kr, PetscInt *nboundary)
+{
+  PC_CMS *cms = NULL;
+
+  PetscFunctionBegin;
+  PetscCall(GetSetUpCMS(pc, "PCCMSGetSubspace", &cms));
   if (Q) *Q = cms->Q;
   if (Kr) *Kr = cms->Kr;
   if (nboundary) *nboundary = cms->nb_local;
@@ -131,15 +140,10 @@ PetscErrorCode PCCMSGetSubspace(PC pc, Mat *Q, Mat *Kr, PetscInt *nboundary)
 
 PetscErrorCode PCCMSGetRebuiltDomains(PC pc, PetscInt *rebuilt, PetscInt *total)
 {
-  PC_CMS   *cms;
-  PetscBool iscms;
+  PC_CMS *cms = NULL;
 
   PetscFunctionBegin;
-  PetscValidHeaderSpecific(pc, PC_CLASSID, 1);
-  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
-  PetscCheck(iscms, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_WRONG, "PCCMSGetRebuiltDomains needs a PC of type cms");
-  cms = (PC_CMS *)pc->data;
-  PetscCheck(cms->Q, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "PCCMSGetRebuiltDomains: set the PC up first");
+  PetscCall(GetSetUpCMS(pc, "PCCMSGetRebuiltDomains", &cms));
   if (rebuilt) *rebuilt = cms->rebuilt;
   if (total) *total = cms->ndomains;
   PetscFunctionReturn(0);
@@ -821,7 +825,7 @@ static PetscErrorCode PCDestroy_CMS(PC pc)
 
 PetscErrorCode VKPCCreate_CMS(PC pc)
 {
-  PC_CMS *cms;
+  PC_CMS *cms = NULL;
 
   PetscFunctionBegin;
   PetscCall(PetscNew(&cms));

@@ -68,6 +68,54 @@ static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble 
   PetscFunctionReturn(0);
 }
 
+/* Run the scene; one row of the PD table. */
+static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, PetscLogDouble tsetup)
+{
+  VKMesh      mesh = sim->pd->mesh;
+  VKTSPDStats st;
+  PetscMPIInt size;
+  const char *pctype, *solver = "";
+  char        name[64];
+  PC          pc;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscCall(VKSimRun(sim));
+  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  PetscCall(KSPGetPC(sim->pd->ksp, &pc));
+  PetscCall(PCGetType(pc, &pctype));
+  {
+    PetscBool factor, columns;
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCCHOLESKY, PCLU, ""));
+    PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCOLUMNS, &columns));
+    if (factor) PetscCall(PCFactorGetMatSolverType(pc, &solver));
+    else if (columns) { /* the sequential factor each rank holds */
+      KSP sub;
+      PC  subpc;
+      PetscCall(VKPCColumnsGetKSP(pc, &sub));
+      PetscCall(KSPGetPC(sub, &subpc));
+      PetscCall(PCFactorGetMatSolverType(subpc, &solver));
+    }
+    else {
+      KSPType kt;
+      PetscCall(KSPGetType(sim->pd->ksp, &kt));
+      solver = kt;
+    }
+  }
+  PetscCall(PetscSNPrintf(name, sizeof(name), "%s%s, %s %s", VKPDTypes[sim->pd->type], sim->pd->fixed_its ? " fixed" : "", pctype, solver));
+  {
+    PetscReal its = (PetscReal)st.iterations / PetscMax(st.steps, 1), n = PetscMax(st.steps, 1);
+    /* local steps per step: one per iteration plus the final evaluation, none with -pd_fixed_its (plain PD) */
+    PetscReal nlocal = (its + (sim->pd->fixed_its && sim->pd->type == VK_PD_TYPE_PD ? 0 : 1)) * mesh->ne;
+    char      res[32];
+    if (st.unmeasured_steps == st.steps) PetscCall(PetscSNPrintf(res, sizeof(res), "not measured"));
+    else PetscCall(PetscSNPrintf(res, sizeof(res), "%.1e%s", (double)st.residual_force_max, st.unconverged_steps ? " (unconverged)" : ""));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, res, 1e3 * sim->time_run / n, 1e3 * st.time_local / n,
+                          1e3 * st.time_global / n, 1e9 * st.time_local / n / nlocal * size, (double)tsetup));
+  }
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscInt       wales = 30, courses = 30, steps = 5, changes = 0;
@@ -77,15 +125,9 @@ int main(int argc, char **argv)
   VKMaterial     mat;
   VKScene        scene;
   VKSim          sim;
-  VKTSPDStats    st;
-  PetscMPIInt    size;
   PetscLogDouble t0, tsetup;
-  const char    *pctype, *solver = "";
-  char           name[64];
-  PC             pc;
 
   PetscCall(SlepcInitialize(&argc, &argv, NULL, help)); /* PC cms computes its modes with SLEPc */
-  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscOptionsBegin(PETSC_COMM_WORLD, NULL, "bench_sim options", NULL);
   PetscCall(PetscOptionsInt("-bench_wales", "Stitches across", NULL, wales, &wales, NULL));
   PetscCall(PetscOptionsInt("-bench_courses", "Stitches up", NULL, courses, &courses, NULL));
@@ -124,49 +166,8 @@ int main(int argc, char **argv)
   t0 = VKWallTime();
   PetscCall(VKSimSetUp(sim));
   tsetup = VKWallTime() - t0;
-  if (changes) {
-    PetscCall(TimeMaterialChanges(sim, changes, tsetup));
-    PetscCall(VKSimDestroy(&sim));
-    PetscCall(VKSceneDestroy(&scene));
-    PetscCall(VKMaterialDestroy(&mat));
-    PetscCall(VKMeshDestroy(&mesh));
-    PetscCall(VKYarnDestroy(&yarn));
-    PetscCall(SlepcFinalize());
-    return 0;
-  }
-  PetscCall(VKSimRun(sim));
-  PetscCall(VKTSPDGetStats(sim->ts, &st));
-  PetscCall(KSPGetPC(sim->pd->ksp, &pc));
-  PetscCall(PCGetType(pc, &pctype));
-  {
-    PetscBool factor, columns;
-    PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCCHOLESKY, PCLU, ""));
-    PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCOLUMNS, &columns));
-    if (factor) PetscCall(PCFactorGetMatSolverType(pc, &solver));
-    else if (columns) { /* the sequential factor each rank holds */
-      KSP sub;
-      PC  subpc;
-      PetscCall(VKPCColumnsGetKSP(pc, &sub));
-      PetscCall(KSPGetPC(sub, &subpc));
-      PetscCall(PCFactorGetMatSolverType(subpc, &solver));
-    }
-    else {
-      KSPType kt;
-      PetscCall(KSPGetType(sim->pd->ksp, &kt));
-      solver = kt;
-    }
-  }
-  PetscCall(PetscSNPrintf(name, sizeof(name), "%s%s, %s %s", VKPDTypes[sim->pd->type], sim->pd->fixed_its ? " fixed" : "", pctype, solver));
-  {
-    PetscReal its = (PetscReal)st.iterations / PetscMax(st.steps, 1), n = PetscMax(st.steps, 1);
-    /* local steps per step: one per iteration plus the final evaluation, none with -pd_fixed_its (plain PD) */
-    PetscReal nlocal = (its + (sim->pd->fixed_its && sim->pd->type == VK_PD_TYPE_PD ? 0 : 1)) * mesh->ne;
-    char      res[32];
-    if (st.unmeasured_steps == st.steps) PetscCall(PetscSNPrintf(res, sizeof(res), "not measured"));
-    else PetscCall(PetscSNPrintf(res, sizeof(res), "%.1e%s", (double)st.residual_force_max, st.unconverged_steps ? " (unconverged)" : ""));
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, res, 1e3 * sim->time_run / n, 1e3 * st.time_local / n,
-                          1e3 * st.time_global / n, 1e9 * st.time_local / n / nlocal * size, (double)tsetup));
-  }
+  if (changes) PetscCall(TimeMaterialChanges(sim, changes, tsetup));
+  else PetscCall(TimeSteps(sim, wales, courses, tsetup));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&scene));
   PetscCall(VKMaterialDestroy(&mat));
