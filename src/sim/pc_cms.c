@@ -232,8 +232,10 @@ static PetscErrorCode FactorInterior(Mat Kii, Mat *F)
   PetscFunctionReturn(0);
 }
 
-/* dom[i]: the local domain of local row i; bnd[i]: whether it couples to a
- * row outside its domain. */
+/* dom[i]: the local domain of local row i; bnd[i]: whether its nonzero
+ * pattern reaches a row outside its domain. The pattern, not the values: a
+ * material change that cancels an entry exactly must not move a row between
+ * interior and boundary, which would force a full rebuild. */
 static PetscErrorCode ClassifyRows(Mat A, PetscInt ndom, IS is[], PetscInt dom[], PetscBool bnd[])
 {
   PetscInt rs, re;
@@ -254,15 +256,14 @@ static PetscErrorCode ClassifyRows(Mat A, PetscInt ndom, IS is[], PetscInt dom[]
     PetscCall(ISRestoreIndices(is[d], &idx));
   }
   for (PetscInt i = 0; i < re - rs; i++) {
-    const PetscInt    *cols;
-    const PetscScalar *vals;
-    PetscInt           nc;
+    const PetscInt *cols;
+    PetscInt        nc;
     PetscCheck(dom[i] >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "PC cms: row %d is in no domain; the domains of a rank must cover its rows", (int)(rs + i));
     bnd[i] = PETSC_FALSE;
-    PetscCall(MatGetRow(A, rs + i, &nc, &cols, &vals));
+    PetscCall(MatGetRow(A, rs + i, &nc, &cols, NULL));
     for (PetscInt j = 0; j < nc && !bnd[i]; j++)
-      if (vals[j] != 0 && (cols[j] < rs || cols[j] >= re || dom[cols[j] - rs] != dom[i])) bnd[i] = PETSC_TRUE;
-    PetscCall(MatRestoreRow(A, rs + i, &nc, &cols, &vals));
+      if (cols[j] < rs || cols[j] >= re || dom[cols[j] - rs] != dom[i]) bnd[i] = PETSC_TRUE;
+    PetscCall(MatRestoreRow(A, rs + i, &nc, &cols, NULL));
   }
   PetscFunctionReturn(0);
 }
