@@ -25,3 +25,7 @@ PETSC_EXTERN PetscErrorCode  VKCommandReport(MPI_Comm);
  * -options_unused_ok (warnings).  Unread options from options files are
  * listed in a note. */
 PETSC_EXTERN PetscErrorCode  VKCheckUnusedOptions(MPI_Comm, int argc, char **argv, PetscInt *nbad);
+/* Bad input (an error of an input class raised in volknit's sources) is
+ * reported in one line, without the PETSc traceback; -error_traceback
+ * keeps the traceback. */
+PETSC_EXTERN PetscErrorCode  VKPushErrorHandler(void);

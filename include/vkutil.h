@@ -7,6 +7,16 @@
 #include <petscksp.h>
 #include <stdint.h>
 
+/* PetscOptionsInt inside PetscOptionsBegin/End, the value checked to be an
+ * integer in [lo, hi] as typed (so 1e12 is refused, not wrapped). */
+PETSC_EXTERN PetscErrorCode VKOptionsRangeInt_Private(PetscOptionItems *, const char opt[], const char text[], const char man[], PetscInt cur, PetscInt *value, PetscBool *set, PetscInt lo, PetscInt hi);
+#define VKOptionsRangeInt(opt, text, man, cur, value, set, lo, hi) VKOptionsRangeInt_Private(PetscOptionsObject, opt, text, man, cur, value, set, lo, hi)
+
+/* Collective: an error when bytes_per_rank, times the ranks that share a
+ * machine, exceeds the memory that machine has available; the message
+ * names what, both figures, and the advice. */
+PETSC_EXTERN PetscErrorCode VKMemoryCheck(MPI_Comm, double bytes_per_rank, const char what[], const char advice[]);
+
 /* Sort keys ascending (stable LSD radix sort), permuting payload alongside
  * (payload may be NULL). */
 PETSC_EXTERN PetscErrorCode VKSortU64(PetscInt n, uint64_t keys[], PetscInt payload[]);

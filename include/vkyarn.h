@@ -34,6 +34,9 @@ PETSC_EXTERN PetscErrorCode VKKnitParamsDefault(PetscReal radius, VKKnitParams *
 PETSC_EXTERN PetscErrorCode VKKnitParamsCheck(const VKKnitParams *);
 /* One open yarn per course (curve j = course j), sampled densely (about
  * two samples per `spacing`); the chart is tiled over the patch. */
+/* Samples per loop VKKnitBuild takes at the given spacing (twice as fine
+ * as the yarn's segments, which resampling then sets). */
+PETSC_EXTERN PetscErrorCode VKKnitSamplesPerLoop(const VKKnitParams *, PetscReal spacing, PetscInt *);
 PETSC_EXTERN PetscErrorCode VKKnitBuild(const VKKnitChart *, const VKKnitParams *, PetscReal spacing, VKCurves *);
 /* Glue pairs for knit polylines (curve j = course j): every crossing of the
  * first two and of the last two courses, and both ends of every yarn but

@@ -15,7 +15,9 @@ static PetscErrorCode Usage(void)
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%sCommands:\n", help));
   for (const VKCommand *c = VKCommands; c->name; c++) PetscCall(PetscPrintf(PETSC_COMM_WORLD, "  %-7s %s\n", c->name, c->summary));
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Common options: -o DIR (output directory, default out), -options_file FILE, -log_view,\n"
-                                          "  -options_unused_ok (an option no stage reads is a warning, not an error)\n"));
+                                          "  -options_unused_ok (an option no stage reads is a warning, not an error),\n"
+                                          "  -error_traceback (the PETSc traceback for input errors too, not one line),\n"
+                                          "  -memory_available BYTES (what a stage may use; default: what the machine has available)\n"));
   PetscFunctionReturn(0);
 }
 
@@ -45,6 +47,7 @@ int main(int argc, char **argv)
   }
   PetscCall(SlepcInitialize(&argc, &argv, NULL, help)); /* SLEPc: the harmonic bases of the fitting */
   PetscCall(VKSimInitializePackage());                  /* the TS type pd and the PC type columns */
+  PetscCall(VKPushErrorHandler());
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   if (!cmd) {
     PetscCall(PetscOptionsHasHelp(NULL, &hashelp));

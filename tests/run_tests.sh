@@ -5,7 +5,8 @@
 #     program that crashes or exits non-zero counts as one more failure;
 #  2. every broken input of tests/bad/cases, with 1 and 2 ranks: it must
 #     fail with a non-zero status, no crash and no hang, print the expected
-#     message, and leave no file in its output directory;
+#     message in one line (no PETSc traceback), and leave no file in its
+#     output directory;
 #  3. `volknit mesh` on the demo scene with 1 and 2 ranks, compared by
 #     tests/tool_compare_mesh (same mesh, masses, embedding, partition);
 #  4. the example programs;
@@ -74,6 +75,7 @@ while IFS='|' read -r expect args; do
     elif [ "$rc" -eq 124 ]; then why="hung (timeout)"
     elif grep -qiE 'segmentation|caught signal|SIGSEGV|SIGBUS|SIGFPE|core dumped|AddressSanitizer' "$log"; then why="crashed"
     elif ! grep -qF -- "$expect" "$log"; then why="message '$expect' not printed"
+    elif grep -q 'PETSC ERROR' "$log"; then why="a PETSc traceback, where bad input gets one line"
     elif [ -d "$dir" ] && [ -n "$(find "$dir" -type f)" ]; then why="left files in $dir: $(find "$dir" -type f | tr '\n' ' ')"
     fi
     if [ -z "$why" ]; then ok; bad_passed=$((bad_passed + 1)); else not_ok "bad input $k (-n $n): volknit $args: $why (see $log)"; fi
@@ -92,6 +94,12 @@ for n in 1 2; do
      && grep -q 'warning: option -yarn_walse 3 was given but nothing read it' "$log"; then ok
   else not_ok "volknit yarn -yarn_walse 3 -options_unused_ok (-n $n): expected exit 0 and a warning (see $log)"; fi
 done
+
+# -error_traceback keeps PETSc's traceback for an input error
+log="$out/traceback.log"
+if ! timeout 120 bin/volknit yarn -o "$out/traceback" -yarn_wales 0 -error_traceback > "$log" 2>&1 \
+   && grep -q 'PETSC ERROR: #1 ' "$log" && grep -q -- '-yarn_wales 0 is out of range' "$log"; then ok
+else not_ok "volknit yarn -yarn_wales 0 -error_traceback: expected a non-zero exit with the PETSc traceback (see $log)"; fi
 
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed

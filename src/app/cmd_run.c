@@ -143,7 +143,7 @@ static PetscErrorCode ReadOptions(Run *R)
   PetscCall(PetscOptionsRealArray("-run_sweep_mesh_h", "Sweep: voxel sizes of the meshes (-mesh_h), m", "volknit run", R->h, &nh, &set));
   if (set) {
     PetscCheck(nh >= 1 && nh <= MAX_LIST - 1, R->comm, PETSC_ERR_ARG_WRONG, "-run_sweep_mesh_h needs a list of 1 to %d voxel sizes", MAX_LIST - 1);
-    for (PetscInt i = 0; i < nh; i++) PetscCheck(R->h[i] > 0 && R->h[i] < PETSC_INFINITY, R->comm, PETSC_ERR_ARG_OUTOFRANGE, "-run_sweep_mesh_h: voxel sizes must be positive, got %g", (double)R->h[i]);
+    for (PetscInt i = 0; i < nh; i++) PetscCheck(R->h[i] > 0 && R->h[i] < PETSC_INFINITY, R->comm, PETSC_ERR_ARG_OUTOFRANGE, "-run_sweep_mesh_h: voxel sizes must be positive and finite, got %g", (double)R->h[i]);
     R->nh = nh;
     any   = PETSC_TRUE;
   }
@@ -157,7 +157,7 @@ static PetscErrorCode ReadOptions(Run *R)
     } else PetscCall(PetscOptionsRealArray(L->list_option, L->help, "volknit run", L->value, &n, &set));
     if (!set) continue;
     PetscCheck(n >= 1 && n <= MAX_LIST - 1, R->comm, PETSC_ERR_ARG_WRONG, "%s needs a list of 1 to %d values", L->list_option, MAX_LIST - 1);
-    for (PetscInt i = 0; i < n; i++) PetscCheck(L->value[i] > 0 && L->value[i] < PETSC_INFINITY, R->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: values must be positive, got %g", L->list_option, (double)L->value[i]);
+    for (PetscInt i = 0; i < n; i++) PetscCheck(L->value[i] > 0 && L->value[i] < PETSC_INFINITY, R->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: values must be positive and finite, got %g", L->list_option, (double)L->value[i]);
     L->n = n;
     any  = PETSC_TRUE;
   }

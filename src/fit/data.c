@@ -10,6 +10,7 @@
  * time or by largest yarn elastic energy (-fit_sample_by). */
 #include <vkfit.h>
 #include <vkio.h>
+#include <vkutil.h>
 
 #define YLS_FORMAT "volknit-yls 1"
 
@@ -137,7 +138,7 @@ PetscErrorCode VKFitDataSelect(VKFitData d, PetscInt *nsamples, PetscInt samples
   PetscFunctionBegin;
   PetscOptionsBegin(d->comm, NULL, "Sample frames of the fitting (DESIGN section 8)", "VKFitData");
   PetscCall(PetscOptionsIntArray("-fit_frames", "Frames of the yarn-level run to fit, one after the other (frame 0 is the rest state)", "VKFitDataSelect", samples, &nfr, &given));
-  PetscCall(PetscOptionsInt("-fit_nsamples", "Number of sample frames when -fit_frames is not given (default: 10, as the paper's ten poses, or every frame of a shorter run)", "VKFitDataSelect", ns, &ns, NULL));
+  PetscCall(VKOptionsRangeInt("-fit_nsamples", "Number of sample frames when -fit_frames is not given (default: 10, as the paper's ten poses, or every frame of a shorter run)", "VKFitDataSelect", ns, &ns, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsEnum("-fit_sample_by", "How -fit_nsamples frames are picked: largest yarn elastic energy, or evenly in time", "VKFitDataSelect", VKFitSampleBys, (PetscEnum)by, (PetscEnum *)&by, NULL));
   PetscOptionsEnd();
   if (given) {

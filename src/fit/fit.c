@@ -129,20 +129,20 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(VKPDGetType(fit->pd, &fit->pd_type));
   PetscOptionsBegin(fit->comm, NULL, "Fitting: equilibrium and adjoint (DESIGN section 8)", "VKFit");
   PetscCall(PetscOptionsReal("-fit_eq_rtol", "Equilibrium per sample frame: |g| <= rtol (|grad E(xhat)| + |M (xhat - y)|/dt^2)", "VKFitEquilibrium", fit->eq_rtol, &fit->eq_rtol, NULL));
-  PetscCall(PetscOptionsInt("-fit_eq_newton_its", "Newton iterations (exact Hessian) allowed after PD in an equilibrium solve", "VKFitEquilibrium", fit->eq_newton_its, &fit->eq_newton_its, NULL));
-  PetscCall(PetscOptionsInt("-fit_gd_its", "Gradient-descent iterations per stage (before Gauss-Newton)", "VKFitOptimize", fit->gd_its, &fit->gd_its, NULL));
-  PetscCall(PetscOptionsInt("-fit_gn_its", "Gauss-Newton iterations per stage", "VKFitOptimize", fit->gn_its, &fit->gn_its, NULL));
+  PetscCall(VKOptionsRangeInt("-fit_eq_newton_its", "Newton iterations (exact Hessian) allowed after PD in an equilibrium solve", "VKFitEquilibrium", fit->eq_newton_its, &fit->eq_newton_its, NULL, 0, PETSC_MAX_INT));
+  PetscCall(VKOptionsRangeInt("-fit_gd_its", "Gradient-descent iterations per stage (before Gauss-Newton)", "VKFitOptimize", fit->gd_its, &fit->gd_its, NULL, 0, PETSC_MAX_INT));
+  PetscCall(VKOptionsRangeInt("-fit_gn_its", "Gauss-Newton iterations per stage", "VKFitOptimize", fit->gn_its, &fit->gn_its, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-fit_gd_step", "Gradient-descent step as a fraction of |gamma|", "VKFitOptimize", fit->gd_step, &fit->gd_step, NULL));
   PetscCall(PetscOptionsReal("-fit_kappa", "Levenberg-Marquardt damping of Gauss-Newton, relative: kappa = fit_kappa |grad| / |gamma|", "VKFitOptimize", fit->kappa, &fit->kappa, NULL));
   PetscCall(PetscOptionsReal("-fit_rtol", "Accept a step only when it lowers the loss by more than this fraction of it (a phase, GD or GN, ends when no halving of the step does)", "VKFitOptimize", fit->rtol, &fit->rtol, NULL));
-  PetscCall(PetscOptionsInt("-fit_max_halvings", "Step halvings allowed while the loss rises", "VKFitOptimize", fit->max_halvings, &fit->max_halvings, NULL));
+  PetscCall(VKOptionsRangeInt("-fit_max_halvings", "Step halvings allowed while the loss rises", "VKFitOptimize", fit->max_halvings, &fit->max_halvings, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsBool("-fit_step_memory", "Begin each iteration's step halving at the step the last one accepted (twice it if that needed no halving and lowered the loss by 3/4 of the decrease its model predicts; at most the full step), not at the full step", "VKFitOptimize", fit->step_memory, &fit->step_memory, NULL));
   PetscCall(PetscOptionsBool("-fit_kkt_reduced", "Gauss-Newton KKT with d eliminated, [G -H; -H -J J^T/kappa] (needs kappa > 0); false: the three-block form of Eq. 21", "VKFitGaussNewtonDirection", fit->kkt_reduced, &fit->kkt_reduced, NULL));
-  PetscCall(PetscOptionsInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL));
+  PetscCall(VKOptionsRangeInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s or g_v of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
   PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
-  PetscCall(PetscOptionsInt("-fit_checkpoint_every", "Write DIR/fit_checkpoint.h5 every this many iterations (0: only after each sample)", "VKFitRun", fit->checkpoint_every, &fit->checkpoint_every, NULL));
-  PetscCall(PetscOptionsInt("-fit_max_iterations", "Stop after this many iterations in all, with a checkpoint to go on from (0: no limit)", "VKFitRun", fit->max_iterations, &fit->max_iterations, NULL));
+  PetscCall(VKOptionsRangeInt("-fit_checkpoint_every", "Write DIR/fit_checkpoint.h5 every this many iterations (0: only after each sample)", "VKFitRun", fit->checkpoint_every, &fit->checkpoint_every, NULL, 0, PETSC_MAX_INT));
+  PetscCall(VKOptionsRangeInt("-fit_max_iterations", "Stop after this many iterations in all, with a checkpoint to go on from (0: no limit)", "VKFitRun", fit->max_iterations, &fit->max_iterations, NULL, 0, PETSC_MAX_INT));
   {
     PetscInt n = 2;
     PetscCall(PetscOptionsBool("-fit_best_uniform", "First search the uniform material g_s = g_v = g with the lowest loss (over the sample frames, or the trajectory), report it as the baseline and start the fit from it (default: with -fit_loss trajectory from a uniform start, not with -mat_file)", "VKFitRun", fit->best_uniform, &fit->best_uniform, &best_uniform_set));
@@ -164,14 +164,14 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->eq_newton_its >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_newton_its must be >= 1, got %d", (int)fit->eq_newton_its);
   PetscCheck(fit->gd_its >= 0 && fit->gn_its >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_its and -fit_gn_its must be >= 0, got %d and %d", (int)fit->gd_its, (int)fit->gn_its);
   PetscCheck(fit->gd_step > 0 && fit->gd_step < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_step must be in (0, 1), got %g", (double)fit->gd_step);
-  PetscCheck(fit->kappa >= 0 && fit->kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_kappa must be >= 0, got %g", (double)fit->kappa);
+  PetscCheck(fit->kappa >= 0 && fit->kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_kappa must be >= 0 and finite, got %g", (double)fit->kappa);
   PetscCheck(fit->rtol >= 0 && fit->rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_rtol must be in [0, 1), got %g", (double)fit->rtol);
   PetscCheck(fit->max_halvings >= 0 && fit->max_pivots >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_max_halvings and -fit_max_pivots must be >= 0");
   PetscCheck(fit->checkpoint_every >= 0 && fit->max_iterations >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_checkpoint_every and -fit_max_iterations must be >= 0, got %d and %d", (int)fit->checkpoint_every, (int)fit->max_iterations);
   PetscCheck(fit->uniform_range[0] > 0 && fit->uniform_range[1] > fit->uniform_range[0] && fit->uniform_range[1] < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_uniform_range must be lo,hi with 0 < lo < hi, got %g,%g", (double)fit->uniform_range[0], (double)fit->uniform_range[1]);
-  PetscCheck(fit->traj_dt >= 0 && fit->traj_dt < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_dt must be positive (or 0 for volknit sim's default), got %g", (double)fit->traj_dt);
-  PetscCheck(fit->traj_prior >= 0 && fit->traj_prior < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_prior must be >= 0, got %g", (double)fit->traj_prior);
-  PetscCheck(fit->traj_max_factor > 1 && fit->traj_max_factor < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_max_factor must be > 1, got %g", (double)fit->traj_max_factor);
+  PetscCheck(fit->traj_dt >= 0 && fit->traj_dt < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_dt must be positive and finite (or 0 for volknit sim's default), got %g", (double)fit->traj_dt);
+  PetscCheck(fit->traj_prior >= 0 && fit->traj_prior < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_prior must be >= 0 and finite, got %g", (double)fit->traj_prior);
+  PetscCheck(fit->traj_max_factor > 1 && fit->traj_max_factor < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_max_factor must be > 1 and finite, got %g", (double)fit->traj_max_factor);
   PetscCheck(fit->loss != VK_FIT_LOSS_TRAJECTORY || fit->inertia == VK_FIT_INERTIA_IMPLICIT, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory rolls the model out as volknit sim does, with implicit inertia; -fit_inertia %s applies to -fit_loss frames only", VKFitInertias[fit->inertia]);
   PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
   if (set) {

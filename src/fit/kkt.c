@@ -254,7 +254,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscLogDouble     t0 = VKWallTime();
 
   PetscFunctionBegin;
-  PetscCheck(kappa >= 0 && kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The Levenberg-Marquardt damping -fit_kappa must be >= 0, got %g", (double)kappa);
+  PetscCheck(kappa >= 0 && kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The Levenberg-Marquardt damping -fit_kappa must be >= 0 and finite, got %g", (double)kappa);
   PetscCall(VKFitSetUp(fit));
   PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
   PetscCall(PetscLogEventBegin(VK_EVENT_FitKKT, 0, 0, 0, 0));

@@ -61,7 +61,7 @@ PetscErrorCode VKMeshSetYarn(VKMesh m, VKYarn yarn)
 PetscErrorCode VKMeshSetCellSize(VKMesh m, PetscReal h)
 {
   PetscFunctionBegin;
-  PetscCheck(h > 0 && h < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h must be positive, got %g", (double)h);
+  PetscCheck(h > 0 && h < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h must be positive and finite, got %g", (double)h);
   m->grid.h = h;
   m->h_set  = PETSC_TRUE;
   PetscFunctionReturn(0);
@@ -85,7 +85,7 @@ PetscErrorCode VKMeshSetFromOptions(VKMesh m)
   PetscOptionsBegin(m->comm, NULL, "Volumetric mesh options (volknit mesh)", "VKMesh");
   PetscCall(PetscOptionsReal("-mesh_h", "Voxel size h, m (default 3 yarn radii)", "VKMeshSetCellSize", h, &h, &set));
   if (set) PetscCall(VKMeshSetCellSize(m, h));
-  PetscCall(PetscOptionsInt("-dd_domains", "Number of METIS domains (default: the number of MPI ranks)", "VKMeshSetDomains", d, &d, &set));
+  PetscCall(VKOptionsRangeInt("-dd_domains", "Number of METIS domains (default: the number of MPI ranks)", "VKMeshSetDomains", d, &d, &set, 1, PETSC_MAX_INT));
   if (set) PetscCall(VKMeshSetDomains(m, d));
   PetscCall(PetscOptionsName("-mesh_view", "Print a summary of the mesh", "VKMeshView", NULL));
   PetscCall(PetscOptionsName("-dd_view", "Print the domains of the mesh", "VKMeshView", NULL));

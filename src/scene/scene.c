@@ -125,7 +125,7 @@ static PetscErrorCode ColliderOptions(PetscOptionItems *PetscOptionsObject, VKSc
   PetscCall(Option3(PetscOptionsObject, opt, "Collider velocity (scene units per s)", c->velocity, 3, NULL));
   PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_friction", (int)i));
   PetscCall(PetscOptionsReal(opt, "Coulomb friction coefficient", "VKSceneSetFromOptions", c->friction, &c->friction, NULL));
-  PetscCheck(c->friction >= 0 && c->friction < PETSC_INFINITY, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be >= 0, got %g", opt, (double)c->friction);
+  PetscCheck(c->friction >= 0 && c->friction < PETSC_INFINITY, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be >= 0 and finite, got %g", opt, (double)c->friction);
   PetscFunctionReturn(0);
 }
 
@@ -153,13 +153,13 @@ PetscErrorCode VKSceneSetFromOptions(VKScene s)
   PetscCall(PetscOptionsReal("-scene_damping", "Mass-proportional viscous damping c, 1/s: a drag -c m v on every yarn vertex (volknit yls) and mesh node (volknit sim)", "VKSceneSetFromOptions", s->damping, &s->damping, NULL));
   PetscCheck(s->damping >= 0 && s->damping < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_damping must be >= 0 and finite (1/s), got %g", (double)s->damping);
   PetscCall(PetscOptionsReal("-scene_duration", "Simulated time, s", "VKSceneSetFromOptions", s->duration, &s->duration, NULL));
-  PetscCheck(s->duration > 0 && s->duration < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration must be positive, got %g", (double)s->duration);
+  PetscCheck(s->duration > 0 && s->duration < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration must be positive and finite, got %g", (double)s->duration);
   PetscCall(PetscOptionsReal("-scene_output_interval", "Time between output frames, s", "VKSceneSetFromOptions", s->output_interval, &s->output_interval, NULL));
-  PetscCheck(s->output_interval > 0 && s->output_interval < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_output_interval must be positive, got %g", (double)s->output_interval);
-  PetscCall(PetscOptionsInt("-scene_handles", "Number of handles (then -scene_handle<i>_box ... for i = 0, 1, ...)", "VKSceneSetFromOptions", s->nhandles, &s->nhandles, NULL));
+  PetscCheck(s->output_interval > 0 && s->output_interval < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_output_interval must be positive and finite, got %g", (double)s->output_interval);
+  PetscCall(VKOptionsRangeInt("-scene_handles", "Number of handles (then -scene_handle<i>_box ... for i = 0, 1, ...)", "VKSceneSetFromOptions", s->nhandles, &s->nhandles, NULL, 0, VK_SCENE_MAX));
   PetscCheck(s->nhandles >= 0 && s->nhandles <= VK_SCENE_MAX, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_handles must be 0..%d, got %d", VK_SCENE_MAX, (int)s->nhandles);
   for (PetscInt i = 0; i < s->nhandles; i++) PetscCall(HandleOptions(PetscOptionsObject, s, i));
-  PetscCall(PetscOptionsInt("-scene_colliders", "Number of colliders (then -scene_collider<i>_type ... for i = 0, 1, ...)", "VKSceneSetFromOptions", s->ncolliders, &s->ncolliders, NULL));
+  PetscCall(VKOptionsRangeInt("-scene_colliders", "Number of colliders (then -scene_collider<i>_type ... for i = 0, 1, ...)", "VKSceneSetFromOptions", s->ncolliders, &s->ncolliders, NULL, 0, VK_SCENE_MAX));
   PetscCheck(s->ncolliders >= 0 && s->ncolliders <= VK_SCENE_MAX, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_colliders must be 0..%d, got %d", VK_SCENE_MAX, (int)s->ncolliders);
   for (PetscInt i = 0; i < s->ncolliders; i++) PetscCall(ColliderOptions(PetscOptionsObject, s, i));
   PetscOptionsEnd();

@@ -775,7 +775,7 @@ static PetscErrorCode PCSetFromOptions_CMS(PC pc, PetscOptionItems *PetscOptions
 
   PetscFunctionBegin;
   PetscOptionsHeadBegin(PetscOptionsObject, "CMS options (DESIGN section 9)");
-  PetscCall(PetscOptionsInt("-pc_cms_modes", "Interior modes per domain: the lowest eigenvectors of K_II (paper Eq. 32)", "PCCMSSetModes", k, &k, NULL));
+  PetscCall(VKOptionsRangeInt("-pc_cms_modes", "Interior modes per domain: the lowest eigenvectors of K_II (paper Eq. 32)", "PCCMSSetModes", k, &k, NULL, 0, PETSC_MAX_INT));
   PetscOptionsHeadEnd();
   if (k != cms->modes) PetscCall(PCCMSSetModes_CMS(pc, k));
   PetscFunctionReturn(0);

@@ -13,6 +13,7 @@
  * VKPDSetConstantForce adds a constant nodal force to Phi. */
 #include <vkpd.h>
 #include <vklog.h>
+#include <vkutil.h>
 
 const char *VKPDReasonName(VKPDReason r)
 {
@@ -223,15 +224,15 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsReal("-pd_ftol", "Stop when |grad Phi| <= ftol f_scale, f_scale = |M g| + |f_const| + handle and collider reactions (N)", "VKPDSolve", pd->ftol, &pd->ftol, NULL));
   PetscCall(PetscOptionsReal("-pd_rtol", "Also stop when |grad Phi| <= rtol |grad Phi(x0)| (0: off; the initial residual depends on the inertial predictor)", "VKPDSolve", pd->rtol, &pd->rtol, NULL));
   PetscCall(PetscOptionsReal("-pd_atol", "Also stop when |grad Phi| <= atol (N)", "VKPDSolve", pd->atol, &pd->atol, NULL));
-  PetscCall(PetscOptionsInt("-pd_max_it", "Maximum iterations per solve (a solve stopped there is reported unconverged)", "VKPDSolve", pd->max_it, &pd->max_it, NULL));
+  PetscCall(VKOptionsRangeInt("-pd_max_it", "Maximum iterations per solve (a solve stopped there is reported unconverged)", "VKPDSolve", pd->max_it, &pd->max_it, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsBool("-pd_fixed_its", "Run exactly -pd_max_it iterations and measure no residual (status 'unmeasured')", "VKPDSolve", pd->fixed_its, &pd->fixed_its, NULL));
-  PetscCall(PetscOptionsInt("-pd_lbfgs_m", "L-BFGS history length (-pd_type lbfgs)", "VKPDSolve", pd->lbfgs_m, &pd->lbfgs_m, NULL));
-  PetscCall(PetscOptionsInt("-pd_lbfgs_switch", "L-BFGS iterations after which projected Newton (PSD-projected exact Hessian, KSP prefix -pd_pnewton_) finishes the solve (0: never)", "VKPDSolve", pd->lbfgs_switch, &pd->lbfgs_switch, NULL));
+  PetscCall(VKOptionsRangeInt("-pd_lbfgs_m", "L-BFGS history length (-pd_type lbfgs)", "VKPDSolve", pd->lbfgs_m, &pd->lbfgs_m, NULL, 1, PETSC_MAX_INT));
+  PetscCall(VKOptionsRangeInt("-pd_lbfgs_switch", "L-BFGS iterations after which projected Newton (PSD-projected exact Hessian, KSP prefix -pd_pnewton_) finishes the solve (0: never)", "VKPDSolve", pd->lbfgs_switch, &pd->lbfgs_switch, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsBool("-pd_monitor", "Print Phi and |grad Phi| at every PD iteration", "VKPDSolve", pd->monitor, &pd->monitor, NULL));
   PetscCall(PetscOptionsReal("-pd_chebyshev_rho", "Spectral radius estimate for Chebyshev acceleration of the PD iterations (0: off; Wang 2015)", "VKPDSolve", pd->cheb_rho, &pd->cheb_rho, NULL));
   PetscCall(PetscOptionsReal("-pd_chebyshev_gamma", "Under-relaxation of the accelerated iterations", "VKPDSolve", pd->cheb_gamma, &pd->cheb_gamma, NULL));
-  PetscCall(PetscOptionsInt("-pd_chebyshev_delay", "Plain PD iterations before the acceleration starts", "VKPDSolve", pd->cheb_delay, &pd->cheb_delay, NULL));
-  PetscCall(PetscOptionsInt("-pd_newton_its", "Newton iterations (exact Hessian, SNES prefix -pd_newton_) after PD", "VKPDSolve", pd->newton_its, &pd->newton_its, NULL));
+  PetscCall(VKOptionsRangeInt("-pd_chebyshev_delay", "Plain PD iterations before the acceleration starts", "VKPDSolve", pd->cheb_delay, &pd->cheb_delay, NULL, 0, PETSC_MAX_INT));
+  PetscCall(VKOptionsRangeInt("-pd_newton_its", "Newton iterations (exact Hessian, SNES prefix -pd_newton_) after PD", "VKPDSolve", pd->newton_its, &pd->newton_its, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-pd_newton_rtol", "Newton stops when |grad Phi| <= rtol |grad Phi(x0)|", "VKPDSolve", pd->newton_rtol, &pd->newton_rtol, NULL));
   PetscOptionsEnd();
   /* what the scene holds and how hard colliders push are the model, not the

@@ -63,13 +63,11 @@ static void LoopPoint(const VKKnitParams *p, PetscInt j, PetscInt k, PetscReal t
   X[2] = p->depth * (-PetscCosReal(2 * t)) * (sigma * (1 - wU) + up * wU);
 }
 
-PetscErrorCode VKKnitBuild(const VKKnitChart *chart, const VKKnitParams *p, PetscReal spacing, VKCurves *out)
+PetscErrorCode VKKnitSamplesPerLoop(const VKKnitParams *p, PetscReal spacing, PetscInt *N)
 {
-  PetscInt   N, nv;
-  PetscReal *x, len = 0, prev[3], cur[3];
+  PetscReal len = 0, prev[3], cur[3];
 
   PetscFunctionBegin;
-  PetscCall(VKKnitParamsCheck(p));
   PetscCheck(spacing > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Sample spacing must be positive");
   /* samples per loop from the length of a knit loop */
   LoopPoint(p, 0, 0, 0, 1, 1, 1, 1, prev);
@@ -78,7 +76,19 @@ PetscErrorCode VKKnitBuild(const VKKnitChart *chart, const VKKnitParams *p, Pets
     len += PetscSqrtReal(PetscSqr(cur[0] - prev[0]) + PetscSqr(cur[1] - prev[1]) + PetscSqr(cur[2] - prev[2]));
     for (int a = 0; a < 3; a++) prev[a] = cur[a];
   }
-  N = (PetscInt)PetscMax(32, PetscCeilReal(2 * len / spacing));
+  PetscCheck(2 * len / spacing < 1e9, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment length %g is too small for a stitch of yarn length %g", (double)spacing, (double)len);
+  *N = (PetscInt)PetscMax(32, PetscCeilReal(2 * len / spacing));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKKnitBuild(const VKKnitChart *chart, const VKKnitParams *p, PetscReal spacing, VKCurves *out)
+{
+  PetscInt   N, nv;
+  PetscReal *x;
+
+  PetscFunctionBegin;
+  PetscCall(VKKnitParamsCheck(p));
+  PetscCall(VKKnitSamplesPerLoop(p, spacing, &N));
   PetscCheck((double)N * (double)p->wales < 1e9, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment length %g is too small for a course of %d stitches", (double)spacing, (int)p->wales);
   nv = N * p->wales + 1;
   PetscCall(PetscMalloc1(3 * (size_t)nv, &x));

@@ -141,15 +141,15 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   }
   if (chosen[3]) y->pattern[0] = 0;
 
-  PetscCall(PetscOptionsInt("-yarn_wales", "Knit patch width in stitches", "VKYarnSetKnit", y->knit.wales, &y->knit.wales, NULL));
-  PetscCall(PetscOptionsInt("-yarn_courses", "Knit patch height in courses", "VKYarnSetKnit", y->knit.courses, &y->knit.courses, NULL));
+  PetscCall(VKOptionsRangeInt("-yarn_wales", "Knit patch width in stitches", "VKYarnSetKnit", y->knit.wales, &y->knit.wales, NULL, 1, PETSC_MAX_INT));
+  PetscCall(VKOptionsRangeInt("-yarn_courses", "Knit patch height in courses", "VKYarnSetKnit", y->knit.courses, &y->knit.courses, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-yarn_stitch_width", "Stitch width w, m (default 9 r)", "VKKnitBuild", y->knit.width, &y->knit.width, &y->knit_set[0]));
   PetscCall(PetscOptionsReal("-yarn_stitch_height", "Course spacing, m (default 7 r)", "VKKnitBuild", y->knit.height, &y->knit.height, &y->knit_set[1]));
   PetscCall(PetscOptionsReal("-yarn_loop_height", "Loop height h, m (default 1.7 x course spacing)", "VKKnitBuild", y->knit.loop_height, &y->knit.loop_height, &y->knit_set[2]));
   PetscCall(PetscOptionsReal("-yarn_loop_bulge", "Sideways bulge a of the loop head, m (default w/4)", "VKKnitBuild", y->knit.bulge, &y->knit.bulge, &y->knit_set[3]));
   PetscCall(PetscOptionsReal("-yarn_loop_depth", "Out-of-plane amplitude d of the loops, m (default 1.5 r)", "VKKnitBuild", y->knit.depth, &y->knit.depth, &y->knit_set[4]));
-  PetscCall(PetscOptionsInt("-yarn_warps", "Woven patch: number of warp yarns", "VKWeaveBuild", y->weave.warps, &y->weave.warps, NULL));
-  PetscCall(PetscOptionsInt("-yarn_wefts", "Woven patch: number of weft yarns", "VKWeaveBuild", y->weave.wefts, &y->weave.wefts, NULL));
+  PetscCall(VKOptionsRangeInt("-yarn_warps", "Woven patch: number of warp yarns", "VKWeaveBuild", y->weave.warps, &y->weave.warps, NULL, 1, PETSC_MAX_INT));
+  PetscCall(VKOptionsRangeInt("-yarn_wefts", "Woven patch: number of weft yarns", "VKWeaveBuild", y->weave.wefts, &y->weave.wefts, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-yarn_weave_spacing", "Woven patch: yarn spacing, m (default 5 r)", "VKWeaveBuild", y->weave.spacing, &y->weave.spacing, &y->weave_set[0]));
   PetscCall(PetscOptionsReal("-yarn_weave_depth", "Woven patch: height of a yarn over/under a crossing, m (default r)", "VKWeaveBuild", y->weave.depth, &y->weave.depth, &y->weave_set[1]));
   n = 2;
@@ -166,10 +166,10 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   PetscCall(PetscOptionsReal("-yarn_segment_length", "Target segment length, m (default r)", "VKCurvesResample", y->seglen, &y->seglen, &y->seglen_set));
   PetscOptionsEnd();
 
-  PetscCheck(y->radius > 0 && y->radius < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_radius must be positive, got %g", (double)y->radius);
-  PetscCheck(y->density > 0 && y->density < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_density must be positive, got %g", (double)y->density);
-  PetscCheck(y->scale > 0 && y->scale < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_scale must be positive, got %g", (double)y->scale);
-  PetscCheck(!y->seglen_set || (y->seglen > 0 && y->seglen < PETSC_INFINITY), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_segment_length must be positive, got %g", (double)y->seglen);
+  PetscCheck(y->radius > 0 && y->radius < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_radius must be positive and finite, got %g", (double)y->radius);
+  PetscCheck(y->density > 0 && y->density < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_density must be positive and finite, got %g", (double)y->density);
+  PetscCheck(y->scale > 0 && y->scale < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_scale must be positive and finite, got %g", (double)y->scale);
+  PetscCheck(!y->seglen_set || (y->seglen > 0 && y->seglen < PETSC_INFINITY), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_segment_length must be positive and finite, got %g", (double)y->seglen);
   PetscFunctionReturn(0);
 }
 
@@ -192,6 +192,25 @@ static PetscErrorCode KnitParams(VKYarn y)
   PetscFunctionReturn(0);
 }
 
+/* A knit patch must fit: its samples (each about 54 bytes through the yarn
+ * stage, measured from 50 x 50 to 200 x 200 stitches; 64 taken) and its
+ * vertices within PetscInt. */
+static PetscErrorCode KnitFitsMemory(VKYarn y)
+{
+  PetscInt N;
+  double   samples;
+  char     what[128];
+
+  PetscFunctionBegin;
+  PetscCall(VKKnitParamsCheck(&y->knit));
+  PetscCall(VKKnitSamplesPerLoop(&y->knit, y->seglen, &N));
+  samples = (double)N * (double)y->knit.wales * (double)y->knit.courses;
+  PetscCheck(samples < PETSC_MAX_INT, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "A knit patch of %d x %d stitches would have about %.3g yarn vertices, more than the %d a PetscInt can count; use fewer stitches or a longer -yarn_segment_length", (int)y->knit.wales, (int)y->knit.courses, samples / 2, (int)PETSC_MAX_INT);
+  PetscCall(PetscSNPrintf(what, sizeof what, "A knit patch of %d x %d stitches (about %.3g yarn vertices)", (int)y->knit.wales, (int)y->knit.courses, samples / 2));
+  PetscCall(VKMemoryCheck(y->comm, 64 * samples, what, "use fewer stitches (-yarn_wales, -yarn_courses) or a longer -yarn_segment_length"));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
 {
   VKKnitChart    chart = {0, 0, NULL};
@@ -211,7 +230,8 @@ static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
     PetscCall(VKKnitChartBuiltin(y->pattern, &chart));
     PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "knit pattern %s, %d wales x %d courses", y->pattern, (int)y->knit.wales, (int)y->knit.courses));
   }
-  ierr = VKKnitBuild(&chart, &y->knit, y->seglen, dense);
+  ierr = KnitFitsMemory(y);
+  if (!ierr) ierr = VKKnitBuild(&chart, &y->knit, y->seglen, dense);
   PetscCall(VKKnitChartFree(&chart));
   PetscCall(ierr);
   PetscFunctionReturn(0);

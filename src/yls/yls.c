@@ -59,24 +59,24 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsReal("-yls_ks", "Stretching stiffness k_s: tension per unit strain, N", "VKYLSSetFromOptions", y->par.ks, &y->par.ks, NULL));
   PetscCall(PetscOptionsReal("-yls_kb", "Bending stiffness k_b, N m^2", "VKYLSSetFromOptions", y->par.kb, &y->par.kb, NULL));
   PetscCall(PetscOptionsReal("-yls_kc", "Contact stiffness k_c of Kaldor's penalty, N/m", "VKYLSSetFromOptions", y->par.kc, &y->par.kc, NULL));
-  PetscCall(PetscOptionsInt("-yls_nq", "Contact quadrature points per segment", "VKYLSSetFromOptions", y->par.nq, &y->par.nq, NULL));
+  PetscCall(VKOptionsRangeInt("-yls_nq", "Contact quadrature points per segment", "VKYLSSetFromOptions", y->par.nq, &y->par.nq, NULL, 1, 16));
   PetscCall(PetscOptionsReal("-yls_dashpot", "Along-segment dashpot c_s: force per unit strain rate, N s", "VKYLSSetFromOptions", y->cs, &y->cs, NULL));
   PetscCall(PetscOptionsReal("-yls_collider_stiffness", "Collider penalty k_w, N/m", "VKYLSSetFromOptions", y->kw, &y->kw, NULL));
   PetscCall(PetscOptionsReal("-yls_friction_eps", "Sliding speed below which collider friction is smoothed, m/s", "VKYLSSetFromOptions", y->friction_eps, &y->friction_eps, NULL));
   PetscCall(PetscOptionsReal("-yls_cap", "Largest vertex motion per Newton iteration, in yarn radii", "VKYLSSetFromOptions", y->cap, &y->cap, NULL));
   PetscCall(PetscOptionsReal("-yls_ftol", "Newton stops when |grad Phi| <= this x (weight of the free yarn + handle reaction + collider forces), all in N", "VKYLSSetFromOptions", y->ftol, &y->ftol, NULL));
-  PetscCall(PetscOptionsInt("-yls_max_halvings", "A step whose Newton solve fails is redone as two steps of dt/2, at most this many times over", "VKYLSStep", y->max_halvings, &y->max_halvings, NULL));
+  PetscCall(VKOptionsRangeInt("-yls_max_halvings", "A step whose Newton solve fails is redone as two steps of dt/2, at most this many times over", "VKYLSStep", y->max_halvings, &y->max_halvings, NULL, 0, 20));
   PetscCall(PetscOptionsBool("-yls_strict", "A step whose Newton solve ends above its tolerance stops the run with an error (otherwise it is counted, warned about, and the status is 'unconverged')", "VKYLSRun", y->strict, &y->strict, NULL));
-  PetscCall(PetscOptionsInt("-yls_line_search_max_it", "Halvings of a Newton step before the line search gives up", "VKYLSSetFromOptions", y->ls_max_it, &y->ls_max_it, NULL));
+  PetscCall(VKOptionsRangeInt("-yls_line_search_max_it", "Halvings of a Newton step before the line search gives up", "VKYLSSetFromOptions", y->ls_max_it, &y->ls_max_it, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-yls_pattern_margin", "Contact pairs closer than 2r + this x r are in the Hessian's nonzero pattern (at most 2 cap); wider: fewer rebuilds, more fill", "VKYLSSetFromOptions", y->pattern_margin, &y->pattern_margin, NULL));
   PetscCall(PetscOptionsReal("-yls_dt", "Time step, s (default: 1 ms, less if a handle would move more than the cap per step)", "VKYLSSetFromOptions", y->dt, &y->dt, NULL));
   PetscCall(PetscOptionsEnum("-yls_hessian", "Newton Hessian: element-wise PSD projection, exact, or exact with a projected fallback when it is not a descent direction", "VKYLSSetFromOptions", VKYLSHessianTypes, (PetscEnum)y->hessian, (PetscEnum *)&y->hessian, NULL));
   PetscCall(PetscOptionsBool("-yls_predict", "Start Newton from x_n + dt v_n (capped) instead of x_n (2.5x fewer iterations on the 2K-vertex rib stretch, none saved at 22K, and Newton failures on a hanging patch full of contacts)", "VKYLSStep", y->predict, &y->predict, NULL));
   PetscCall(PetscOptionsBool("-yls_relax", "Relax the yarns and reset their rest state before the run (unless the yarn model is relaxed already)", "VKYLSRelax", y->relax, &y->relax, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_tau", "Pseudo time step of the relaxation, s", "VKYLSRelax", y->relax_tau, &y->relax_tau, NULL));
-  PetscCall(PetscOptionsInt("-yls_relax_stages", "Stages of contact-radius growth in the relaxation", "VKYLSRelax", y->relax_stages, &y->relax_stages, NULL));
+  PetscCall(VKOptionsRangeInt("-yls_relax_stages", "Stages of contact-radius growth in the relaxation", "VKYLSRelax", y->relax_stages, &y->relax_stages, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-yls_relax_radius_start", "Contact radius of the first relaxation stage, in r", "VKYLSRelax", y->relax_radius_start, &y->relax_radius_start, NULL));
-  PetscCall(PetscOptionsInt("-yls_relax_max_steps", "Proximal steps per relaxation stage at most", "VKYLSRelax", y->relax_max_steps, &y->relax_max_steps, NULL));
+  PetscCall(VKOptionsRangeInt("-yls_relax_max_steps", "Proximal steps per relaxation stage at most", "VKYLSRelax", y->relax_max_steps, &y->relax_max_steps, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsBool("-yls_quiet", "Do not print the summary line", "VKYLSRun", y->quiet, &y->quiet, NULL));
   PetscOptionsEnd();
   PetscCheck(y->par.ks >= 0 && y->par.kb >= 0 && y->par.kc >= 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Rod stiffnesses must be >= 0: -yls_ks %g -yls_kb %g -yls_kc %g", (double)y->par.ks, (double)y->par.kb, (double)y->par.kc);
@@ -89,7 +89,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCheck(y->ftol > 0 && y->ftol < 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_ftol must be in (0, 1), got %g", (double)y->ftol);
   PetscCheck(y->ls_max_it >= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_line_search_max_it must be >= 1");
   PetscCheck(y->relax_tau > 0 && y->relax_stages >= 1 && y->relax_max_steps >= 1 && y->relax_radius_start > 0 && y->relax_radius_start <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_relax_tau > 0, -yls_relax_stages >= 1, -yls_relax_max_steps >= 1, 0 < -yls_relax_radius_start <= 1");
-  PetscCheck(y->dt >= 0 && y->dt < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt must be positive, got %g", (double)y->dt);
+  PetscCheck(y->dt >= 0 && y->dt < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt must be positive and finite, got %g", (double)y->dt);
   PetscFunctionReturn(0);
 }
 
