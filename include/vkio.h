@@ -13,6 +13,15 @@
 
 /* Whole file, NUL-terminated (buf[len] == 0), identical on every rank. */
 PETSC_EXTERN PetscErrorCode VKReadFileBroadcast(MPI_Comm, const char path[], char **buf, size_t *len);
+/* Step over a UTF-8 byte-order mark at the start of a text file (editors
+ * on Windows write one). */
+static inline void VKSkipByteOrderMark(const char **buf, size_t *len)
+{
+  if (*len >= 3 && (unsigned char)(*buf)[0] == 0xef && (unsigned char)(*buf)[1] == 0xbb && (unsigned char)(*buf)[2] == 0xbf) {
+    *buf += 3;
+    *len -= 3;
+  }
+}
 /* mkdir -p on rank 0, error on every rank if it fails. */
 PETSC_EXTERN PetscErrorCode VKMakeDirectory(MPI_Comm, const char dir[]);
 /* DIR/NAME into path. */

@@ -95,6 +95,12 @@ for n in 1 2; do
   else not_ok "volknit yarn -yarn_walse 3 -options_unused_ok (-n $n): expected exit 0 and a warning (see $log)"; fi
 done
 
+# a BCC model in centimetres is accepted with a warning that names the scale
+log="$out/centimetres.log"
+if timeout 120 bin/volknit yarn -o "$out/centimetres" -yarn_bcc tests/bad/centimetres.bcc > "$log" 2>&1 \
+   && grep -q 'WARNING: .* where knit yarns are 0.1 - 5 mm; if the file is not in metres, -yarn_scale 0.01 makes it' "$log"; then ok
+else not_ok "volknit yarn -yarn_bcc tests/bad/centimetres.bcc: expected exit 0 and a warning naming -yarn_scale 0.01 (see $log)"; fi
+
 # -error_traceback keeps PETSc's traceback for an input error
 log="$out/traceback.log"
 if ! timeout 120 bin/volknit yarn -o "$out/traceback" -yarn_wales 0 -error_traceback > "$log" 2>&1 \

@@ -119,6 +119,13 @@ static PetscErrorCode CheckChartFile(void)
   same = (PetscBool)(a.rows == b.rows && a.cols == b.cols && !memcmp(a.sign, b.sign, (size_t)(a.rows * a.cols)));
   PetscCall(VKTestCheck(same, NULL, "chart file with comments, blank lines and lower case equals the built-in seed"));
   PetscCall(VKKnitChartFree(&a));
+  {
+    const char bom[] = "\xef\xbb\xbf# seed stitch\nK P\nP K\n"; /* as a Windows editor saves it */
+    PetscCall(VKKnitChartParse(bom, sizeof(bom) - 1, "bom.knit", &a));
+    same = (PetscBool)(a.rows == b.rows && a.cols == b.cols && !memcmp(a.sign, b.sign, (size_t)(a.rows * a.cols)));
+    PetscCall(VKTestCheck(same, NULL, "chart file that starts with a UTF-8 byte-order mark equals the built-in seed"));
+    PetscCall(VKKnitChartFree(&a));
+  }
   PetscCall(VKKnitChartFree(&b));
   PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
   ierr = VKKnitChartParse("K P\nK\n", 6, "ragged.knit", &a);

@@ -108,7 +108,7 @@ PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, Petsc
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_YARN));
   PetscCall(VKYarnSetUp(y));
-  if (y->radius_estimated) PetscCall(PetscPrintf(comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
+  if (y->radius_estimated && y->source != VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
   PetscCall(PetscOptionsGetBool(NULL, NULL, "-yarn_relax", &relax_opt, NULL));
   if ((relax || relax_opt) && !(y->contact_radius > 0)) PetscCall(VKYLSRelaxYarn(y));
   if (write) {

@@ -69,7 +69,10 @@ PetscErrorCode VKReadFileBroadcast(MPI_Comm comm, const char path[], char **buf,
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   if (rank == 0) {
     struct stat st;
-    if (stat(path, &st) == 0 && S_ISREG(st.st_mode) && (fp = fopen(path, "rb"))) size = (long long)st.st_size;
+    if (stat(path, &st) != 0) err = errno;
+    else if (S_ISDIR(st.st_mode)) err = EISDIR;
+    else if (!S_ISREG(st.st_mode)) err = 0; /* "not a regular file" */
+    else if ((fp = fopen(path, "rb"))) size = (long long)st.st_size;
     else err = errno;
   }
   PetscCallMPI(MPI_Bcast(&size, 1, MPI_LONG_LONG, 0, comm));

@@ -4,6 +4,7 @@
  * (purl) are supported; the other codes of the Leaf et al. lexicon are
  * recognised and refused with a message that says so. */
 #include <vkyarn.h>
+#include <vkio.h>
 #include <ctype.h>
 #include <string.h>
 
@@ -76,6 +77,7 @@ static PetscBool IsLexiconCode(const char *tok, size_t n)
 PetscErrorCode VKKnitChartParse(const char buf[], size_t len, const char fname[], VKKnitChart *chart)
 {
   PetscFunctionBegin;
+  VKSkipByteOrderMark(&buf, &len);
   chart->rows = chart->cols = 0;
   chart->sign               = NULL;
   for (int pass = 0; pass < 2; pass++) {

@@ -203,6 +203,7 @@ PetscErrorCode VKPypParse(const char buf[], size_t len, const char fname[], VKPy
   PetscErrorCode ierr;
 
   PetscFunctionBegin;
+  VKSkipByteOrderMark(&buf, &len);
   PetscCall(PetscMemzero(p, sizeof(*p)));
   PetscCall(PetscMemzero(&b, sizeof(b)));
   b.declared = -1;

@@ -5,6 +5,7 @@
  * z = +d if it is over and -d if under, the warp opposite, and heights
  * are blended by half cosines between crossings (C1 yarns). */
 #include <vkyarn.h>
+#include <vkio.h>
 #include <ctype.h>
 #include <string.h>
 
@@ -59,6 +60,7 @@ PetscErrorCode VKWeaveFree(VKWeave *w)
 PetscErrorCode VKWeaveParse(const char buf[], size_t len, const char fname[], VKWeave *w)
 {
   PetscFunctionBegin;
+  VKSkipByteOrderMark(&buf, &len);
   w->rows = w->cols = 0;
   w->over           = NULL;
   for (int pass = 0; pass < 2; pass++) {

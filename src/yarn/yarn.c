@@ -82,6 +82,48 @@ PetscErrorCode VKYarnSetCurves(VKYarn y, const VKCurves *c)
   PetscFunctionReturn(0);
 }
 
+/* Options that shape one kind of source only; given with another source
+ * they would be ignored, so they are an error naming both. */
+static PetscErrorCode CheckSourceOptions(VKYarn y)
+{
+  static const struct {
+    const char *opt;
+    unsigned    sources; /* bit VKYarnSource */
+  } only[] = {
+    {"-yarn_wales", 1u << VK_YARN_CHART},
+    {"-yarn_courses", 1u << VK_YARN_CHART},
+    {"-yarn_stitch_width", 1u << VK_YARN_CHART},
+    {"-yarn_stitch_height", 1u << VK_YARN_CHART},
+    {"-yarn_loop_height", 1u << VK_YARN_CHART},
+    {"-yarn_loop_bulge", 1u << VK_YARN_CHART},
+    {"-yarn_loop_depth", 1u << VK_YARN_CHART},
+    {"-yarn_warps", 1u << VK_YARN_WOVEN},
+    {"-yarn_wefts", 1u << VK_YARN_WOVEN},
+    {"-yarn_weave_spacing", 1u << VK_YARN_WOVEN},
+    {"-yarn_weave_depth", 1u << VK_YARN_WOVEN},
+    {"-yarn_weave_params", 1u << VK_YARN_WOVEN},
+    {"-yarn_tiles", 1u << VK_YARN_PYP},
+    {"-yarn_scale", 1u << VK_YARN_BCC | 1u << VK_YARN_PYP},
+  };
+  static const char *const what[] = {"a knit pattern or chart (-yarn_pattern, -yarn_chart)", "a weave (-yarn_weave, -yarn_weave_file)", "a BCC file (-yarn_bcc)", "a pyp file (-yarn_pyp)", "a yarn.h5 (-yarn_h5)", "given curves"};
+
+  PetscFunctionBegin;
+  for (size_t i = 0; i < sizeof(only) / sizeof(only[0]); i++) {
+    PetscBool given;
+    char      uses[160] = "";
+    if (only[i].sources & (1u << y->source)) continue;
+    PetscCall(PetscOptionsHasName(NULL, NULL, only[i].opt, &given));
+    if (!given) continue;
+    for (int s = 0; s <= VK_YARN_GIVEN; s++)
+      if (only[i].sources & (1u << s)) {
+        if (uses[0]) PetscCall(PetscStrlcat(uses, " or ", sizeof uses));
+        PetscCall(PetscStrlcat(uses, what[s], sizeof uses));
+      }
+    SETERRQ(y->comm, PETSC_ERR_ARG_INCOMP, "%s applies to %s; the yarn here comes from %s", only[i].opt, uses, what[y->source]);
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKYarnSetFromOptions(VKYarn y)
 {
   char      buf[PETSC_MAX_PATH_LEN];
@@ -165,6 +207,7 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   PetscCall(PetscOptionsReal("-yarn_density", "Linear density, kg/m", "VKYarnSetUp", y->density, &y->density, NULL));
   PetscCall(PetscOptionsReal("-yarn_segment_length", "Target segment length, m (default r)", "VKCurvesResample", y->seglen, &y->seglen, &y->seglen_set));
   PetscOptionsEnd();
+  PetscCall(CheckSourceOptions(y));
 
   PetscCheck(y->radius > 0 && y->radius < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_radius must be positive and finite, got %g", (double)y->radius);
   PetscCheck(y->density > 0 && y->density < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_density must be positive and finite, got %g", (double)y->density);
@@ -304,6 +347,20 @@ static PetscErrorCode MedianSpacing(const VKCurves *c, PetscReal *m)
   PetscFunctionReturn(0);
 }
 
+/* A file model's yarn radius against knit yarns (0.1 - 5 mm): far outside,
+ * the file's units are not metres and a -yarn_scale is missing; an
+ * absurd radius is refused, an unusual one warned about.  Either names
+ * the scale (a power of ten) that would give about 1 mm. */
+static PetscErrorCode CheckModelScale(VKYarn y)
+{
+  PetscReal r = y->radius, s = PetscPowReal(10.0, PetscFloorReal(PetscLog10Real(1e-3 / r) + 0.5));
+
+  PetscFunctionBegin;
+  PetscCheck(r >= 1e-7 && r <= 10, y->comm, PETSC_ERR_FILE_UNEXPECTED, "%s: the yarn radius would be %g m (%s), no knit yarn; the file is not in metres: -yarn_scale %g would make it %g m", y->file, (double)r, y->radius_estimated ? "estimated from the geometry" : "given", (double)(s * y->scale), (double)(s * r));
+  if (r < 2e-5 || r > 2e-2) PetscCall(PetscPrintf(y->comm, "volknit yarn: WARNING: %s gives a yarn radius of %g m (%s), where knit yarns are 0.1 - 5 mm; if the file is not in metres, -yarn_scale %g makes it %g m\n", y->file, (double)r, y->radius_estimated ? "estimated from the geometry" : "given", (double)(s * y->scale), (double)(s * r)));
+  PetscFunctionReturn(0);
+}
+
 /* File curves (BCC or tiled pyp) in metres to a dense polyline; the
  * radius is estimated when neither the file nor the options give one. */
 static PetscErrorCode DenseFromControl(VKYarn y, VKCurves *ctrl, VKCurveType type, VKCurves *dense)
@@ -322,6 +379,7 @@ static PetscErrorCode DenseFromControl(VKYarn y, VKCurves *ctrl, VKCurveType typ
     PetscCall(PetscLogEventEnd(VK_EVENT_YarnRadius, 0, 0, 0, 0));
     y->radius_estimated = PETSC_TRUE;
   }
+  PetscCall(CheckModelScale(y));
   if (!y->seglen_set) y->seglen = y->radius;
   if (type == VK_CURVE_CATMULL_ROM && 0.25 * y->seglen < 0.25 * m) { /* resample finer than the control net */
     PetscCall(VKCurvesFree(dense));

@@ -35,6 +35,9 @@ files = {
     'total_mismatch.bcc': bcc(good, npoints=19),
     'trailing.bcc': bcc(good, trailing=b'\0' * 7),
     'zero_length.bcc': bcc([([(0.001, 0.0, 0.0)] * 5, False)]),
+    # not broken, only in centimetres: accepted with a warning naming -yarn_scale 0.01
+    'centimetres.bcc': bcc([([(0.1 * i, 0.2 * j, 0.05 * math.sin(i + j)) for i in range(100)], False) for j in range(2)]),
+    'huge.bcc': bcc([([(1e30 * i, 0.0, 0.0) for i in range(10)], False), ([(1e30 * i, 2e30, 0.0) for i in range(10)], False)]),
 }
 pyp_head = "*pattern\n0.009 0.007 0.001 3\n*Q\n0 0 0 0\n0.003 0.001 0.001 0\n0.006 0 0 0\n"
 files.update({
