@@ -104,6 +104,14 @@ typedef enum {
   VK_PD_HANDLE_BOX       /* the nodes inside the box */
 } VKPDHandleNodes;
 PETSC_EXTERN const char *const VKPDHandleNodesTypes[];
+/* The handle of every mesh node (-1: free) under a rule, and per handle
+ * the yarn vertices embedded in its box (held, added to); the mesh is
+ * replicated, so every rank finds the same. */
+PETSC_EXTERN PetscErrorCode VKPDHandleNodesOf(VKScene, VKMesh, VKPDHandleNodes, PetscInt node_of[], PetscInt held[]);
+/* Collective: an error naming a scene handle that holds no mesh node (or,
+ * embedded, no yarn vertex) on this mesh; volknit run asks before it
+ * writes anything. */
+PETSC_EXTERN PetscErrorCode VKPDCheckHandles(VKScene, VKMesh, VKPDHandleNodes);
 
 typedef struct {
   VKPDReason     reason;

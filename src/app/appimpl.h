@@ -17,8 +17,11 @@ PETSC_INTERN PetscErrorCode VKAppYarnFromOptions(MPI_Comm, VKYarn *);
 PETSC_INTERN PetscErrorCode VKAppYarnForStage(MPI_Comm, const char dir[], VKYarn *);
 /* Read the yarn model from a yarn.h5 (set before set-up). */
 PETSC_INTERN PetscErrorCode VKAppYarnUseFile(VKYarn, const char path[]);
-/* Set up (relaxed when relax or -yarn_relax asks and it is not yet); with
- * write, DIR/yarn.{h5,xdmf,json} and the -yarn_write_ files. */
+/* Set up, relaxed when relax or -yarn_relax asks and it is not yet; writes
+ * nothing. */
+PETSC_INTERN PetscErrorCode VKAppYarnBuild(VKYarn, PetscBool relax);
+/* VKAppYarnBuild, then with write DIR/yarn.{h5,xdmf,json} and the
+ * -yarn_write_ files, and the summary line. */
 PETSC_INTERN PetscErrorCode VKAppYarnStage(VKYarn, const char dir[], PetscBool write, PetscBool relax);
 PETSC_INTERN PetscErrorCode VKAppMeshFromOptions(MPI_Comm, VKYarn, VKMesh *);
 /* Set up, DIR/mesh.{h5,xdmf,json}. */

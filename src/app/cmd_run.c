@@ -430,6 +430,32 @@ static PetscErrorCode RunDestroy(Run *R)
   PetscFunctionReturn(0);
 }
 
+/* Every mesh of the run against the scene, before anything is written: a
+ * handle that would hold nothing stops the run here, not after yarn.h5
+ * and mesh.h5 (the yarn is built, and relaxed, first: the meshes enclose
+ * the yarn as it will be written). */
+static PetscErrorCode CheckSceneOnMeshes(Run *R, VKYarn y)
+{
+  VKScene         scene;
+  VKPDHandleNodes rule = VK_PD_HANDLE_EMBEDDED;
+  PetscReal       lo[3], hi[3];
+
+  PetscFunctionBegin;
+  PetscCall(PetscOptionsGetEnum(NULL, NULL, "-pd_handle_nodes", VKPDHandleNodesTypes, (PetscEnum *)&rule, NULL));
+  PetscCall(VKSceneCreate(R->comm, &scene));
+  PetscCall(VKSceneSetFromOptions(scene));
+  PetscCall(VKCurvesBoundingBox(&y->curves, lo, hi));
+  PetscCall(VKSceneSetUp(scene, lo, hi));
+  for (PetscInt i = 0; i < PetscMax(R->nh, 1); i++) {
+    PetscCall(PetscLogStagePush(VK_STAGE_MESH));
+    PetscCall(VKMeshSetUp(R->mesh[i]));
+    PetscCall(PetscLogStagePop());
+    PetscCall(VKPDCheckHandles(scene, R->mesh[i], rule));
+  }
+  PetscCall(VKSceneDestroy(&scene));
+  PetscFunctionReturn(0);
+}
+
 /* The yarn model, relaxed, and the yarn-level reference: from DIR when
  * they are current, otherwise built and run (and stamped when the run
  * converged). */
@@ -447,9 +473,13 @@ static PetscErrorCode ReferenceStage(Run *R, VKYarn y, VKYLS yls)
     PetscCall(VKPathJoin(R->dir, "yarn.h5", path, sizeof(path)));
     PetscCall(VKAppYarnUseFile(y, path));
     PetscCall(PetscPrintf(R->comm, "volknit run: the yarn-level reference in %s is up to date (same -yarn_, -yls_, -scene_ options and files): relaxed yarn read from %s, volknit yls not rerun\n", R->dir, y->file));
+    PetscCall(VKAppYarnBuild(y, PETSC_FALSE));
+    PetscCall(CheckSceneOnMeshes(R, y));
     PetscCall(VKAppYarnStage(y, R->dir, PETSC_FALSE, PETSC_FALSE));
   } else {
     /* relaxed first, so yarn.h5, the reference run and the mesh share one rest state */
+    PetscCall(VKAppYarnBuild(y, R->reference));
+    PetscCall(CheckSceneOnMeshes(R, y));
     if (R->reference) PetscCall(VKAppReferenceStampRemove(R->comm, R->dir));
     PetscCall(VKAppYarnStage(y, R->dir, PETSC_TRUE, R->reference));
     if (R->reference) {

@@ -98,19 +98,34 @@ PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
 
 /* Build the yarn model, relaxed when `relax` or -yarn_relax asks and it is
  * not relaxed yet; with `write`, write and report it. */
+PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
+{
+  PetscBool relax_opt = PETSC_FALSE;
+
+  PetscFunctionBegin;
+  PetscCall(PetscOptionsGetBool(NULL, NULL, "-yarn_relax", &relax_opt, NULL));
+  relax = (PetscBool)(relax || relax_opt);
+  if (y->setup && (y->contact_radius > 0 || !relax)) PetscFunctionReturn(0);
+  PetscCall(PetscLogStagePush(VK_STAGE_YARN));
+  if (!y->setup) {
+    PetscCall(VKYarnSetUp(y));
+    if (y->radius_estimated && y->source != VK_YARN_H5) PetscCall(PetscPrintf(y->comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
+  }
+  if (relax && !(y->contact_radius > 0)) PetscCall(VKYLSRelaxYarn(y));
+  PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, PetscBool relax)
 {
   MPI_Comm  comm = y->comm;
   char      path[PETSC_MAX_PATH_LEN];
-  PetscBool set, relax_opt = PETSC_FALSE;
+  PetscBool set;
   PetscReal mass, length;
 
   PetscFunctionBegin;
+  PetscCall(VKAppYarnBuild(y, relax));
   PetscCall(PetscLogStagePush(VK_STAGE_YARN));
-  PetscCall(VKYarnSetUp(y));
-  if (y->radius_estimated && y->source != VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
-  PetscCall(PetscOptionsGetBool(NULL, NULL, "-yarn_relax", &relax_opt, NULL));
-  if ((relax || relax_opt) && !(y->contact_radius > 0)) PetscCall(VKYLSRelaxYarn(y));
   if (write) {
     PetscCall(VKYarnWriteOutputs(y, dir));
     PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_bcc", path, sizeof(path), &set));

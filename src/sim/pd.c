@@ -298,14 +298,12 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
  * material has no stiffness, e.g. inside a stretch band.)  A node claimed
  * by two handles takes the lower-numbered one, as a point in two boxes
  * does. */
-static PetscErrorCode NodeHandles(VKPD pd, PetscInt node_of[], PetscInt held[])
+PetscErrorCode VKPDHandleNodesOf(VKScene scene, VKMesh mesh, VKPDHandleNodes rule, PetscInt node_of[], PetscInt held[])
 {
-  VKMesh mesh = pd->mesh;
-
   PetscFunctionBegin;
-  for (PetscInt i = 0; i < mesh->nv; i++) node_of[i] = VKSceneHandleOf(pd->scene, mesh->x + 3 * i);
-  if (pd->handle_nodes == VK_PD_HANDLE_EMBEDDED) {
-    PetscCheck(mesh->ny > 0, pd->comm, PETSC_ERR_ARG_WRONG, "-pd_handle_nodes embedded needs the mesh's yarn embedding, and this mesh has none; use -pd_handle_nodes box");
+  for (PetscInt i = 0; i < mesh->nv; i++) node_of[i] = VKSceneHandleOf(scene, mesh->x + 3 * i);
+  if (rule == VK_PD_HANDLE_EMBEDDED) {
+    PetscCheck(mesh->ny > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "-pd_handle_nodes embedded needs the mesh's yarn embedding, and this mesh has none; use -pd_handle_nodes box");
     for (PetscInt k = 0; k < mesh->ny; k++) {
       const PetscInt  *t = mesh->tet + 4 * mesh->emb_tet[k];
       const PetscReal *w = mesh->emb_w + 4 * k;
@@ -313,12 +311,29 @@ static PetscErrorCode NodeHandles(VKPD pd, PetscInt node_of[], PetscInt held[])
       PetscInt         h;
       for (int a = 0; a < 4; a++)
         for (int c = 0; c < 3; c++) p[c] += w[a] * mesh->x[3 * t[a] + c];
-      h = VKSceneHandleOf(pd->scene, p);
+      h = VKSceneHandleOf(scene, p);
       if (h < 0) continue;
       held[h]++;
       for (int a = 0; a < 4; a++)
         if (PetscAbsReal(w[a]) > VK_PD_HANDLE_WEIGHT_TOL && (node_of[t[a]] < 0 || h < node_of[t[a]])) node_of[t[a]] = h;
     }
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDCheckHandles(VKScene scene, VKMesh mesh, VKPDHandleNodes rule)
+{
+  PetscInt *node_of, held[VK_SCENE_MAX] = {0}, nodes[VK_SCENE_MAX] = {0};
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(mesh->nv + 1, &node_of));
+  PetscCall(VKPDHandleNodesOf(scene, mesh, rule, node_of, held));
+  for (PetscInt i = 0; i < mesh->nv; i++)
+    if (node_of[i] >= 0) nodes[node_of[i]]++;
+  PetscCall(PetscFree(node_of));
+  for (PetscInt h = 0; h < scene->nhandles; h++) {
+    if (rule == VK_PD_HANDLE_EMBEDDED) PetscCheck(held[h] > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no embedded yarn vertex, so it holds nothing (with -pd_handle_nodes box it would hold the mesh nodes in the box)", (int)h, (int)h);
+    PetscCheck(nodes[h] > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node (mesh h = %g m; a smaller -mesh_h, a larger box, or -pd_handle_nodes embedded)", (int)h, (int)h, (double)mesh->grid.h);
   }
   PetscFunctionReturn(0);
 }
@@ -329,12 +344,13 @@ static PetscErrorCode FindHandles(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
   VKLayout *L    = &mesh->layout;
-  PetscInt  nown = L->nEnd - L->nStart, n = 0, count[VK_SCENE_MAX] = {0}, total[VK_SCENE_MAX], yarn_held[VK_SCENE_MAX] = {0}, *node_of;
+  PetscInt  nown = L->nEnd - L->nStart, n = 0, yarn_held[VK_SCENE_MAX] = {0}, *node_of;
 
   PetscFunctionBegin;
+  PetscCall(VKPDCheckHandles(pd->scene, mesh, pd->handle_nodes));
   PetscCall(PetscMalloc4(nown + 1, &pd->handle_node, nown + 1, &pd->handle_id, nown + 1, &pd->handle_row, nown + 1, &pd->node_handle));
   PetscCall(PetscMalloc1(mesh->nv, &node_of));
-  PetscCall(NodeHandles(pd, node_of, yarn_held));
+  PetscCall(VKPDHandleNodesOf(pd->scene, mesh, pd->handle_nodes, node_of, yarn_held));
   for (PetscInt i = 0; i < nown; i++) {
     PetscInt h = node_of[L->nStart + i];
     pd->node_handle[i] = h;
@@ -342,17 +358,11 @@ static PetscErrorCode FindHandles(VKPD pd)
     pd->handle_node[n] = i;
     pd->handle_id[n]   = h;
     pd->handle_row[n]  = L->nStart + i;
-    count[h]++;
     n++;
   }
   PetscCall(PetscFree(node_of));
-  pd->nhandle  = n;
-  pd->nscene   = n;
-  PetscCallMPI(MPI_Allreduce(count, total, VK_SCENE_MAX, MPIU_INT, MPI_SUM, pd->comm));
-  for (PetscInt h = 0; h < pd->scene->nhandles; h++) {
-    if (pd->handle_nodes == VK_PD_HANDLE_EMBEDDED) PetscCheck(yarn_held[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no embedded yarn vertex, so it holds nothing (with -pd_handle_nodes box it would hold the mesh nodes in the box)", (int)h, (int)h);
-    PetscCheck(total[h] > 0, pd->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node", (int)h, (int)h);
-  }
+  pd->nhandle = n;
+  pd->nscene  = n;
   PetscFunctionReturn(0);
 }
 
