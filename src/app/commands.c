@@ -97,7 +97,7 @@ PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
 }
 
 /* Build the yarn model, relaxed when `relax` or -yarn_relax asks and it is
- * not relaxed yet; with `write`, write and report it. */
+ * not relaxed yet; nothing written. */
 PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
 {
   PetscBool relax_opt = PETSC_FALSE;
@@ -116,6 +116,7 @@ PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
   PetscFunctionReturn(0);
 }
 
+/* VKAppYarnBuild, then with `write` the outputs; the summary line. */
 PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, PetscBool relax)
 {
   MPI_Comm  comm = y->comm;

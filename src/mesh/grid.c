@@ -132,7 +132,8 @@ PetscErrorCode VKMeshSetUpGrid(VKMesh m)
   }
   { /* the voxels follow the yarns' centre lines: about 1.5 L/h of them
        (measured 1.13-1.52 on a 20 x 20 stockinette from h = 3 r to r/20),
-       each about 1.5 kB through the mesh stage, every rank holding the mesh */
+       each about 1.5 kB through the mesh stage (2 L/h and 2 kB taken),
+       every rank holding the mesh */
     PetscReal mass, length;
     double    voxels, cells = (double)m->grid.dims[0] * (double)m->grid.dims[1] * (double)m->grid.dims[2];
     char      what[160];

@@ -4,7 +4,6 @@
  * an integer, or lies outside [lo, hi], is an error naming the option, the
  * value given and the range allowed. */
 #include <vkutil.h>
-#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 
@@ -20,8 +19,7 @@ PetscErrorCode VKOptionsRangeInt_Private(PetscOptionItems *items, const char opt
   if (found) {
     char  *end;
     double v;
-    errno = 0;
-    v     = strtod(buf, &end);
+    v = strtod(buf, &end);
     while (*end == ' ') end++;
     PetscCheck(buf[0] && !*end && isfinite(v), items->comm, PETSC_ERR_USER_INPUT, "%s '%s' is not a number: it takes %s", name, buf, range);
     PetscCheck(v == floor(v), items->comm, PETSC_ERR_USER_INPUT, "%s %s is not an integer: it takes %s", name, buf, range);
