@@ -146,5 +146,14 @@ PETSC_EXTERN PetscLogDouble VKWallTime(void);
 /* ksp: KSPPREONLY with a MUMPS factorization of the given type (PCLU,
  * PCCHOLESKY) as its PC (direct_solver.c). */
 PETSC_EXTERN PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor);
+/* MUMPS's workspace relaxation ICNTL(14) of ksp's factorization, *percent
+ * (20, MUMPS's default, at first), raised 4x (to 80, 320, 1280, at most
+ * 1600 %) through the options database under the factor's prefix (the
+ * KSP's, then sub, e.g. "redundant_"), unless the user set it (then
+ * *percent becomes PETSC_MAX_INT and nothing changes).  option[len]
+ * records the option set ("" if none), for PetscOptionsClearValue when
+ * its owner is destroyed; *raised says whether a new factorization (a new
+ * symbolic phase) will see more workspace. */
+PETSC_EXTERN PetscErrorCode VKMUMPSRaiseWorkspace(KSP ksp, const char sub[], PetscInt *percent, char option[], size_t len, PetscBool *raised);
 /* Peak resident set size of this process in bytes. */
 PETSC_EXTERN PetscErrorCode VKPeakMemory(PetscLogDouble *);

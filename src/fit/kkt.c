@@ -199,32 +199,17 @@ PetscErrorCode VKFitCreateKKTSolver(VKFit fit)
 
 static PetscErrorCode RenewKKTSolver(VKFit);
 
-/* MUMPS's workspace relaxation ICNTL(14) of the KKT factorization, 20 %
- * by default: raised 4x (to 80, 320, 1280 and at most 1600 %) through the
- * options database under the factor's prefix (removed again when the fit
- * is destroyed), unless the user set it, and a new solver that reads it. */
+/* More MUMPS workspace for the KKT factorization (VKMUMPSRaiseWorkspace)
+ * and a new solver that reads it. */
 static PetscErrorCode RaiseKKTWorkspace(VKFit fit)
 {
-  char        name[256], value[32];
-  const char *prefix;
   PetscMPIInt size;
-  PetscBool   set;
+  PetscBool   raised;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(fit->comm, &size));
-  PetscCall(KSPGetOptionsPrefix(fit->kkkt, &prefix));
-  PetscCall(PetscSNPrintf(name, sizeof(name), "-%s%smat_mumps_icntl_14", prefix ? prefix : "", size > 1 ? "redundant_" : ""));
-  PetscCall(PetscOptionsHasName(NULL, NULL, name, &set));
-  if (set && !fit->kkt_workspace_option[0]) { /* the user's own value: leave it */
-    fit->kkt_workspace = PETSC_MAX_INT;
-    PetscFunctionReturn(0);
-  }
-  fit->kkt_workspace = PetscMin(4 * fit->kkt_workspace, 1600);
-  PetscCall(PetscSNPrintf(value, sizeof(value), "%d", (int)fit->kkt_workspace));
-  PetscCall(PetscOptionsSetValue(NULL, name, value));
-  PetscCall(PetscStrncpy(fit->kkt_workspace_option, name, sizeof(fit->kkt_workspace_option))); /* cleared by VKFitDestroy */
-  PetscCall(PetscInfo(fit->kkkt, "KKT: factorization failed; MUMPS workspace relaxation %s %s\n", name, value));
-  PetscCall(RenewKKTSolver(fit));
+  PetscCall(VKMUMPSRaiseWorkspace(fit->kkkt, size > 1 ? "redundant_" : NULL, &fit->kkt_workspace, fit->kkt_workspace_option, sizeof(fit->kkt_workspace_option), &raised));
+  if (raised) PetscCall(RenewKKTSolver(fit));
   PetscFunctionReturn(0);
 }
 
