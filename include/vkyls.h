@@ -1,10 +1,14 @@
 /* vkyls.h: the yarn-level reference simulator (DESIGN §4).
  *
- * DOFs are the yarn vertex positions.  A time step is implicit Euler
- * written as the minimization of the incremental potential
- *   Phi(x) = sum_i m_i/(2 dt^2) |x_i - x_n,i - dt v_n,i|^2 + E(x) - sum_i m_i g . x_i
- *          + damping + colliders,
- * E the rod energy of vkrod.h (stretch, bending, Kaldor contact) plus glue
+ * DOFs are the yarn vertex positions and one twist angle per segment
+ * (discrete elastic rods: the angle of the segment's material frame from
+ * its reference frame, which follows the segment's tangent by
+ * time-parallel transport).  A time step is implicit Euler written as the
+ * minimization of the incremental potential
+ *   Phi(x, theta) = sum_i m_i/(2 dt^2) |x_i - x_n,i - dt v_n,i|^2
+ *                 + sum_j I_j/(2 dt^2) (theta_j - theta_n,j - dt w_n,j)^2
+ *                 + E(x, theta) - sum_i m_i g . x_i + damping + colliders,
+ * E the rod energy of vkrod.h (stretch, bending, twist, Kaldor contact) plus glue
  * springs of the bound edges, damping the viscous term
  * c_v m_i/(2 dt) |x_i - x_n,i|^2 and the along-segment dashpots
  * c_s/(2 dt L) ((e_j - e_n,j) . t_n,j)^2, colliders (inflated by r) the
@@ -16,11 +20,14 @@
  * backtracks on Phi, while the contact pairs are re-found before each
  * Newton iteration within 2r + 2 cap, so no pair can come into range unseen
  * and no yarn passes through another.  Handle vertices are Dirichlet
- * vertices placed by the scene.
+ * vertices placed by the scene; a segment whose two vertices one handle
+ * holds has its material frame turned with the handle.
  *
- * Vertices are distributed in contiguous ranges (curve order); each rank
- * assembles the elements whose first vertex (contact: first segment) it
- * owns, from a copy of all positions. */
+ * Vertices are distributed in contiguous ranges (curve order); Newton's
+ * unknowns are 4 per vertex: its position and the twist angle of the
+ * segment that starts there (fixed at 0 where none does).  Each rank
+ * assembles the elements whose first vertex (contact: first segment;
+ * bending: middle vertex) it owns, from a copy of all positions. */
 #pragma once
 #include <petscsnes.h>
 #include <vkrod.h>
@@ -76,7 +83,15 @@ struct _n_VKYLS {
   PetscInt  step;
   Vec       x, v;                   /* positions and velocities (parallel, 3 per vertex) */
   PetscReal *xall, *xn, *vn, *tn;   /* replicated: evaluation point, start of step, velocity, start-of-step tangents */
-  PetscReal *normal;                /* per segment n1, carried by time-parallel transport */
+  PetscReal *normal;                /* per segment n1, the reference director, carried by time-parallel transport */
+  PetscReal *theta, *thn, *omn;     /* replicated, per segment: twist angle at the evaluation point, at the start of the step, its rate */
+  PetscReal *mref;                  /* per bending stencil: reference twist of the frames at the start of the step */
+  PetscReal *thheld;                /* per segment: the angle a handle prescribes for this step, or NaN if free */
+  Vec        q, qseq;               /* Newton's unknowns: 4 per vertex (position, twist_scale x the twist of the segment starting there) */
+  PetscInt   mumps_workspace;       /* MUMPS's ICNTL(14) of Newton's factorization, raised when it runs out (VKMUMPSRaiseWorkspace) */
+  char       mumps_option[256];
+  PetscReal  twist_scale;           /* m: the angles enter Newton as lengths, r theta, so the Hessian's pivots are commensurate */
+  VecScatter qtoall;
   PetscReal *friction;              /* per vertex: mu x lagged collider normal force, 0 if none */
   PetscReal *contact_normal;        /* per vertex, 3: lagged collider normal */
   PetscInt  *contact_collider;      /* per vertex: the collider touched at the start of the step */
@@ -95,7 +110,7 @@ struct _n_VKYLS {
   PetscReal  phi;       /* Phi at the SNES iterate, when phi_valid (set by the line search) */
   PetscBool  phi_valid;
   VKYLSStats stats;
-  PetscReal  energy[6]; /* last frame: stretch, bending, contact, kinetic, gravity, glue */
+  PetscReal  energy[7]; /* last frame: stretch, bending, contact, kinetic, gravity, glue, twist */
   char       dir[PETSC_MAX_PATH_LEN];
   void      *out;
   PetscReal  next_output;
@@ -125,9 +140,10 @@ PETSC_EXTERN PetscErrorCode VKYLSStep(VKYLS);
 PETSC_EXTERN PetscErrorCode VKYLSRun(VKYLS);
 PETSC_EXTERN PetscErrorCode VKYLSView(VKYLS, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKYLSDestroy(VKYLS *);
-/* Energies of the current state: stretch, bending, contact, kinetic,
- * gravity (-sum m g . x), glue; and the total linear momentum. */
-PETSC_EXTERN PetscErrorCode VKYLSEnergies(VKYLS, PetscReal e[6], PetscReal momentum[3]);
+/* Energies of the current state: stretch, bending, contact, kinetic
+ * (translation and spin), gravity (-sum m g . x), glue, twist; and the
+ * total linear momentum. */
+PETSC_EXTERN PetscErrorCode VKYLSEnergies(VKYLS, PetscReal e[7], PetscReal momentum[3]);
 /* Smallest distance between the axes of admissible segment pairs, over 2r
  * (1 if no pair is within 2r), and the number of pairs within 2r. */
 PETSC_EXTERN PetscErrorCode VKYLSMinDistance(VKYLS, PetscReal *dmin, PetscInt *npairs);

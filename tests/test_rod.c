@@ -1,19 +1,25 @@
 /* test_rod.c: the rod elements of the yarn-level model (DESIGN §4):
  *  - Taylor tests (second-order remainders) energy -> gradient and
- *    gradient -> Hessian for stretch, bending (bent, nearly straight, with
- *    and without rest curvature) and contact (segments closer than 2r);
+ *    gradient -> Hessian for stretch, bending and twist of discrete
+ *    elastic rods (bent, nearly straight, with and without rest curvature
+ *    and rest twist, at the chart's centre and away from it, twisted) and
+ *    contact (segments closer than 2r);
  *  - the PSD projections have no negative eigenvalue and leave a PSD
  *    Hessian alone;
  *  - a straight yarn stretched uniformly is in equilibrium inside and
  *    pulls on its ends with the analytic tension k_s (l/L - 1);
- *  - a ring at its rest curvature stores no bending energy and no force; a
- *    straight rod bent onto an arc of radius rho stores k_b / rho^2 per
- *    unit length up to the O(theta^2) of the discrete curvature;
+ *  - a ring at its rest curvature stores no bending energy and no force,
+ *    also turned as a whole (the frames carried along, the twist angles
+ *    free); a straight rod bent onto an arc of radius rho stores
+ *    k_b / (2 rho^2) per unit length up to the O(theta^2) of the discrete
+ *    curvature; one twisted by phi stores k_t phi^2 / (2 L) and its end
+ *    carries the torque k_t phi / L;
  *  - contact of two parallel segments at distance 2 r d equals
  *    k_c L^2 f(d), pushes them apart, and vanishes beyond 2 r.
  * ranks: 1
  */
 #include <vkrod.h>
+#include <vkcurves.h>
 #include <vkutil.h>
 #include "vktest.h"
 
@@ -29,15 +35,16 @@ static PetscReal Rand(void)
 typedef enum { STRETCH, BEND, CONTACT } Kind;
 
 typedef struct {
-  Kind      kind;
-  PetscInt  n; /* coordinates */
-  PetscReal L, kbar, l, k, radius;
+  Kind               kind;
+  PetscInt           n; /* coordinates */
+  PetscReal          L, k, radius;
+  VKRodBendTwistData bt;
 } Element;
 
 static PetscReal Eval(const Element *el, const PetscReal x[], PetscBool psd, PetscReal g[], PetscReal H[])
 {
   if (el->kind == STRETCH) return VKRodStretch(x, x + 3, el->L, el->k, psd, g, H);
-  if (el->kind == BEND) return VKRodBend(x, el->kbar, el->l, el->k, psd, g, H);
+  if (el->kind == BEND) return VKRodBendTwist(&el->bt, x, x + 9, psd, g, H, NULL);
   return VKRodContact(x, el->L, 0.8 * el->L, el->k, el->radius, 3, psd, g, H, NULL);
 }
 
@@ -45,15 +52,12 @@ static PetscReal Eval(const Element *el, const PetscReal x[], PetscBool psd, Pet
 static PetscErrorCode Taylor(const char name[], const Element *el, const PetscReal x[], PetscReal h0)
 {
   PetscInt  n = el->n;
-  PetscReal dx[12], g[12], H[144], Hp[144], e[8], r[8], E0, dE = 0, gn = 0, hn = 0, scale = 0, work[2 * 144 + 12], lmin, l[12], Q[144];
+  PetscReal dx[12], g[12], H[144], Hp[144], e[8], r[8], E0, dE = 0, gn = 0, hn = 0, work[2 * 144 + 12], lmin, l[12], Q[144];
   int       pe, pg;
   PetscReal oe, og;
 
   PetscFunctionBegin;
-  for (PetscInt i = 0; i < n; i++) {
-    dx[i] = Rand() * h0;
-    scale = PetscMax(scale, PetscAbsReal(x[i]));
-  }
+  for (PetscInt i = 0; i < n; i++) dx[i] = Rand() * h0 * (i < 9 || el->kind != BEND ? 1 : 1 / el->bt.l); /* angles: h0 over the rest length */
   E0 = Eval(el, x, PETSC_FALSE, g, H);
   for (PetscInt i = 0; i < n; i++) {
     dE += g[i] * dx[i];
@@ -109,11 +113,11 @@ static PetscErrorCode TestTaylor(void)
     }
     PetscCall(Taylor(s == 0 ? "stretch, extended 30%" : "stretch, compressed 30%", &el, x, 1e-5));
   }
-  el.kind = BEND; el.n = 9; el.l = 1e-3; el.k = 1e-7;
+  el.kind = BEND; el.n = 11;
   {
-    const char     *names[4] = {"bend 60 deg, rest 0", "bend 60 deg, rest curvature 0.5", "bend nearly straight (1e-3 rad), rest 0", "bend 120 deg, rest curvature 2"};
-    const PetscReal ang[4] = {PETSC_PI / 3, PETSC_PI / 3, 1e-3, 2 * PETSC_PI / 3}, kb[4] = {0, 0.5, 0, 2};
-    for (int c = 0; c < 4; c++) {
+    const char     *names[5] = {"bend+twist 60 deg, no rest curvature, at the chart's centre", "bend+twist 60 deg, rest curvature and twist, chart 0.2 rad off", "bend+twist nearly straight (1e-3 rad), rest curvature", "bend+twist 120 deg, twisted 1 rad, chart 0.5 rad off", "bend+twist straight, rest curvature, twist 0.3 rad"};
+    const PetscReal ang[5] = {PETSC_PI / 3, PETSC_PI / 3, 1e-3, 2 * PETSC_PI / 3, 0}, off[5] = {0, 0.2, 0.05, 0.5, 0.1}, w[5] = {0, 0.7, 0.3, 1.5, 0.4}, tw[5] = {0.1, 0.2, 0, 1, 0.3};
+    for (int c = 0; c < 5; c++) {
       PetscReal t[3] = {1, 0.2 * Rand(), 0.2 * Rand()}, u[3], nrm[3], th = ang[c];
       VKNormalize3(t);
       VKOrthogonal3(t, nrm);
@@ -123,7 +127,37 @@ static PetscErrorCode TestTaylor(void)
         x[3 + i] = x[i] + 1.1e-3 * t[i];
         x[6 + i] = x[3 + i] + 0.9e-3 * u[i];
       }
-      el.kbar = kb[c];
+      for (int j = 0; j < 2; j++) { /* a chart whose tangent is the edge's turned by off[c] */
+        const PetscReal *tj = j ? u : t;
+        PetscReal        a[3] = {Rand(), Rand(), Rand()}, b[3], dn;
+        VKNormalize3(a);
+        b[0] = tj[1] * a[2] - tj[2] * a[1];
+        b[1] = tj[2] * a[0] - tj[0] * a[2];
+        b[2] = tj[0] * a[1] - tj[1] * a[0];
+        VKNormalize3(b); /* perpendicular to the tangent */
+        for (int i = 0; i < 3; i++) el.bt.tc[j][i] = PetscCosReal(off[c]) * tj[i] + PetscSinReal(off[c]) * b[i];
+        VKOrthogonal3(el.bt.tc[j], el.bt.dc[j]);
+        dn = Rand() * PETSC_PI; /* turned about the chart's tangent */
+        VKNormalize3(el.bt.dc[j]);
+        {
+          PetscReal *tc = el.bt.tc[j], *d = el.bt.dc[j], e2[3] = {tc[1] * d[2] - tc[2] * d[1], tc[2] * d[0] - tc[0] * d[2], tc[0] * d[1] - tc[1] * d[0]};
+          for (int i = 0; i < 3; i++) d[i] = PetscCosReal(dn) * d[i] + PetscSinReal(dn) * e2[i];
+        }
+        el.bt.wbar[j][0] = w[c] * Rand();
+        el.bt.wbar[j][1] = w[c] * Rand();
+      }
+      el.bt.mbar  = 0.5 * tw[c] * Rand();
+      el.bt.mref0 = 0;
+      el.bt.l     = 1e-3;
+      el.bt.kb    = 2e-7;
+      el.bt.kt    = 1.6e-7;
+      x[9]        = 0.3 * Rand();
+      x[10]       = x[9] + tw[c];
+      {
+        VKRodBendTwistOut out;
+        (void)VKRodBendTwist(&el.bt, x, x + 9, PETSC_FALSE, NULL, NULL, &out);
+        el.bt.mref0 = out.mref; /* continue the reference twist from here */
+      }
       PetscCall(Taylor(names[c], &el, x, 1e-6));
     }
   }
@@ -165,48 +199,112 @@ static PetscErrorCode TestStretchChain(void)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode TestRingAndArc(void)
+static PetscErrorCode ModelFromPolyline(PetscInt nv, const PetscReal x[], PetscBool closed, PetscReal kb, PetscReal kt, VKRodModel *m)
+{
+  VKCurves    c;
+  VKRodParams par = {50, kb, kt, 10, 1e-4, 1};
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(VKCurvesAdd(&c, nv, x, closed));
+  PetscCall(VKRodModelCreate(&c, &par, 3e-4, m));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+static PetscReal MaxAbs(PetscInt n, const PetscReal a[])
+{
+  PetscReal m = 0;
+  for (PetscInt i = 0; i < n; i++) m = PetscMax(m, PetscAbsReal(a[i]));
+  return m;
+}
+
+/* A ring at rest, and turned as a whole by a rotation of 1.2 rad: the
+ * frames carried to the new tangents by the minimal rotation (as in time),
+ * the twist angles those that turn them onto the turned rest frames. */
+static PetscErrorCode TestRing(void)
 {
   const PetscInt  n = 24;
-  const PetscReal rho = 5e-3, kb = 2e-7;
-  PetscReal       x[3 * 24], E = 0, g[3 * 24] = {0}, gmax = 0, kbar;
+  const PetscReal rho = 5e-3, kb = 2e-7, kt = 1.6e-7, ang = 1.2, escale = kb * PETSC_PI / rho; /* bending energy of the ring straightened */
+  PetscReal       axis[3] = {1, 2, 3}, x[3 * 24], xr[3 * 24], g[3 * 24], gt[24], th[24], E[4], R[9];
+  VKRodModel      m;
+  VKRodFrames     rest;
 
   PetscFunctionBegin;
   for (PetscInt v = 0; v < n; v++) {
     x[3 * v]     = rho * PetscCosReal(2 * PETSC_PI * v / n);
     x[3 * v + 1] = rho * PetscSinReal(2 * PETSC_PI * v / n);
-    x[3 * v + 2] = 0;
+    x[3 * v + 2] = 0.3 * rho * PetscSinReal(4 * PETSC_PI * v / n); /* not planar: a rest twist at every vertex */
   }
-  kbar = VKRodCurvature(x, x + 3, x + 6);
-  PetscCall(VKTestClose(kbar, 2 * PetscTanReal(PETSC_PI / n), 1e-14, "ring: discrete curvature 2 tan(pi/n)"));
-  for (PetscInt v = 0; v < n; v++) {
-    PetscReal xe[9], ge[9], l = 2 * rho * PetscSinReal(PETSC_PI / n);
-    PetscInt  id[3] = {(v + n - 1) % n, v, (v + 1) % n};
-    for (int a = 0; a < 3; a++)
-      for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * id[a] + i];
-    E += VKRodBend(xe, kbar, l, kb, PETSC_FALSE, ge, NULL);
-    for (int a = 0; a < 3; a++)
-      for (int i = 0; i < 3; i++) g[3 * id[a] + i] += ge[3 * a + i];
-  }
-  for (PetscInt k = 0; k < 3 * n; k++) gmax = PetscMax(gmax, PetscAbsReal(g[k]));
-  PetscCall(VKTestCheck((PetscBool)(E <= 1e-30 && gmax <= 1e-12 * kb / (rho * rho)), NULL, "ring at its rest curvature: bending energy %.1e J, largest force %.1e N", (double)E, (double)gmax));
-  { /* straight rest shape bent onto an arc: n segments of angle th */
-    const PetscInt  m = 50;
-    const PetscReal th = 0.02, chord = 2 * rho * PetscSinReal(th / 2);
-    PetscReal       Earc = 0, exact = kb * (m - 1) * rho * th / (rho * rho), rel;
-    for (PetscInt v = 1; v < m; v++) {
-      PetscReal xe[9];
-      for (int a = 0; a < 3; a++) {
-        PetscReal phi = (v - 1 + a) * th;
-        xe[3 * a]     = rho * PetscCosReal(phi);
-        xe[3 * a + 1] = rho * PetscSinReal(phi);
-        xe[3 * a + 2] = 0;
+  PetscCall(ModelFromPolyline(n, x, PETSC_TRUE, kb, kt, &m));
+  VKRodModelRestFrames(&m, &rest);
+  PetscCall(PetscArrayzero(th, n));
+  PetscCall(VKRodModelEnergy(&m, &rest, x, th, 0, NULL, E, g, gt));
+  PetscCall(VKTestCheck((PetscBool)(E[1] + E[2] <= 1e-14 * escale && MaxAbs(3 * n, g) <= 1e-12 * kb / (rho * rho) && MaxAbs(n, gt) <= 1e-12 * kt / rho), NULL, "ring at its rest shape: bending %.1e J, twist %.1e J, largest force %.1e N, torque %.1e N m", (double)E[1], (double)E[2], (double)MaxAbs(3 * n, g), (double)MaxAbs(n, gt)));
+  VKNormalize3(axis);
+  { /* Rodrigues */
+    PetscReal c = PetscCosReal(ang), s = PetscSinReal(ang), K[9] = {0, -axis[2], axis[1], axis[2], 0, -axis[0], -axis[1], axis[0], 0};
+    for (int i = 0; i < 3; i++)
+      for (int j = 0; j < 3; j++) {
+        PetscReal K2 = axis[i] * axis[j] - (i == j);
+        R[3 * i + j] = (i == j) + s * K[3 * i + j] + (1 - c) * K2;
       }
-      Earc += VKRodBend(xe, 0, chord, kb, PETSC_FALSE, NULL, NULL);
-    }
-    rel = PetscAbsReal(Earc / exact - 1);
-    PetscCall(VKTestCheck((PetscBool)(rel <= th * th), NULL, "straight rod bent to radius %g m: energy %.6e J, k_b L / rho^2 = %.6e J (relative %.1e <= theta^2 = %.1e)", (double)rho, (double)Earc, (double)exact, (double)rel, (double)(th * th)));
   }
+  for (PetscInt v = 0; v < n; v++)
+    for (int i = 0; i < 3; i++) xr[3 * v + i] = R[3 * i] * x[3 * v] + R[3 * i + 1] * x[3 * v + 1] + R[3 * i + 2] * x[3 * v + 2];
+  for (PetscInt sg = 0; sg < m.nseg; sg++) { /* the angle from the carried director to the turned one */
+    const PetscReal *t0 = m.t0 + 3 * sg, *d0 = m.d0 + 3 * sg;
+    PetscReal        t[3], dt[3], carried[3], f, c0 = 0, cr[3];
+    for (int i = 0; i < 3; i++) {
+      t[i]  = R[3 * i] * t0[0] + R[3 * i + 1] * t0[1] + R[3 * i + 2] * t0[2];
+      dt[i] = R[3 * i] * d0[0] + R[3 * i + 1] * d0[1] + R[3 * i + 2] * d0[2];
+      c0 += t0[i] * t[i];
+    }
+    f = (d0[0] * t[0] + d0[1] * t[1] + d0[2] * t[2]) / (1 + c0);
+    for (int i = 0; i < 3; i++) carried[i] = d0[i] - f * (t0[i] + t[i]);
+    cr[0]  = carried[1] * dt[2] - carried[2] * dt[1];
+    cr[1]  = carried[2] * dt[0] - carried[0] * dt[2];
+    cr[2]  = carried[0] * dt[1] - carried[1] * dt[0];
+    th[sg] = PetscAtan2Real(cr[0] * t[0] + cr[1] * t[1] + cr[2] * t[2], carried[0] * dt[0] + carried[1] * dt[1] + carried[2] * dt[2]);
+  }
+  PetscCall(VKRodModelEnergy(&m, &rest, xr, th, 0, NULL, E, g, gt));
+  PetscCall(VKTestCheck((PetscBool)(E[1] + E[2] <= 1e-14 * escale && MaxAbs(3 * n, g) <= 1e-10 * kb / (rho * rho) && MaxAbs(n, gt) <= 1e-10 * kt / rho), NULL, "ring turned by %.1f rad as a whole, frames carried along: bending %.1e J, twist %.1e J, largest force %.1e N, torque %.1e N m (no spurious forces)", (double)ang, (double)E[1], (double)E[2], (double)MaxAbs(3 * n, g), (double)MaxAbs(n, gt)));
+  PetscCall(VKRodModelDestroy(&m));
+  PetscFunctionReturn(0);
+}
+
+/* A straight rod bent onto an arc stores k_b / (2 rho^2) per unit length;
+ * twisted by phi it stores k_t phi^2 / (2 L) and carries the torque
+ * k_t phi / L (L between the mid-points of its end segments). */
+static PetscErrorCode TestArcAndTwist(void)
+{
+  const PetscInt  nv = 51;
+  const PetscReal L = 1e-3, th = 0.02, rho = L / (2 * PetscSinReal(th / 2)), kb = 2e-7, kt = 1.6e-7, phi = 0.8;
+  PetscReal       x[3 * 51], xa[3 * 51], tw[51], E[4], gt[51], exact, rel, Lt = (nv - 2) * L;
+  VKRodModel      m;
+  VKRodFrames     rest;
+
+  PetscFunctionBegin;
+  for (PetscInt v = 0; v < nv; v++) {
+    x[3 * v]      = v * L;
+    x[3 * v + 1]  = x[3 * v + 2] = 0;
+    xa[3 * v]     = rho * PetscSinReal(v * th);
+    xa[3 * v + 1] = rho * (1 - PetscCosReal(v * th));
+    xa[3 * v + 2] = 0;
+  }
+  PetscCall(ModelFromPolyline(nv, x, PETSC_FALSE, kb, kt, &m));
+  VKRodModelRestFrames(&m, &rest);
+  PetscCall(PetscArrayzero(tw, nv));
+  PetscCall(VKRodModelEnergy(&m, &rest, xa, tw, 0, NULL, E, NULL, NULL));
+  exact = 0.5 * kb * (nv - 2) * L / (rho * rho);
+  rel   = PetscAbsReal(E[1] / exact - 1);
+  PetscCall(VKTestCheck((PetscBool)(rel <= th * th && E[2] <= 1e-12 * exact), NULL, "straight rod bent to radius %g m: energy %.6e J, k_b L / (2 rho^2) = %.6e J (relative %.1e <= theta^2 = %.1e), twist %.1e J", (double)rho, (double)E[1], (double)exact, (double)rel, (double)(th * th), (double)E[2]));
+  for (PetscInt sg = 0; sg < m.nseg; sg++) tw[sg] = phi * sg / (m.nseg - 1);
+  PetscCall(VKRodModelEnergy(&m, &rest, x, tw, 0, NULL, E, NULL, gt));
+  PetscCall(VKTestClose(E[2], 0.5 * kt * phi * phi / Lt, 1e-12 * kt * phi * phi / Lt, "straight rod twisted by phi: energy k_t phi^2 / (2 L)"));
+  PetscCall(VKTestClose(gt[m.nseg - 1], kt * phi / Lt, 1e-12 * kt * phi / Lt, "straight rod twisted by phi: torque on its end k_t phi / L"));
+  PetscCall(VKTestCheck((PetscBool)(MaxAbs(m.nseg - 2, gt + 1) <= 1e-12 * kt * phi / Lt && E[1] <= 1e-30), NULL, "uniformly twisted straight rod: no torque inside (%.1e N m), no bending (%.1e J)", (double)MaxAbs(m.nseg - 2, gt + 1), (double)E[1]));
+  PetscCall(VKRodModelDestroy(&m));
   PetscFunctionReturn(0);
 }
 
@@ -234,7 +332,8 @@ int main(int argc, char **argv)
   PetscCall(PetscRandomSeed(rnd));
   PetscCall(TestTaylor());
   PetscCall(TestStretchChain());
-  PetscCall(TestRingAndArc());
+  PetscCall(TestRing());
+  PetscCall(TestArcAndTwist());
   PetscCall(TestContactParallel());
   PetscCall(PetscRandomDestroy(&rnd));
   {

@@ -4,10 +4,10 @@
  *    pairs;
  *  - the spatial-hash broad phase finds exactly the admissible pairs closer
  *    than 2r that a brute-force double loop finds, at rest and deformed;
- *  - the rest state stores no stretch or bending energy and no force
- *    from them;
- *  - Taylor test of the whole model's energy -> gradient on a deformed
- *    patch with its contact pairs.
+ *  - the rest state (in the rest frames, untwisted) stores no stretch,
+ *    bending or twisting energy and no force or torque from them;
+ *  - Taylor test of the whole model's energy -> gradient (positions and
+ *    twist angles) on a deformed, twisted patch with its contact pairs.
  * ranks: 1
  */
 #include <vkyarn.h>
@@ -83,7 +83,8 @@ int main(int argc, char **argv)
   VKYarn      y;
   VKRodModel  m;
   VKRodParams par;
-  PetscReal  *x, *g, *dx, E[3], mass, length;
+  PetscReal  *x, *g, *gt, *th, *dx, E[4], mass, length;
+  VKRodFrames rest;
 
   PetscFunctionBeginUser;
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
@@ -99,17 +100,21 @@ int main(int argc, char **argv)
   PetscCall(VKYarnGetMass(y, &mass, &length));
   par.ks     = 50;
   par.kb     = 1e-7;
+  par.kt     = 0.8e-7;
   par.kc     = 1e3;
   par.radius = y->radius;
   par.nq     = 3;
   PetscCall(VKRodModelCreate(&y->curves, &par, mass / length, &m));
-  PetscCall(PetscMalloc3(3 * m.nv, &x, 3 * m.nv, &g, 3 * m.nv, &dx));
+  PetscCall(PetscMalloc5(3 * m.nv, &x, 3 * m.nv, &g, 4 * m.nv, &dx, m.nseg, &th, m.nseg, &gt));
   PetscCall(PetscArraycpy(x, y->curves.x, 3 * m.nv));
+  PetscCall(PetscArrayzero(th, m.nseg));
+  VKRodModelRestFrames(&m, &rest);
   {
-    PetscReal gmax = 0;
-    PetscCall(VKRodModelEnergy(&m, x, 0, NULL, E, g));
+    PetscReal gmax = 0, tmax = 0;
+    PetscCall(VKRodModelEnergy(&m, &rest, x, th, 0, NULL, E, g, gt));
     for (PetscInt i = 0; i < 3 * m.nv; i++) gmax = PetscMax(gmax, PetscAbsReal(g[i]));
-    PetscCall(VKTestCheck((PetscBool)(E[0] == 0 && E[1] <= 1e-30 && gmax <= 1e-10 * par.ks), NULL, "rest state: stretch energy %.1e J, bending %.1e J, largest force %.1e N (%d vertices, %d bending triples)", (double)E[0], (double)E[1], (double)gmax, (int)m.nv, (int)m.nbend));
+    for (PetscInt i = 0; i < m.nseg; i++) tmax = PetscMax(tmax, PetscAbsReal(gt[i]));
+    PetscCall(VKTestCheck((PetscBool)(E[0] == 0 && E[1] <= 1e-30 && E[2] <= 1e-30 && gmax <= 1e-10 * par.ks && tmax <= 1e-12 * par.kt / y->radius), NULL, "rest state: stretch energy %.1e J, bending %.1e J, twist %.1e J, largest force %.1e N, torque %.1e N m (%d vertices, %d bending stencils)", (double)E[0], (double)E[1], (double)E[2], (double)gmax, (double)tmax, (int)m.nv, (int)m.nbend));
     PetscReal msum = 0;
     for (PetscInt v = 0; v < m.nv; v++) msum += m.mass[v];
     PetscCall(VKTestClose(msum, mass, 1e-12 * mass, "vertex masses add up to the yarn mass"));
@@ -117,29 +122,35 @@ int main(int argc, char **argv)
   PetscCall(ComparePairs(&m, x, "rest state"));
   for (PetscInt i = 0; i < 3 * m.nv; i++) x[i] += 0.3 * y->radius * Rand();
   PetscCall(ComparePairs(&m, x, "randomly deformed by 0.3 r"));
-  { /* Taylor: energy -> gradient of the whole model, fixed pairs */
+  for (PetscInt i = 0; i < m.nseg; i++) th[i] = 0.3 * Rand();
+  { /* Taylor: energy -> gradient of the whole model, fixed pairs, positions and twist angles */
     PetscInt  np, *pairs, pe;
-    PetscReal E0, dE = 0, e[8], order, Ep[3];
+    PetscReal E0, dE = 0, e[8], order, Ep[4];
     PetscCall(VKRodModelFindPairs(&m, x, 2 * y->radius, 0, m.nseg, &np, &pairs));
-    PetscCall(VKRodModelEnergy(&m, x, np, pairs, E, g));
-    E0 = E[0] + E[1] + E[2];
+    PetscCall(VKRodModelEnergy(&m, &rest, x, th, np, pairs, E, g, gt));
+    E0 = E[0] + E[1] + E[2] + E[3];
     for (PetscInt i = 0; i < 3 * m.nv; i++) {
       dx[i] = 1e-3 * y->radius * Rand();
       dE += g[i] * dx[i];
     }
+    for (PetscInt i = 0; i < m.nseg; i++) {
+      dx[3 * m.nv + i] = 1e-3 * Rand();
+      dE += gt[i] * dx[3 * m.nv + i];
+    }
     for (int k = 0; k < 8; k++) {
-      PetscReal *xh, t = PetscPowReal(2, -k);
-      PetscCall(PetscMalloc1(3 * m.nv, &xh));
+      PetscReal *xh, *thh, t = PetscPowReal(2, -k);
+      PetscCall(PetscMalloc2(3 * m.nv, &xh, m.nseg, &thh));
       for (PetscInt i = 0; i < 3 * m.nv; i++) xh[i] = x[i] + t * dx[i];
-      PetscCall(VKRodModelEnergy(&m, xh, np, pairs, Ep, NULL));
-      e[k] = PetscAbsReal(Ep[0] + Ep[1] + Ep[2] - E0 - t * dE);
-      PetscCall(PetscFree(xh));
+      for (PetscInt i = 0; i < m.nseg; i++) thh[i] = th[i] + t * dx[3 * m.nv + i];
+      PetscCall(VKRodModelEnergy(&m, &rest, xh, thh, np, pairs, Ep, NULL, NULL));
+      e[k] = PetscAbsReal(Ep[0] + Ep[1] + Ep[2] + Ep[3] - E0 - t * dE);
+      PetscCall(PetscFree2(xh, thh));
     }
     order = VKTestTaylorOrder(8, e, 1e-14 * E0, &pe);
-    PetscCall(VKTestCheck((PetscBool)(pe >= 3 && order > 1.8 && E[2] > 0), NULL, "whole patch (stretch %.2e, bending %.2e, contact %.2e J over %d pairs): Taylor energy -> gradient, order %.2f (%d pairs)", (double)E[0], (double)E[1], (double)E[2], (int)np, (double)order, pe));
+    PetscCall(VKTestCheck((PetscBool)(pe >= 3 && order > 1.8 && E[2] > 0 && E[3] > 0), NULL, "whole patch (stretch %.2e, bending %.2e, twist %.2e, contact %.2e J over %d pairs): Taylor energy -> gradient, order %.2f (%d pairs)", (double)E[0], (double)E[1], (double)E[2], (double)E[3], (int)np, (double)order, pe));
     PetscCall(PetscFree(pairs));
   }
-  PetscCall(PetscFree3(x, g, dx));
+  PetscCall(PetscFree5(x, g, dx, th, gt));
   PetscCall(VKRodModelDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
   PetscCall(PetscRandomDestroy(&rnd));

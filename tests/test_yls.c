@@ -27,59 +27,7 @@
 #include <vkio.h>
 #include <vkutil.h>
 #include "vktest.h"
-
-typedef struct {
-  VKYarn  y;
-  VKScene s;
-  VKYLS   yls;
-} Run;
-
-static PetscErrorCode RunDestroy(Run *r)
-{
-  PetscFunctionBegin;
-  PetscCall(VKYLSDestroy(&r->yls));
-  PetscCall(VKSceneDestroy(&r->s));
-  PetscCall(VKYarnDestroy(&r->y));
-  PetscFunctionReturn(0);
-}
-
-/* An empty scene in metres and the simulator of the set-up yarn r->y. */
-static PetscErrorCode RunAttach(MPI_Comm comm, Run *r)
-{
-  PetscFunctionBegin;
-  PetscCall(VKSceneCreate(comm, &r->s));
-  r->s->relative = PETSC_FALSE;
-  for (int k = 0; k < 3; k++) r->s->gravity[k] = 0;
-  PetscCall(VKYLSCreate(r->y, r->s, &r->yls));
-  r->yls->quiet = PETSC_TRUE;
-  r->yls->relax = PETSC_FALSE;
-  PetscFunctionReturn(0);
-}
-
-/* A yarn model of given polylines (or a 3x3 1x1 rib), a scene in metres, the simulator. */
-static PetscErrorCode RunCreate(MPI_Comm comm, const VKCurves *c, Run *r)
-{
-  PetscFunctionBegin;
-  PetscCall(VKYarnCreate(comm, &r->y));
-  if (c) PetscCall(VKYarnSetCurves(r->y, c));
-  else PetscCall(VKYarnSetKnit(r->y, "rib1x1", 3, 3));
-  PetscCall(VKYarnSetUp(r->y));
-  PetscCall(RunAttach(comm, r));
-  PetscFunctionReturn(0);
-}
-
-static PetscErrorCode Line(VKCurves *c, PetscInt n, const PetscReal a[], const PetscReal b[])
-{
-  PetscReal *x;
-
-  PetscFunctionBegin;
-  PetscCall(PetscMalloc1(3 * n, &x));
-  for (PetscInt i = 0; i < n; i++)
-    for (int k = 0; k < 3; k++) x[3 * i + k] = a[k] + (b[k] - a[k]) * i / (n - 1);
-  PetscCall(VKCurvesAdd(c, n, x, PETSC_FALSE));
-  PetscCall(PetscFree(x));
-  PetscFunctionReturn(0);
-}
+#include "ylsrun.h"
 
 static PetscErrorCode TestForceExtension(MPI_Comm comm)
 {
@@ -122,6 +70,10 @@ static PetscErrorCode TestForceExtension(MPI_Comm comm)
     }
   }
   PetscCall(VKTestCheck((PetscBool)(err <= 1e-6 * emax), NULL, "hanging yarn, g = %g: segment strains match T/k_s (largest %.3e), max error %.2e", (double)G, (double)emax, (double)err));
+  { /* the whole elongation: w L^2 / (2 EA), exact for lumped masses */
+    PetscReal Lr = -b[2], got = -y->xall[3 * (n - 1) + 2] - Lr, want = r.y->density * G * Lr * Lr / (2 * y->model.par.ks);
+    PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(got / want - 1) <= 1e-6), NULL, "hanging yarn: elongation %.6e m, w L^2 / (2 EA) = %.6e m (EA = k_s)", (double)got, (double)want));
+  }
   PetscCall(RunDestroy(&r));
   PetscCall(VKCurvesFree(&c));
   PetscFunctionReturn(0);
@@ -198,7 +150,7 @@ static PetscErrorCode TestConservation(MPI_Comm comm)
 {
   Run       r;
   VKYLS     y;
-  PetscReal e[6], p0[3], p[3], Eprev, E, worst = 0, dp = 0, pn;
+  PetscReal e[7], p0[3], p[3], Eprev, E, worst = 0, dp = 0, pn;
 
   PetscFunctionBegin;
   PetscCall(RunCreate(comm, NULL, &r));
@@ -227,12 +179,12 @@ static PetscErrorCode TestConservation(MPI_Comm comm)
     PetscCall(VecRestoreArray(y->v, &va));
   }
   PetscCall(VKYLSEnergies(y, e, p0));
-  Eprev = e[0] + e[1] + e[2] + e[3] + e[5];
+  Eprev = e[0] + e[1] + e[2] + e[3] + e[5] + e[6];
   pn    = PetscSqrtReal(p0[0] * p0[0] + p0[1] * p0[1] + p0[2] * p0[2]);
   for (PetscInt k = 0; k < 10; k++) {
     PetscCall(VKYLSStep(y));
     PetscCall(VKYLSEnergies(y, e, p));
-    E     = e[0] + e[1] + e[2] + e[3] + e[5];
+    E     = e[0] + e[1] + e[2] + e[3] + e[5] + e[6];
     worst = PetscMax(worst, (E - Eprev) / Eprev);
     Eprev = E;
     for (int a = 0; a < 3; a++) dp = PetscMax(dp, PetscAbsReal(p[a] - p0[a]) / pn);
@@ -261,7 +213,7 @@ static PetscErrorCode TestRelaxedStill(MPI_Comm comm, const char dir[], PetscRea
   Run       r;
   VKYarn    relaxed;
   VKYLS     y;
-  PetscReal e[6], kmax = 0, move = 0, dx = 0, rc;
+  PetscReal e[7], kmax = 0, move = 0, dx = 0, rc;
   char      path[PETSC_MAX_PATH_LEN];
 
   PetscFunctionBegin;
@@ -289,7 +241,7 @@ static PetscErrorCode TestRelaxedStill(MPI_Comm comm, const char dir[], PetscRea
   kmax = e[3];
   PetscCall(VKTestCheck((PetscBool)(y->relax_time == 0 && y->stats.steps == 20), NULL, "a relaxed yarn model is not relaxed again (%d steps run)", (int)y->stats.steps));
   PetscCall(VKTestCheck((PetscBool)(kmax <= 1e-24 && move <= 1e-12), NULL, "relaxed 3x3 rib left alone: kinetic energy %.1e J, largest motion %.1e m after 20 steps", (double)kmax, (double)move));
-  PetscCall(VKTestCheck((PetscBool)(e[0] + e[1] + e[2] + e[5] <= 1e-20), NULL, "the relaxed rest state is stress-free (elastic energy %.1e J)", (double)(e[0] + e[1] + e[2] + e[5])));
+  PetscCall(VKTestCheck((PetscBool)(e[0] + e[1] + e[2] + e[5] + e[6] <= 1e-20), NULL, "the relaxed rest state is stress-free (elastic energy %.1e J)", (double)(e[0] + e[1] + e[2] + e[5] + e[6])));
   PetscCall(VKYarnDestroy(&relaxed));
   PetscCall(RunDestroy(&r));
   PetscFunctionReturn(0);

@@ -1,5 +1,8 @@
 /* model.c: the rod model of a yarn set (DESIGN §4): elements and rest
- * state from the rest polylines, the broad phase of the contact term (a
+ * state from the rest polylines (rest lengths; rest material frames by
+ * parallel transport along each yarn, in which the rest material
+ * curvatures and rest twists of the bending stencils are measured, so the
+ * rest state stores no energy), the broad phase of the contact term (a
  * spatial hash over segment boxes inflated by r, so pairs whose axes come
  * closer than 2r share a cell), and the energy and gradient summed over the
  * elements of include/vkrod.h. */
@@ -12,13 +15,41 @@ static PetscReal Dist3(const PetscReal a[], const PetscReal b[])
   return PetscSqrtReal(PetscSqr(a[0] - b[0]) + PetscSqr(a[1] - b[1]) + PetscSqr(a[2] - b[2]));
 }
 
+/* Rest material curvatures and rest twist of every stencil, measured in
+ * the rest frames at theta = 0. */
+static PetscErrorCode RestCurvatures(VKRodModel *m, const PetscReal x[])
+{
+  VKRodFrames rest;
+
+  PetscFunctionBegin;
+  VKRodModelRestFrames(m, &rest);
+  for (PetscInt k = 0; k < m->nbend; k++) {
+    const PetscInt    *v        = m->bend + 3 * k;
+    const PetscReal    theta[2] = {0, 0};
+    PetscReal          xe[9];
+    VKRodBendTwistData d;
+    VKRodBendTwistOut  out;
+    for (int a = 0; a < 3; a++)
+      for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
+    VKRodModelStencil(m, &rest, k, &d);
+    d.mref0 = 0;
+    PetscCheck(VKRodBendTwist(&d, xe, theta, PETSC_FALSE, NULL, NULL, &out) < PETSC_INFINITY, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "The rest yarn folds back on itself at vertex %d", (int)v[1]);
+    for (int j = 0; j < 2; j++) { /* w = (kb . m2, -kb . m1) with m = d */
+      m->wbar[4 * k + 2 * j]     = out.q[j];
+      m->wbar[4 * k + 2 * j + 1] = -out.p[j];
+    }
+    m->mbar[k] = out.mref;
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKRodModelCreate(const VKCurves *c, const VKRodParams *par, PetscReal density, VKRodModel *m)
 {
   PetscInt nb = 0;
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(m, sizeof(*m)));
-  PetscCheck(par->ks >= 0 && par->kb >= 0 && par->kc >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Rod stiffnesses must be >= 0 (k_s %g, k_b %g, k_c %g)", (double)par->ks, (double)par->kb, (double)par->kc);
+  PetscCheck(par->ks >= 0 && par->kb >= 0 && par->kt >= 0 && par->kc >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Rod stiffnesses must be >= 0 (k_s %g, k_b %g, k_t %g, k_c %g)", (double)par->ks, (double)par->kb, (double)par->kt, (double)par->kc);
   PetscCheck(par->radius > 0 && par->nq >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "The rod model needs a radius > 0 and >= 1 quadrature point per segment");
   m->par = *par;
   m->nv  = c->nv;
@@ -26,22 +57,33 @@ PetscErrorCode VKRodModelCreate(const VKCurves *c, const VKRodParams *par, Petsc
   PetscCall(VKCurvesGetSegmentCurves(c, &m->segcurve));
   for (PetscInt i = 0; i < c->n; i++) nb += c->closed[i] ? VKCurveSize(c, i) : PetscMax(VKCurveSize(c, i) - 2, 0);
   m->nbend = nb;
-  PetscCall(PetscMalloc5(m->nseg + 1, &m->L, 3 * nb + 1, &m->bend, nb + 1, &m->kbar, nb + 1, &m->lbar, m->nv + 1, &m->mass));
-  PetscCall(PetscMalloc3(m->nseg + 1, &m->arc, c->n + 1, &m->curvelen, c->n + 1, &m->closed));
-  for (PetscInt v = 0; v < m->nv; v++) m->mass[v] = 0;
+  PetscCall(PetscMalloc5(m->nseg + 1, &m->L, 3 * nb + 1, &m->bend, nb + 1, &m->lbar, m->nv + 1, &m->mass, 2 * nb + 1, &m->bseg));
+  PetscCall(PetscMalloc5(4 * nb + 1, &m->wbar, nb + 1, &m->mbar, 3 * m->nseg + 3, &m->t0, 3 * m->nseg + 3, &m->d0, m->nseg + 1, &m->inertia));
+  PetscCall(PetscMalloc4(m->nseg + 1, &m->arc, c->n + 1, &m->curvelen, c->n + 1, &m->closed, m->nv + 1, &m->segof));
+  for (PetscInt v = 0; v < m->nv; v++) {
+    m->mass[v]  = 0;
+    m->segof[v] = -1;
+  }
   for (PetscInt i = 0; i < c->n; i++) {
     m->curvelen[i] = 0;
     m->closed[i]   = c->closed[i];
   }
   for (PetscInt s = 0; s < m->nseg; s++) {
-    PetscInt cu = m->segcurve[s];
-    m->L[s]     = Dist3(c->x + 3 * m->seg[2 * s], c->x + 3 * m->seg[2 * s + 1]);
+    PetscInt         cu = m->segcurve[s];
+    const PetscReal *p = c->x + 3 * m->seg[2 * s], *q = c->x + 3 * m->seg[2 * s + 1];
+    m->L[s]            = Dist3(p, q);
     PetscCheck(m->L[s] > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Segment %d of the rest yarn has zero length", (int)s);
-    m->arc[s] = m->curvelen[cu];
+    for (int a = 0; a < 3; a++) m->t0[3 * s + a] = (q[a] - p[a]) / m->L[s];
+    m->segof[m->seg[2 * s]] = s;
+    m->arc[s]               = m->curvelen[cu];
     m->curvelen[cu] += m->L[s];
     m->mass[m->seg[2 * s]] += 0.5 * density * m->L[s];
     m->mass[m->seg[2 * s + 1]] += 0.5 * density * m->L[s];
+    m->inertia[s] = 0.5 * density * m->L[s] * par->radius * par->radius;
   }
+  PetscCall(VKCurvesTransportFrames(c, m->d0));
+  PetscCall(PetscArrayzero(m->wbar, 4 * m->nbend));
+  PetscCall(PetscArrayzero(m->mbar, m->nbend));
   nb = 0;
   for (PetscInt i = 0; i < c->n; i++) {
     PetscInt b = c->start[i], n = VKCurveSize(c, i);
@@ -50,12 +92,13 @@ PetscErrorCode VKRodModelCreate(const VKCurves *c, const VKRodParams *par, Petsc
       m->bend[3 * nb]     = v0;
       m->bend[3 * nb + 1] = v1;
       m->bend[3 * nb + 2] = v2;
-      m->kbar[nb]         = VKRodCurvature(c->x + 3 * v0, c->x + 3 * v1, c->x + 3 * v2);
+      m->bseg[2 * nb]     = m->segof[v0];
+      m->bseg[2 * nb + 1] = m->segof[v1];
       m->lbar[nb]         = 0.5 * (Dist3(c->x + 3 * v0, c->x + 3 * v1) + Dist3(c->x + 3 * v1, c->x + 3 * v2));
-      PetscCheck(PetscIsNormalReal(m->kbar[nb]) || m->kbar[nb] == 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "The rest yarn folds back on itself at vertex %d", (int)v1);
       nb++;
     }
   }
+  PetscCall(RestCurvatures(m, c->x));
   m->exclude = 4 * par->radius; /* neighbours along a yarn within two diameters touch by construction */
   PetscFunctionReturn(0);
 }
@@ -65,9 +108,35 @@ PetscErrorCode VKRodModelDestroy(VKRodModel *m)
   PetscFunctionBegin;
   PetscCall(PetscFree(m->seg));
   PetscCall(PetscFree(m->segcurve));
-  PetscCall(PetscFree5(m->L, m->bend, m->kbar, m->lbar, m->mass));
-  PetscCall(PetscFree3(m->arc, m->curvelen, m->closed));
+  PetscCall(PetscFree5(m->L, m->bend, m->lbar, m->mass, m->bseg));
+  PetscCall(PetscFree5(m->wbar, m->mbar, m->t0, m->d0, m->inertia));
+  PetscCall(PetscFree4(m->arc, m->curvelen, m->closed, m->segof));
   PetscFunctionReturn(0);
+}
+
+void VKRodModelRestFrames(const VKRodModel *m, VKRodFrames *f)
+{
+  f->t    = m->t0;
+  f->d    = m->d0;
+  f->mref = m->mbar;
+}
+
+void VKRodModelStencil(const VKRodModel *m, const VKRodFrames *f, PetscInt k, VKRodBendTwistData *d)
+{
+  for (int j = 0; j < 2; j++) {
+    PetscInt s = m->bseg[2 * k + j];
+    for (int a = 0; a < 3; a++) {
+      d->tc[j][a] = f->t[3 * s + a];
+      d->dc[j][a] = f->d[3 * s + a];
+    }
+    d->wbar[j][0] = m->wbar[4 * k + 2 * j];
+    d->wbar[j][1] = m->wbar[4 * k + 2 * j + 1];
+  }
+  d->mbar  = m->mbar[k];
+  d->mref0 = f->mref[k];
+  d->l     = m->lbar[k];
+  d->kb    = m->par.kb;
+  d->kt    = m->par.kt;
 }
 
 PetscBool VKRodModelPairAdmissible(const VKRodModel *m, PetscInt a, PetscInt b)
@@ -185,14 +254,25 @@ PetscErrorCode VKRodModelFindPairs(const VKRodModel *m, const PetscReal x[], Pet
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKRodModelEnergy(const VKRodModel *m, const PetscReal x[], PetscInt npairs, const PetscInt pairs[], PetscReal E[3], PetscReal g[])
+/* The positions of stencil k and the twist angles of its segments. */
+static void GatherStencil(const VKRodModel *m, PetscInt k, const PetscReal x[], const PetscReal theta[], PetscReal xe[], PetscReal te[])
+{
+  const PetscInt *v = m->bend + 3 * k;
+  for (int a = 0; a < 3; a++)
+    for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
+  for (int j = 0; j < 2; j++) te[j] = theta ? theta[m->bseg[2 * k + j]] : 0;
+}
+
+PetscErrorCode VKRodModelEnergy(const VKRodModel *m, const VKRodFrames *f, const PetscReal x[], const PetscReal theta[], PetscInt npairs, const PetscInt pairs[], PetscReal E[4], PetscReal g[], PetscReal gtheta[])
 {
   const VKRodParams *p = &m->par;
-  VKSum              sum[3] = {{0, 0}, {0, 0}, {0, 0}};
+  VKSum              sum[4] = {{0, 0}, {0, 0}, {0, 0}, {0, 0}};
 
   PetscFunctionBegin;
   if (g)
     for (PetscInt i = 0; i < 3 * m->nv; i++) g[i] = 0;
+  if (gtheta)
+    for (PetscInt s = 0; s < m->nseg; s++) gtheta[s] = 0;
   for (PetscInt s = 0; s < m->nseg; s++) {
     PetscInt  a = m->seg[2 * s], b = m->seg[2 * s + 1];
     PetscReal ge[6];
@@ -204,25 +284,46 @@ PetscErrorCode VKRodModelEnergy(const VKRodModel *m, const PetscReal x[], PetscI
       }
   }
   for (PetscInt k = 0; k < m->nbend; k++) {
-    const PetscInt *v = m->bend + 3 * k;
-    PetscReal       xe[9], ge[9];
-    for (int a = 0; a < 3; a++)
-      for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
-    VKSumAdd(&sum[1], VKRodBend(xe, m->kbar[k], m->lbar[k], p->kb, PETSC_FALSE, g ? ge : NULL, NULL));
+    const PetscInt    *v = m->bend + 3 * k;
+    PetscReal          xe[9], te[2], ge[11], Eb;
+    VKRodBendTwistData d;
+    VKRodBendTwistOut  out;
+    VKRodModelStencil(m, f, k, &d);
+    GatherStencil(m, k, x, theta, xe, te);
+    Eb = VKRodBendTwist(&d, xe, te, PETSC_FALSE, g || gtheta ? ge : NULL, NULL, &out);
+    VKSumAdd(&sum[1], Eb - out.etwist);
+    VKSumAdd(&sum[2], out.etwist);
     if (g)
       for (int a = 0; a < 3; a++)
         for (int i = 0; i < 3; i++) g[3 * v[a] + i] += ge[3 * a + i];
+    if (gtheta)
+      for (int j = 0; j < 2; j++) gtheta[m->bseg[2 * k + j]] += ge[9 + j];
   }
   for (PetscInt k = 0; k < npairs; k++) {
     PetscInt  sa = pairs[2 * k], sb = pairs[2 * k + 1], v[4] = {m->seg[2 * sa], m->seg[2 * sa + 1], m->seg[2 * sb], m->seg[2 * sb + 1]};
     PetscReal xe[12], ge[12];
     for (int a = 0; a < 4; a++)
       for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
-    VKSumAdd(&sum[2], VKRodContact(xe, m->L[sa], m->L[sb], p->kc, p->radius, p->nq, PETSC_FALSE, g ? ge : NULL, NULL, NULL));
+    VKSumAdd(&sum[3], VKRodContact(xe, m->L[sa], m->L[sb], p->kc, p->radius, p->nq, PETSC_FALSE, g ? ge : NULL, NULL, NULL));
     if (g)
       for (int a = 0; a < 4; a++)
         for (int i = 0; i < 3; i++) g[3 * v[a] + i] += ge[3 * a + i];
   }
-  for (int k = 0; k < 3; k++) E[k] = VKSumValue(&sum[k]);
+  for (int k = 0; k < 4; k++) E[k] = VKSumValue(&sum[k]);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKRodModelReferenceTwist(const VKRodModel *m, const VKRodFrames *f, const PetscReal x[], PetscReal mref[])
+{
+  PetscFunctionBegin;
+  for (PetscInt k = 0; k < m->nbend; k++) {
+    PetscReal          xe[9], te[2];
+    VKRodBendTwistData d;
+    VKRodBendTwistOut  out;
+    VKRodModelStencil(m, f, k, &d);
+    GatherStencil(m, k, x, NULL, xe, te);
+    PetscCheck(VKRodBendTwist(&d, xe, te, PETSC_FALSE, NULL, NULL, &out) < PETSC_INFINITY, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "The yarn folds back on itself at vertex %d", (int)m->bend[3 * k + 1]);
+    mref[k] = out.mref;
+  }
   PetscFunctionReturn(0);
 }

@@ -5,7 +5,8 @@
  * descend), linear solves by the KSP under the prefix yls_
  * (default: Cholesky by MUMPS), and a line search of our own (a shell
  * SNESLineSearch) that
- *   1. scales the Newton step so no vertex moves more than cap = -yls_cap x r,
+ *   1. scales the Newton step so no vertex moves more than cap = -yls_cap x r
+ *      and no material frame turns more than YLS_TWIST_CAP,
  *   2. backtracks from the capped step until Phi decreases (Armijo, 1e-4).
  * Newton stops when |grad Phi| <= -yls_ftol x the force scale of the step:
  * the weight of the free yarn (under standard gravity when the scene's is
@@ -24,6 +25,8 @@
  * it is rebuilt when such a pair falls outside it. */
 #include "ylsimpl.h"
 
+#define YLS_TWIST_CAP 0.5 /* rad: largest turn of a material frame per Newton iteration */
+
 static PetscErrorCode FormFunction(SNES snes, Vec X, Vec F, void *ctx)
 {
   VKYLS y = (VKYLS)ctx;
@@ -31,8 +34,8 @@ static PetscErrorCode FormFunction(SNES snes, Vec X, Vec F, void *ctx)
   PetscFunctionBegin;
   (void)snes;
   PetscCall(PetscLogEventBegin(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
-  PetscCall(VKYLSGather(y, X, y->xall));
-  PetscCall(VKYLSGradient(y, y->xall, F));
+  PetscCall(VKYLSGatherQ(y, X));
+  PetscCall(VKYLSGradient(y, y->xall, y->theta, F));
   PetscCall(PetscLogEventEnd(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -45,9 +48,9 @@ static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
   (void)snes;
   (void)J;
   PetscCall(PetscLogEventBegin(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
-  PetscCall(VKYLSGather(y, X, y->xall));
+  PetscCall(VKYLSGatherQ(y, X));
   y->psd_now = y->hessian == VK_YLS_HESSIAN_PROJECTED ? PETSC_TRUE : PETSC_FALSE;
-  PetscCall(VKYLSHessian(y, y->xall, P));
+  PetscCall(VKYLSHessian(y, y->xall, y->theta, P));
   PetscCall(PetscLogEventEnd(VK_EVENT_YLSAssemble, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -160,7 +163,7 @@ static PetscErrorCode Update(SNES snes, PetscInt it)
   if (it == 0) PetscFunctionReturn(0); /* VKYLSStep found the pairs at the initial guess */
   PetscCall(SNESGetApplicationContext(snes, &y));
   PetscCall(SNESGetSolution(snes, &X));
-  PetscCall(VKYLSGather(y, X, y->xall));
+  PetscCall(VKYLSGatherQ(y, X));
   PetscCall(VKYLSFindPairs(y, y->xall));
   PetscFunctionReturn(0);
 }
@@ -170,30 +173,36 @@ static PetscErrorCode PotentialAt(VKYLS y, Vec X, PetscReal *phi, PetscReal *sca
   PetscReal term[YLS_NTERMS];
 
   PetscFunctionBegin;
-  PetscCall(VKYLSGather(y, X, y->xall));
-  PetscCall(VKYLSPotential(y, y->xall, term, NULL, phi));
+  PetscCall(VKYLSGatherQ(y, X));
+  PetscCall(VKYLSPotential(y, y->xall, y->theta, term, NULL, phi));
   *scale = 0;
   for (int k = 0; k < YLS_NTERMS; k++) *scale += PetscAbsReal(term[k]);
   PetscFunctionReturn(0);
 }
 
-/* Scale Y so no vertex moves more than cap; returns the largest motion
- * before scaling (Inf/NaN when Y is not finite). */
+/* Scale Y so no vertex moves more than cap and no frame turns more than
+ * YLS_TWIST_CAP; returns the largest motion before scaling (Inf/NaN when Y
+ * is not finite). */
 static PetscErrorCode CapStep(VKYLS y, Vec Y, PetscReal *ymax)
 {
   const PetscScalar *ya;
-  PetscReal          m = 0, cap = y->cap * y->par.radius;
+  PetscReal          m[2] = {0, 0}, all[2], cap = y->cap * y->par.radius, f;
   PetscInt           n;
 
   PetscFunctionBegin;
   PetscCall(VecGetLocalSize(Y, &n));
   PetscCall(VecGetArrayRead(Y, &ya));
-  for (PetscInt i = 0; i < n; i += 3) m = PetscMax(m, ya[i] * ya[i] + ya[i + 1] * ya[i + 1] + ya[i + 2] * ya[i + 2]);
+  for (PetscInt i = 0; i < n; i += 4) {
+    m[0] = PetscMax(m[0], ya[i] * ya[i] + ya[i + 1] * ya[i + 1] + ya[i + 2] * ya[i + 2]);
+    m[1] = PetscMax(m[1], PetscAbsReal(ya[i + 3]) / y->twist_scale);
+    if (PetscIsInfOrNanReal(ya[i + 3])) m[0] = PETSC_INFINITY;
+  }
   PetscCall(VecRestoreArrayRead(Y, &ya));
-  PetscCall(MPIU_Allreduce(&m, ymax, 1, MPIU_REAL, MPIU_MAX, y->comm));
-  *ymax = PetscSqrtReal(*ymax);
-  if (*ymax > cap && *ymax < PETSC_INFINITY) {
-    PetscCall(VecScale(Y, cap / *ymax));
+  PetscCall(MPIU_Allreduce(m, all, 2, MPIU_REAL, MPIU_MAX, y->comm));
+  *ymax = PetscSqrtReal(all[0]);
+  f     = PetscMin(cap / *ymax, YLS_TWIST_CAP / all[1]);
+  if (f < 1 && *ymax < PETSC_INFINITY) {
+    PetscCall(VecScale(Y, f));
     y->stats.capped_steps++;
   }
   PetscFunctionReturn(0);
@@ -221,8 +230,8 @@ static PetscErrorCode LineSearch(SNESLineSearch ls, void *ctx)
     KSP ksp;
     y->psd_now = PETSC_TRUE;
     y->stats.projected_fallbacks++;
-    PetscCall(VKYLSGather(y, X, y->xall));
-    PetscCall(VKYLSHessian(y, y->xall, y->J));
+    PetscCall(VKYLSGatherQ(y, X));
+    PetscCall(VKYLSHessian(y, y->xall, y->theta, y->J));
     PetscCall(SNESGetKSP(snes, &ksp));
     PetscCall(KSPSetOperators(ksp, y->J, y->J));
     PetscCall(KSPSolve(ksp, F, Y));
@@ -275,7 +284,7 @@ PetscErrorCode VKYLSCreateSNES(VKYLS y)
   PetscCall(SNESSetOptionsPrefix(y->snes, "yls_"));
   PetscCall(SNESSetType(y->snes, SNESNEWTONLS));
   PetscCall(SNESSetApplicationContext(y->snes, y));
-  PetscCall(VecDuplicate(y->x, &r));
+  PetscCall(VecDuplicate(y->q, &r));
   PetscCall(SNESSetFunction(y->snes, r, FormFunction, y));
   PetscCall(VecDestroy(&r));
   PetscCall(SNESSetUpdate(y->snes, Update));

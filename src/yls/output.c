@@ -1,7 +1,11 @@
 /* output.c: the frames of a yarn-level run (DESIGN §4):
  *   DIR/yls.h5    /yarn/... (the yarn model), /frames/NNNNNN/x (n_Y x 3
- *                 positions), /frames/NNNNNN/normal (n1 per segment, by
- *                 time-parallel transport), /yls/time, /yls/energy
+ *                 positions), /frames/NNNNNN/normal (n1 per segment, the
+ *                 reference director by time-parallel transport),
+ *                 /frames/NNNNNN/twist (per segment, the angle of the
+ *                 material frame from it; absent in files from before the
+ *                 rods had twist), /yls/time, /yls/energy (bending with
+ *                 twist, so its first four columns stay the elastic energy)
  *   DIR/yls.xdmf  temporal collections for ParaView: the yarns as one
  *                 polyline per curve, and their segments with the normals
  *                 as a cell attribute
@@ -10,7 +14,8 @@
  *   DIR/yls.csv   one row per frame: time, energies (stretch, bending,
  *                 contact, glue, kinetic, gravity), contact pairs, minimum
  *                 distance between non-adjacent segments over 2r, Newton
- *                 iterations since the previous frame, wall time
+ *                 iterations since the previous frame, wall time, twisting
+ *                 energy
  *   DIR/yls.json  totals, parameters and status.
  * Every rank holds all positions (the simulator's replicated copy), rank 0
  * writes; files are written under temporary names and renamed at the end,
@@ -20,7 +25,7 @@
 #include <vkio.h>
 
 #define YLS_FORMAT "volknit-yls 1"
-#define NCOL       11
+#define NCOL       12
 
 typedef struct {
   VKOutput   h5out;
@@ -32,7 +37,7 @@ typedef struct {
   PetscBool  has_preview;
 } YLSOutput;
 
-static const char *const columns[NCOL] = {"time", "stretch", "bending", "contact", "glue", "kinetic", "gravity", "contact_pairs", "min_distance_over_2r", "newton_its", "wall_time"};
+static const char *const columns[NCOL] = {"time", "stretch", "bending", "contact", "glue", "kinetic", "gravity", "contact_pairs", "min_distance_over_2r", "newton_its", "wall_time", "twist"};
 
 PetscErrorCode VKYLSOutputOpen(VKYLS y)
 {
@@ -68,7 +73,7 @@ PetscErrorCode VKYLSOutputOpen(VKYLS y)
 PetscErrorCode VKYLSOutputFrame(VKYLS y)
 {
   YLSOutput     *o = (YLSOutput *)y->out;
-  PetscReal      e[6], dmin, *r;
+  PetscReal      e[7], dmin, *r;
   PetscInt       np;
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
@@ -77,7 +82,7 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   PetscCheck(o, y->comm, PETSC_ERR_ORDER, "VKYLSOutputOpen() first");
   PetscCall(PetscLogEventBegin(VK_EVENT_Write, 0, 0, 0, 0));
   PetscCall(VKYLSMeasure(y, e, NULL, &dmin, &np)); /* leaves the positions in y->xall */
-  PetscCall(PetscArraycpy(y->energy, e, 6));
+  PetscCall(PetscArraycpy(y->energy, e, 7));
   y->stats.pairs_max    = PetscMax(y->stats.pairs_max, np);
   y->stats.dmin_over_2r = PetscMin(y->stats.dmin_over_2r, dmin);
   if (o->n == o->cap) {
@@ -96,6 +101,7 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   r[8]   = dmin;
   r[9]   = y->stats.newton_its - o->its_last;
   r[10]  = y->stats.time_solve;
+  r[11]  = e[6];
   o->its_last = y->stats.newton_its;
   PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
   if (rank == 0 && o->open) {
@@ -104,6 +110,8 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
     ierr = VKH5WriteReal(&o->h5, name, y->model.nv, 3, y->xall);
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/normal", (int)o->n));
     if (!ierr) ierr = VKH5WriteReal(&o->h5, name, y->model.nseg, 3, y->normal);
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/twist", (int)o->n));
+    if (!ierr) ierr = VKH5WriteReal(&o->h5, name, y->model.nseg, 1, y->theta);
     PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
     if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", y->t);
     if (!ierr) ierr = VKPreviewKeep(&o->preview, o->n, y->t, y->xall);
@@ -143,6 +151,8 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
     PetscCall(VKXdmfGeometry(fp, y->model.nv, "yls.h5", ds));
     PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/normal", (int)f));
     PetscCall(VKXdmfAttribute(fp, "normal", "Cell", y->model.nseg, 3, PETSC_FALSE, "yls.h5", ds));
+    PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/twist", (int)f));
+    PetscCall(VKXdmfAttribute(fp, "twist", "Cell", y->model.nseg, 1, PETSC_FALSE, "yls.h5", ds));
     PetscCall(VKXdmfGridEnd(fp));
   }
   PetscCall(VKXdmfCollectionEnd(fp));
@@ -214,7 +224,9 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "radius_m", y->par.radius));
   PetscCall(VKJSONReal(&j, "density_kg_per_m", y->density));
   PetscCall(VKJSONReal(&j, "ks_N", y->par.ks));
+  PetscCall(VKJSONString(&j, "rod_model", "discrete elastic rods"));
   PetscCall(VKJSONReal(&j, "kb_N_m2", y->par.kb));
+  PetscCall(VKJSONReal(&j, "kt_N_m2", y->par.kt));
   PetscCall(VKJSONReal(&j, "kc_N_per_m", y->par.kc));
   PetscCall(VKJSONReal(&j, "contact_radius_m", y->model.par.radius));
   PetscCall(VKJSONInt(&j, "quadrature_points", y->par.nq));
@@ -225,6 +237,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONString(&j, "hessian", VKYLSHessianTypes[y->hessian]));
   PetscCall(VKJSONReal(&j, "dt", y->dt));
   PetscCall(VKJSONString(&j, "linear_solver", pc));
+  if (y->mumps_workspace > 20 && y->mumps_workspace < PETSC_MAX_INT) PetscCall(VKJSONInt(&j, "mumps_workspace_percent", y->mumps_workspace)); /* raised after a factorization ran out of it */
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONObjectBegin(&j, "relaxation"));
   PetscCall(VKJSONBool(&j, "done_in_this_run", y->relax_time > 0 ? PETSC_TRUE : PETSC_FALSE));
@@ -251,6 +264,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONObjectBegin(&j, "energy_last_frame"));
   PetscCall(VKJSONReal(&j, "stretch", y->energy[0]));
   PetscCall(VKJSONReal(&j, "bending", y->energy[1]));
+  PetscCall(VKJSONReal(&j, "twist", y->energy[6]));
   PetscCall(VKJSONReal(&j, "contact", y->energy[2]));
   PetscCall(VKJSONReal(&j, "glue", y->energy[5]));
   PetscCall(VKJSONReal(&j, "kinetic", y->energy[3]));
@@ -272,11 +286,12 @@ static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
   for (PetscInt f = 0; f < o->n; f++) {
     t[f] = o->row[NCOL * f];
     for (int k = 0; k < 6; k++) e[6 * f + k] = o->row[NCOL * f + 1 + k];
+    e[6 * f + 1] += o->row[NCOL * f + 11]; /* bending with twist */
   }
   PetscCall(VKH5WriteReal(&o->h5, "/yls/time", o->n, 1, t));
   PetscCall(VKH5WriteReal(&o->h5, "/yls/energy", o->n, 6, e));
   PetscCall(PetscFree2(t, e));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/yls/energy", "columns", "stretch bending contact glue kinetic gravity"));
+  PetscCall(VKH5WriteAttrString(&o->h5, "/yls/energy", "columns", "stretch bending+twist contact glue kinetic gravity"));
   PetscCall(VKH5WriteAttrString(&o->h5, "/yls", "status", failure ? failure : VKYLSStatus(y, NULL)));
   PetscCall(VKH5WriteAttrInt(&o->h5, "/yls", "frames", o->n));
   PetscCall(VKH5WriteAttrReal(&o->h5, "/yls", "wall_time_stepping", y->time_run - y->relax_time)); /* for volknit report */

@@ -1,11 +1,14 @@
 /* potential.c: the incremental potential of one implicit Euler step of the
  * yarn-level simulator (DESIGN §4) and its derivatives:
- *   Phi(x) = sum_i [ m_i/(2 dt^2) |x_i - xhat_i|^2 - m_i g . (x_i - x_n,i)
+ *   Phi(x, theta) = sum_i [ m_i/(2 dt^2) |x_i - xhat_i|^2 - m_i g . (x_i - x_n,i)
  *                    + c_v m_i/(2 dt) |x_i - x_n,i|^2
  *                    + k_w/2 depth_i(x_i)^2 + mu lambda_i f0(|P_i u_i|) ]
- *          + sum_segments [ stretch + c_s/(2 dt L) ((e - e_n) . t_n)^2 ]
- *          + sum_triples bending + sum_glue stretch + sum_pairs contact,
- * xhat = x_n + dt v_n.  depth_i is the penetration of vertex i into the
+ *          + sum_segments [ I_j/(2 dt^2) (theta_j - thetahat_j)^2
+ *                           + c_v I_j/(2 dt) (theta_j - theta_n,j)^2
+ *                           + stretch + c_s/(2 dt L) ((e - e_n) . t_n)^2 ]
+ *          + sum_stencils bending and twist + sum_glue stretch + sum_pairs contact,
+ * xhat = x_n + dt v_n, thetahat = theta_n + dt w_n; the bending stencils
+ * are evaluated in the chart of the step (the frames at its start).  depth_i is the penetration of vertex i into the
  * colliders grown by the yarn radius; the friction term is the smoothed
  * Coulomb potential of Li et al. (IPC, 2020) with the normal force
  * lambda_i = k_w depth and the tangent plane P_i lagged from the start of
@@ -15,33 +18,65 @@
  * element by element when y->psd_now is set (then the assembled Hessian is
  * SPD: the mass term is positive).
  *
- * Each rank evaluates the vertex terms of its vertices and the elements
- * whose first vertex (pairs: first segment) it owns, from a full copy of
- * the positions; handle vertices are Dirichlet: their rows and columns are
- * dropped (negative indices) and replaced by the identity. */
+ * Unknowns are numbered 4 per vertex (position, then the twist angle of
+ * the segment starting at the vertex).  Each rank evaluates the vertex
+ * terms of its vertices and the elements whose first vertex (pairs: first
+ * segment; stencils: middle vertex) it owns, from a full copy of the
+ * positions and angles; fixed unknowns (handle vertices, angles a handle
+ * turns, angles of vertices that start no segment) are Dirichlet: their
+ * rows and columns are dropped (negative indices) and replaced by the
+ * identity. */
 #include "ylsimpl.h"
 
 /* What an evaluation accumulates: the potential split into its terms, the
  * gradient (full length, replicated; NULL to skip) and the Hessian. */
 typedef struct {
   VKSum      term[YLS_NTERMS];
-  PetscReal *g;
+  PetscReal *g; /* 4 per vertex */
   Mat        H;
   PetscInt   active_pairs;
   PetscReal  collider2; /* sum over the owned vertices of |collider normal force|^2 */
 } Accum;
 
+/* Whether unknown k of vertex v is held: a handle's position, an angle a
+ * handle turns, the angle of a vertex that starts no segment. */
+PetscBool VKYLSFixed(VKYLS y, PetscInt v, PetscInt k)
+{
+  PetscInt s = y->model.segof[v];
+  if (k < 3) return y->handle[v] >= 0 ? PETSC_TRUE : PETSC_FALSE;
+  return s < 0 || !PetscIsNanReal(y->thheld[s]) ? PETSC_TRUE : PETSC_FALSE;
+}
+
+/* An element's gradient and Hessian on the unknowns dof[0..n), the
+ * angles among them in Newton's unknowns lambda theta (ylsimpl.h). */
+static PetscErrorCode AddDofs(VKYLS y, Accum *acc, PetscInt n, const PetscInt dof[], const PetscReal ge[], const PetscReal He[])
+{
+  PetscReal sc[16], Hs[256];
+
+  PetscFunctionBegin;
+  for (PetscInt a = 0; a < n; a++) sc[a] = dof[a] % 4 == 3 ? 1 / y->twist_scale : 1;
+  if (acc->g)
+    for (PetscInt a = 0; a < n; a++) acc->g[dof[a]] += sc[a] * ge[a];
+  if (acc->H) {
+    PetscInt idx[16];
+    for (PetscInt a = 0; a < n; a++) {
+      idx[a] = VKYLSFixed(y, dof[a] / 4, dof[a] % 4) ? -1 : dof[a];
+      for (PetscInt b = 0; b < n; b++) Hs[n * a + b] = sc[a] * sc[b] * He[n * a + b];
+    }
+    PetscCall(MatSetValues(acc->H, n, idx, n, idx, Hs, ADD_VALUES));
+  }
+  PetscFunctionReturn(0);
+}
+
+/* An element on the positions of vertices v[0..nv). */
 static PetscErrorCode AddElement(VKYLS y, Accum *acc, PetscInt nv, const PetscInt v[], const PetscReal ge[], const PetscReal He[])
 {
+  PetscInt dof[12];
+
   PetscFunctionBegin;
-  if (acc->g)
-    for (PetscInt a = 0; a < nv; a++)
-      for (int i = 0; i < 3; i++) acc->g[3 * v[a] + i] += ge[3 * a + i];
-  if (acc->H) {
-    PetscInt idx[4];
-    for (PetscInt a = 0; a < nv; a++) idx[a] = y->handle[v[a]] >= 0 ? -1 : v[a];
-    PetscCall(MatSetValuesBlocked(acc->H, nv, idx, nv, idx, He, ADD_VALUES));
-  }
+  for (PetscInt a = 0; a < nv; a++)
+    for (int i = 0; i < 3; i++) dof[3 * a + i] = 4 * v[a] + i;
+  PetscCall(AddDofs(y, acc, 3 * nv, dof, ge, He));
   PetscFunctionReturn(0);
 }
 
@@ -119,6 +154,49 @@ static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accu
   PetscFunctionReturn(0);
 }
 
+/* Spin of segment s about its axis: rotational inertia and viscous
+ * damping, I/(2 dt^2) (theta - theta_n - dt w_n)^2 + c_v I/(2 dt) (theta - theta_n)^2. */
+static PetscErrorCode SpinTerms(VKYLS y, const PetscReal theta[], PetscInt s, Accum *acc)
+{
+  const PetscReal J = y->model.inertia[s], dt = y->dt, d = theta[s] - y->thn[s];
+  const PetscInt  dof = 4 * y->model.seg[2 * s] + 3;
+  PetscReal       ge, He;
+
+  PetscFunctionBegin;
+  VKSumAdd(&acc->term[YLS_INERTIA], 0.5 * J * PetscSqr(d - dt * y->omn[s]) / (dt * dt));
+  VKSumAdd(&acc->term[YLS_DAMPING], 0.5 * y->cv * J * d * d / dt);
+  ge = J * (d - dt * y->omn[s]) / (dt * dt) + y->cv * J * d / dt;
+  He = J / (dt * dt) + y->cv * J / dt;
+  PetscCall(AddDofs(y, acc, 1, &dof, &ge, &He));
+  PetscFunctionReturn(0);
+}
+
+/* Bending and twist of stencil k in the chart of the step. */
+static PetscErrorCode BendTwist(VKYLS y, const PetscReal x[], const PetscReal theta[], PetscInt k, PetscBool want, Accum *acc)
+{
+  const VKRodModel  *m  = &y->model;
+  const PetscInt    *v  = m->bend + 3 * k;
+  const VKRodFrames  ch = {y->tn, y->normal, y->mref};
+  PetscInt           dof[11];
+  PetscReal          xe[9], te[2] = {theta[m->bseg[2 * k]], theta[m->bseg[2 * k + 1]]}, ge[11], He[121], E;
+  VKRodBendTwistData d;
+  VKRodBendTwistOut  out;
+
+  PetscFunctionBegin;
+  VKRodModelStencil(m, &ch, k, &d);
+  GatherElement(x, 3, v, xe);
+  E = VKRodBendTwist(&d, xe, te, y->psd_now, want ? ge : NULL, acc->H ? He : NULL, &out);
+  VKSumAdd(&acc->term[YLS_BEND], E - (E < PETSC_INFINITY ? out.etwist : 0));
+  if (E < PETSC_INFINITY) VKSumAdd(&acc->term[YLS_TWIST], out.etwist);
+  if (!want || !(E < PETSC_INFINITY)) PetscFunctionReturn(0);
+  for (int a = 0; a < 3; a++)
+    for (int i = 0; i < 3; i++) dof[3 * a + i] = 4 * v[a] + i;
+  dof[9]  = 4 * m->seg[2 * m->bseg[2 * k]] + 3;
+  dof[10] = 4 * m->seg[2 * m->bseg[2 * k + 1]] + 3;
+  PetscCall(AddDofs(y, acc, 11, dof, ge, He));
+  PetscFunctionReturn(0);
+}
+
 /* Along-segment dashpot c_s/(2 dt L) ((e - e_n) . t_n)^2. */
 static PetscErrorCode Dashpot(VKYLS y, const PetscReal x[], PetscInt s, Accum *acc)
 {
@@ -142,7 +220,7 @@ static PetscErrorCode Dashpot(VKYLS y, const PetscReal x[], PetscInt s, Accum *a
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], Accum *acc)
+static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], const PetscReal theta[], Accum *acc)
 {
   const VKRodModel  *m    = &y->model;
   const VKRodParams *p    = &m->par;
@@ -152,6 +230,8 @@ static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], Accum *acc)
   PetscFunctionBegin;
   for (PetscInt i = y->vbeg; i < y->vend; i++)
     if (y->handle[i] < 0) PetscCall(VertexTerms(y, x, i, acc));
+  for (PetscInt s = y->sbeg; s < y->send; s++)
+    if (!VKYLSFixed(y, m->seg[2 * s], 3)) PetscCall(SpinTerms(y, theta, s, acc));
   for (PetscInt s = y->sbeg; s < y->send; s++) {
     const PetscInt *v = m->seg + 2 * s;
     GatherElement(x, 2, v, xe);
@@ -162,9 +242,7 @@ static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], Accum *acc)
   for (PetscInt k = 0; k < m->nbend; k++) {
     const PetscInt *v = m->bend + 3 * k;
     if (v[1] < y->vbeg || v[1] >= y->vend) continue;
-    GatherElement(x, 3, v, xe);
-    VKSumAdd(&acc->term[YLS_BEND], VKRodBend(xe, m->kbar[k], m->lbar[k], p->kb, y->psd_now, want ? ge : NULL, acc->H ? He : NULL));
-    if (want) PetscCall(AddElement(y, acc, 3, v, ge, He));
+    PetscCall(BendTwist(y, x, theta, k, want, acc));
   }
   for (PetscInt k = 0; k < y->nglue; k++) {
     const PetscInt *v = y->glue + 2 * k;
@@ -186,14 +264,14 @@ static PetscErrorCode Accumulate(VKYLS y, const PetscReal x[], Accum *acc)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKYLSPotential(VKYLS y, const PetscReal x[], PetscReal term[], PetscInt *active_pairs, PetscReal *phi)
+PetscErrorCode VKYLSPotential(VKYLS y, const PetscReal x[], const PetscReal theta[], PetscReal term[], PetscInt *active_pairs, PetscReal *phi)
 {
   Accum     acc;
   PetscReal local[YLS_NTERMS + 1], sum[YLS_NTERMS + 1];
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(&acc, sizeof(acc)));
-  PetscCall(Accumulate(y, x, &acc));
+  PetscCall(Accumulate(y, x, theta, &acc));
   for (int k = 0; k < YLS_NTERMS; k++) local[k] = VKSumValue(&acc.term[k]);
   local[YLS_NTERMS] = acc.active_pairs;
   PetscCall(MPIU_Allreduce(local, sum, YLS_NTERMS + 1, MPIU_REAL, MPIU_SUM, y->comm));
@@ -206,11 +284,12 @@ PetscErrorCode VKYLSPotential(VKYLS y, const PetscReal x[], PetscReal term[], Pe
   PetscFunctionReturn(0);
 }
 
-/* The gradient, with handle rows zeroed (Dirichlet); on the way it records
- * the forces the step must balance, for the stopping rule of newton.c: the
- * handle reaction (the zeroed rows) and the collider normal forces, 2-norms
- * in y->reaction and y->collider_force. */
-PetscErrorCode VKYLSGradient(VKYLS y, const PetscReal x[], Vec G)
+/* The gradient (4 per vertex), with the rows of fixed unknowns zeroed
+ * (Dirichlet); on the way it records the forces the step must balance, for
+ * the stopping rule of newton.c: the handle reaction (the zeroed position
+ * rows) and the collider normal forces, 2-norms in y->reaction and
+ * y->collider_force. */
+PetscErrorCode VKYLSGradient(VKYLS y, const PetscReal x[], const PetscReal theta[], Vec G)
 {
   Accum        acc;
   PetscReal   *g, local[2] = {0, 0}, sum[2];
@@ -218,20 +297,20 @@ PetscErrorCode VKYLSGradient(VKYLS y, const PetscReal x[], Vec G)
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(&acc, sizeof(acc)));
-  PetscCall(VecGetArray(y->xseq, &g)); /* the replicated work vector; y->xall holds the positions */
-  PetscCall(PetscArrayzero(g, 3 * y->model.nv));
+  PetscCall(VecGetArray(y->qseq, &g)); /* the replicated work vector; y->xall and y->theta hold the unknowns */
+  PetscCall(PetscArrayzero(g, 4 * y->model.nv));
   acc.g = g;
-  PetscCall(Accumulate(y, x, &acc));
-  PetscCall(VecRestoreArray(y->xseq, &g));
+  PetscCall(Accumulate(y, x, theta, &acc));
+  PetscCall(VecRestoreArray(y->qseq, &g));
   PetscCall(VecSet(G, 0));
-  PetscCall(VecScatterBegin(y->toall, y->xseq, G, ADD_VALUES, SCATTER_REVERSE));
-  PetscCall(VecScatterEnd(y->toall, y->xseq, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterBegin(y->qtoall, y->qseq, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(y->qtoall, y->qseq, G, ADD_VALUES, SCATTER_REVERSE));
   PetscCall(VecGetArray(G, &ga));
   for (PetscInt i = y->vbeg; i < y->vend; i++)
-    if (y->handle[i] >= 0)
-      for (int k = 0; k < 3; k++) {
-        local[0] += PetscSqr(ga[3 * (i - y->vbeg) + k]);
-        ga[3 * (i - y->vbeg) + k] = 0;
+    for (int k = 0; k < 4; k++)
+      if (VKYLSFixed(y, i, k)) {
+        if (k < 3) local[0] += PetscSqr(ga[4 * (i - y->vbeg) + k]);
+        ga[4 * (i - y->vbeg) + k] = 0;
       }
   PetscCall(VecRestoreArray(G, &ga));
   local[1] = acc.collider2;
@@ -241,38 +320,42 @@ PetscErrorCode VKYLSGradient(VKYLS y, const PetscReal x[], Vec G)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKYLSHessian(VKYLS y, const PetscReal x[], Mat H)
+PetscErrorCode VKYLSHessian(VKYLS y, const PetscReal x[], const PetscReal theta[], Mat H)
 {
   Accum           acc;
-  const PetscReal one[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const PetscReal one = 1;
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(&acc, sizeof(acc)));
   PetscCall(MatZeroEntries(H));
   acc.H = H;
-  PetscCall(Accumulate(y, x, &acc));
+  PetscCall(Accumulate(y, x, theta, &acc));
   for (PetscInt i = y->vbeg; i < y->vend; i++)
-    if (y->handle[i] >= 0) PetscCall(MatSetValuesBlocked(H, 1, &i, 1, &i, one, ADD_VALUES));
+    for (int k = 0; k < 4; k++)
+      if (VKYLSFixed(y, i, k)) {
+        PetscInt r = 4 * i + k;
+        PetscCall(MatSetValues(H, 1, &r, 1, &r, &one, ADD_VALUES));
+      }
   PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
   PetscFunctionReturn(0);
 }
 
-/* The Hessian's nonzero pattern: vertex diagonals, segments, triples, glue
- * and the contact pairs of y->pattern. */
+/* The Hessian's nonzero pattern, in 4 x 4 blocks of vertices: vertex
+ * diagonals, segments, stencils, glue and the contact pairs of y->pattern. */
 PetscErrorCode VKYLSCreateHessian(VKYLS y, Mat *H)
 {
   const VKRodModel *m = &y->model;
   Mat               pre;
-  PetscInt          n = 3 * (y->vend - y->vbeg), N = 3 * m->nv;
+  PetscInt          n = 4 * (y->vend - y->vbeg), N = 4 * m->nv;
   PetscReal        *zero;
 
   PetscFunctionBegin;
-  PetscCall(PetscCalloc1(144, &zero));
+  PetscCall(PetscCalloc1(256, &zero));
   PetscCall(MatCreate(y->comm, &pre));
   PetscCall(MatSetType(pre, MATPREALLOCATOR));
   PetscCall(MatSetSizes(pre, n, n, N, N));
-  PetscCall(MatSetBlockSize(pre, 3));
+  PetscCall(MatSetBlockSize(pre, 4));
   PetscCall(MatSetUp(pre));
   for (PetscInt i = y->vbeg; i < y->vend; i++) PetscCall(MatSetValuesBlocked(pre, 1, &i, 1, &i, zero, INSERT_VALUES));
   for (PetscInt s = y->sbeg; s < y->send; s++) PetscCall(MatSetValuesBlocked(pre, 2, m->seg + 2 * s, 2, m->seg + 2 * s, zero, INSERT_VALUES));
@@ -293,7 +376,7 @@ PetscErrorCode VKYLSCreateHessian(VKYLS y, Mat *H)
   PetscCall(MatCreate(y->comm, H));
   PetscCall(MatSetType(*H, MATAIJ));
   PetscCall(MatSetSizes(*H, n, n, N, N));
-  PetscCall(MatSetBlockSize(*H, 3));
+  PetscCall(MatSetBlockSize(*H, 4));
   PetscCall(MatSetOptionsPrefix(*H, "yls_"));
   PetscCall(MatPreallocatorPreallocate(pre, PETSC_TRUE, *H));
   PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));

@@ -1,9 +1,10 @@
 /* relax.c: relaxation of procedural or loaded yarn geometry (DESIGN §4).
  * Procedural knits interpenetrate a little and are not in equilibrium.
  * The relaxation is a quasi-static solve by proximal steps: repeated
- * implicit Euler steps from rest with a long pseudo time step, no scene
- * (no gravity, handles or colliders) and no damping, until the state is
- * static to the Newton tolerance of newton.c.  The contact radius is grown from
+ * implicit Euler steps from rest with a long pseudo time step (doubled
+ * after every step that needed no halving, up to 64 x -yls_relax_tau), no
+ * scene (no gravity, handles or colliders) and no damping, until the state
+ * is static to the Newton tolerance of newton.c.  The contact radius is grown from
  * -yls_relax_radius_start x r to r in -yls_relax_stages stages, so yarns
  * that start inside each other are pushed apart gradually (the similarity
  * idea of Leaf et al. 2018, applied to the contact radius only).  Then the
@@ -15,6 +16,8 @@
  * no stretch, bending or contact energy and stays still. */
 #include "ylsimpl.h"
 
+#define YLS_RELAX_TAU_GROWTH 64 /* the pseudo time step grows to at most this x -yls_relax_tau */
+
 /* Proximal steps at the current contact radius until the state is static:
  * the next step's Newton solve converges at its first residual, which at
  * rest is the elastic force alone.  (A proximal step whose Newton solve
@@ -23,14 +26,18 @@
 static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
 {
   PetscFunctionBegin;
+  y->dt = y->relax_tau;
   for (PetscInt k = 0;; k++) {
-    PetscInt its;
+    PetscInt its, halved = y->stats.halved_steps;
     PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r (last |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (double)y->residual, (double)y->tolerance);
     PetscCall(VecSet(y->v, 0));
     PetscCall(VKYLSStep(y));
     (*steps)++;
     PetscCall(SNESGetIterationNumber(y->snes, &its));
     if (its == 0) break; /* converged at x_n: static */
+    /* a proximal step that needed no halving: the next one twice as long
+     * (the slowest modes of a knit creep at tau^2 k / m per step) */
+    if (y->stats.halved_steps == halved) y->dt = PetscMin(2 * y->dt, YLS_RELAX_TAU_GROWTH * y->relax_tau);
   }
   PetscFunctionReturn(0);
 }
@@ -53,7 +60,7 @@ static PetscErrorCode ResetRest(VKYLS y)
     y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));
   }
   PetscCall(VKCurvesTransportFrames(&y->yarn->curves, y->yarn->normal));
-  PetscCall(PetscArraycpy(y->normal, y->yarn->normal, 3 * y->model.nseg));
+  PetscCall(VKYLSResetFrames(y)); /* the relaxed frames, untwisted, are the rest frames */
   PetscCall(VecSet(y->v, 0));
   PetscFunctionReturn(0);
 }

@@ -7,7 +7,8 @@
 
 /* Defaults for the default yarn (r = 1 mm, 3e-4 kg/m, a worsted wool). */
 #define YLS_KS  100.0  /* N: tension per unit strain */
-#define YLS_KB  2.0e-7 /* N m^2: bending length (k_b / (rho g))^(1/3) about 4 cm */
+#define YLS_KB  2.0e-7 /* N m^2: flexural rigidity EI, bending length (k_b / (rho g))^(1/3) about 4 cm */
+#define YLS_KT  1.6e-7 /* N m^2: torsional rigidity GJ = 0.8 EI (the ratio of the yarns of Sperl's thesis, Table 4.1) */
 #define YLS_KC  1.0e3  /* N/m */
 #define YLS_KW  1.0e3  /* N/m */
 #define YLS_CS  1.0e-3 /* N s */
@@ -30,6 +31,7 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->scene        = scene;
   y->par.ks       = YLS_KS;
   y->par.kb       = YLS_KB;
+  y->par.kt       = YLS_KT;
   y->par.kc       = YLS_KC;
   y->par.nq       = 3;
   y->kw           = YLS_KW;
@@ -40,6 +42,7 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->ftol         = YLS_FTOL;
   y->max_halvings = 8;
   y->pattern_margin = 0.1;
+  y->mumps_workspace = 20; /* MUMPS's default */
   y->dt           = 0; /* from the scene unless given */
   y->hessian      = VK_YLS_HESSIAN_AUTO;
   y->relax        = PETSC_TRUE;
@@ -57,7 +60,8 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscFunctionBegin;
   PetscOptionsBegin(y->comm, NULL, "Yarn-level simulation (DESIGN 4)", "VKYLS");
   PetscCall(PetscOptionsReal("-yls_ks", "Stretching stiffness k_s: tension per unit strain, N", "VKYLSSetFromOptions", y->par.ks, &y->par.ks, NULL));
-  PetscCall(PetscOptionsReal("-yls_kb", "Bending stiffness k_b, N m^2", "VKYLSSetFromOptions", y->par.kb, &y->par.kb, NULL));
+  PetscCall(PetscOptionsReal("-yls_kb", "Bending stiffness k_b (flexural rigidity EI), N m^2", "VKYLSSetFromOptions", y->par.kb, &y->par.kb, NULL));
+  PetscCall(PetscOptionsReal("-yls_kt", "Twisting stiffness k_t (torsional rigidity GJ), N m^2", "VKYLSSetFromOptions", y->par.kt, &y->par.kt, NULL));
   PetscCall(PetscOptionsReal("-yls_kc", "Contact stiffness k_c of Kaldor's penalty, N/m", "VKYLSSetFromOptions", y->par.kc, &y->par.kc, NULL));
   PetscCall(VKOptionsRangeInt("-yls_nq", "Contact quadrature points per segment", "VKYLSSetFromOptions", y->par.nq, &y->par.nq, NULL, 1, 16));
   PetscCall(PetscOptionsReal("-yls_dashpot", "Along-segment dashpot c_s: force per unit strain rate, N s", "VKYLSSetFromOptions", y->cs, &y->cs, NULL));
@@ -79,8 +83,8 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(VKOptionsRangeInt("-yls_relax_max_steps", "Proximal steps per relaxation stage at most", "VKYLSRelax", y->relax_max_steps, &y->relax_max_steps, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsBool("-yls_quiet", "Do not print the summary line", "VKYLSRun", y->quiet, &y->quiet, NULL));
   PetscOptionsEnd();
-  PetscCheck(y->par.ks >= 0 && y->par.kb >= 0 && y->par.kc >= 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Rod stiffnesses must be >= 0: -yls_ks %g -yls_kb %g -yls_kc %g", (double)y->par.ks, (double)y->par.kb, (double)y->par.kc);
-  PetscCheck(y->par.ks > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_ks must be positive (yarns are nearly inextensible), got %g", (double)y->par.ks);
+  PetscCheck(y->par.ks >= 0 && y->par.kb >= 0 && y->par.kt >= 0 && y->par.kc >= 0 && y->par.kb < PETSC_INFINITY && y->par.kt < PETSC_INFINITY && y->par.kc < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Rod stiffnesses must be >= 0 and finite: -yls_ks %g -yls_kb %g -yls_kt %g -yls_kc %g", (double)y->par.ks, (double)y->par.kb, (double)y->par.kt, (double)y->par.kc);
+  PetscCheck(y->par.ks > 0 && y->par.ks < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_ks must be positive and finite (yarns are nearly inextensible), got %g", (double)y->par.ks);
   PetscCheck(y->par.nq >= 1 && y->par.nq <= 16, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_nq must be in 1..16, got %d", (int)y->par.nq);
   PetscCheck(y->cs >= 0 && y->kw > 0 && y->friction_eps > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_dashpot >= 0, -yls_collider_stiffness > 0, -yls_friction_eps > 0");
   PetscCheck(y->cap > 0 && y->cap <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_cap must be in (0, 1] yarn radii, got %g", (double)y->cap);
@@ -160,8 +164,9 @@ PetscErrorCode VKYLSSetUp(VKYLS y)
   PetscFunctionBegin;
   if (y->setup) PetscFunctionReturn(0);
   PetscCheck(y->yarn->setup, y->comm, PETSC_ERR_ORDER, "Call VKYarnSetUp() before VKYLSSetUp()");
-  y->par.radius = y->yarn->radius;
-  y->density    = y->yarn->density;
+  y->par.radius    = y->yarn->radius;
+  y->density       = y->yarn->density;
+  y->twist_scale   = y->yarn->radius;
   {
     VKRodParams par = y->par; /* a relaxed rest state keeps the contact radius it was relaxed to */
     if (y->yarn->contact_radius > 0) par.radius = y->yarn->contact_radius;
@@ -193,8 +198,16 @@ PetscErrorCode VKYLSSetUp(VKYLS y)
   PetscCall(VecSetBlockSize(y->x, 3));
   PetscCall(VecDuplicate(y->x, &y->v));
   PetscCall(VecScatterCreateToAll(y->x, &y->toall, &y->xseq));
+  PetscCall(VecCreateMPI(y->comm, 4 * n, 4 * nv, &y->q));
+  PetscCall(VecSetBlockSize(y->q, 4));
+  PetscCall(VecScatterCreateToAll(y->q, &y->qtoall, &y->qseq));
   PetscCall(PetscMalloc5(3 * nv, &y->xall, 3 * nv, &y->xn, 3 * nv, &y->vn, 3 * y->model.nseg + 3, &y->tn, 3 * y->model.nseg + 3, &y->normal));
+  PetscCall(PetscCalloc5(y->model.nseg + 1, &y->theta, y->model.nseg + 1, &y->thn, y->model.nseg + 1, &y->omn, y->model.nseg + 1, &y->thheld, y->model.nbend + 1, &y->mref));
   PetscCall(PetscCalloc3(nv, &y->friction, 3 * nv, &y->contact_normal, nv, &y->contact_collider));
+  for (PetscInt sg = 0; sg < y->model.nseg; sg++) { /* a segment whose two vertices one handle holds turns with it */
+    PetscInt h = y->handle[y->model.seg[2 * sg]];
+    y->thheld[sg] = h >= 0 && h == y->handle[y->model.seg[2 * sg + 1]] ? 0 : (PetscReal)NAN;
+  }
   /* rest state, at rest; frames from the yarn model */
   {
     PetscScalar *xa;
@@ -203,7 +216,7 @@ PetscErrorCode VKYLSSetUp(VKYLS y)
     PetscCall(VecRestoreArray(y->x, &xa));
   }
   PetscCall(VecSet(y->v, 0));
-  PetscCall(PetscArraycpy(y->normal, y->yarn->normal, 3 * y->model.nseg));
+  PetscCall(VKYLSResetFrames(y));
   PetscCall(VKYLSCreateSNES(y));
   y->stats.dmin_over_2r = PETSC_INFINITY;
   y->setup              = PETSC_TRUE;
@@ -224,6 +237,110 @@ PetscErrorCode VKYLSGather(VKYLS y, Vec X, PetscReal dst[])
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKYLSGatherQ(VKYLS y, Vec Q)
+{
+  const PetscScalar *a;
+  const VKRodModel  *m = &y->model;
+
+  PetscFunctionBegin;
+  PetscCall(VecScatterBegin(y->qtoall, Q, y->qseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(y->qtoall, Q, y->qseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGetArrayRead(y->qseq, &a));
+  for (PetscInt v = 0; v < m->nv; v++)
+    for (int k = 0; k < 3; k++) y->xall[3 * v + k] = a[4 * v + k];
+  for (PetscInt sg = 0; sg < m->nseg; sg++) y->theta[sg] = a[4 * m->seg[2 * sg] + 3] / y->twist_scale;
+  PetscCall(VecRestoreArrayRead(y->qseq, &a));
+  PetscFunctionReturn(0);
+}
+
+/* Newton's unknowns from the positions y->x and the angles y->theta. */
+static PetscErrorCode PackQ(VKYLS y)
+{
+  const PetscScalar *xa;
+  PetscScalar       *qa;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArrayRead(y->x, &xa));
+  PetscCall(VecGetArray(y->q, &qa));
+  for (PetscInt i = y->vbeg; i < y->vend; i++) {
+    PetscInt sg = y->model.segof[i];
+    for (int k = 0; k < 3; k++) qa[4 * (i - y->vbeg) + k] = xa[3 * (i - y->vbeg) + k];
+    qa[4 * (i - y->vbeg) + 3] = sg >= 0 ? y->twist_scale * y->theta[sg] : 0;
+  }
+  PetscCall(VecRestoreArray(y->q, &qa));
+  PetscCall(VecRestoreArrayRead(y->x, &xa));
+  PetscFunctionReturn(0);
+}
+
+/* The positions of Newton's unknowns into y->x (and y->xall, y->theta). */
+static PetscErrorCode UnpackQ(VKYLS y)
+{
+  PetscScalar *xa;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGatherQ(y, y->q));
+  PetscCall(VecGetArray(y->x, &xa));
+  PetscCall(PetscArraycpy(xa, y->xall + 3 * y->vbeg, 3 * (y->vend - y->vbeg)));
+  PetscCall(VecRestoreArray(y->x, &xa));
+  PetscFunctionReturn(0);
+}
+
+/* Unit tangents of every segment at positions x. */
+PetscErrorCode VKYLSTangents(VKYLS y, const PetscReal x[], PetscReal t[])
+{
+  const VKRodModel *m = &y->model;
+
+  PetscFunctionBegin;
+  for (PetscInt sg = 0; sg < m->nseg; sg++) {
+    for (int k = 0; k < 3; k++) t[3 * sg + k] = x[3 * m->seg[2 * sg + 1] + k] - x[3 * m->seg[2 * sg] + k];
+    VKNormalize3(t + 3 * sg);
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSResetFrames(VKYLS y)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscArraycpy(y->normal, y->model.d0, 3 * y->model.nseg));
+  PetscCall(PetscArraycpy(y->tn, y->model.t0, 3 * y->model.nseg));
+  PetscCall(PetscArraycpy(y->mref, y->model.mbar, y->model.nbend));
+  PetscCall(PetscArrayzero(y->theta, y->model.nseg));
+  PetscCall(PetscArrayzero(y->omn, y->model.nseg));
+  PetscFunctionReturn(0);
+}
+
+/* The angle of segment sg whose vertices a handle holds at time t: its
+ * material frame turned with the handle from the rest one, measured from
+ * the reference director carried to the handle's tangent, and continued
+ * from the angle at the start of the step. */
+static PetscReal HeldAngle(VKYLS y, PetscInt sg, PetscReal t)
+{
+  const VKRodModel *m = &y->model;
+  const PetscReal  *Xa = y->yarn->curves.x + 3 * m->seg[2 * sg], *Xb = y->yarn->curves.x + 3 * m->seg[2 * sg + 1], *d0 = m->d0 + 3 * sg, *tn = y->tn + 3 * sg;
+  PetscInt          h = y->handle[m->seg[2 * sg]];
+  PetscReal         Xd[3], pa[3], pb[3], pd[3], tt[3], dm[3], dr[3], c = 0, f = 0, cr[3], a;
+
+  for (int k = 0; k < 3; k++) Xd[k] = Xa[k] + d0[k];
+  VKSceneHandlePosition(y->scene, h, Xa, t, pa);
+  VKSceneHandlePosition(y->scene, h, Xb, t, pb);
+  VKSceneHandlePosition(y->scene, h, Xd, t, pd);
+  for (int k = 0; k < 3; k++) {
+    tt[k] = pb[k] - pa[k];
+    dm[k] = pd[k] - pa[k];
+  }
+  VKNormalize3(tt);
+  for (int k = 0; k < 3; k++) {
+    c += tn[k] * tt[k];
+    f += y->normal[3 * sg + k] * tt[k];
+  }
+  for (int k = 0; k < 3; k++) dr[k] = y->normal[3 * sg + k] - f / (1 + c) * (tn[k] + tt[k]); /* the reference director at tt */
+  cr[0] = dr[1] * dm[2] - dr[2] * dm[1];
+  cr[1] = dr[2] * dm[0] - dr[0] * dm[2];
+  cr[2] = dr[0] * dm[1] - dr[1] * dm[0];
+  a     = PetscAtan2Real(cr[0] * tt[0] + cr[1] * tt[1] + cr[2] * tt[2], dr[0] * dm[0] + dr[1] * dm[1] + dr[2] * dm[2]);
+  return a + 2 * PETSC_PI * PetscFloorReal((y->thn[sg] - a) / (2 * PETSC_PI) + 0.5);
+}
+
 /* Start of step: x_n, v_n, tangents, lagged friction, handle positions. */
 static PetscErrorCode BeginStep(VKYLS y)
 {
@@ -234,11 +351,10 @@ static PetscErrorCode BeginStep(VKYLS y)
   PetscFunctionBegin;
   PetscCall(VKYLSGather(y, y->v, y->vn));
   PetscCall(VKYLSGather(y, y->x, y->xn));
-  for (PetscInt s = 0; s < m->nseg; s++) {
-    PetscReal *t = y->tn + 3 * s;
-    for (int k = 0; k < 3; k++) t[k] = y->xn[3 * m->seg[2 * s + 1] + k] - y->xn[3 * m->seg[2 * s] + k];
-    VKNormalize3(t);
-  }
+  PetscCall(VKYLSTangents(y, y->xn, y->tn)); /* the chart of the step: these tangents, y->normal, y->mref */
+  PetscCall(PetscArraycpy(y->thn, y->theta, m->nseg));
+  for (PetscInt sg = 0; sg < m->nseg; sg++)
+    if (!PetscIsNanReal(y->thheld[sg])) y->theta[sg] = y->thheld[sg] = HeldAngle(y, sg, t1);
   {
     const PetscReal *g = y->scene->gravity;
     PetscReal        m2 = 0, all;
@@ -275,6 +391,7 @@ static PetscErrorCode BeginStep(VKYLS y)
     }
     PetscCall(VecRestoreArray(y->x, &xa));
   }
+  PetscCall(PackQ(y));
   PetscFunctionReturn(0);
 }
 
@@ -290,6 +407,7 @@ static PetscErrorCode RestoreStart(VKYLS y)
   PetscCall(PetscArraycpy(va, y->vn + 3 * y->vbeg, 3 * (y->vend - y->vbeg)));
   PetscCall(VecRestoreArray(y->x, &xa));
   PetscCall(VecRestoreArray(y->v, &va));
+  PetscCall(PetscArraycpy(y->theta, y->thn, y->model.nseg));
   PetscFunctionReturn(0);
 }
 
@@ -306,18 +424,38 @@ static PetscErrorCode Advance(VKYLS y, PetscReal dt, PetscInt depth)
 
   PetscFunctionBegin;
   y->dt = dt;
-  if (y->relaxing) PetscCall(VecSet(y->v, 0));
+  if (y->relaxing) {
+    PetscCall(VecSet(y->v, 0));
+    PetscCall(PetscArrayzero(y->omn, y->model.nseg));
+  }
   PetscCall(BeginStep(y));
-  PetscCall(VKYLSGather(y, y->x, y->xall));
+  PetscCall(VKYLSGatherQ(y, y->q));
   PetscCall(VKYLSFindPairs(y, y->xall));
   y->phi_valid = PETSC_FALSE; /* a new potential */
   PetscCall(PetscLogEventBegin(VK_EVENT_YLSSolve, 0, 0, 0, 0));
-  PetscCall(SNESSolve(y->snes, NULL, y->x));
+  PetscCall(SNESSolve(y->snes, NULL, y->q));
   PetscCall(PetscLogEventEnd(VK_EVENT_YLSSolve, 0, 0, 0, 0));
+  PetscCall(UnpackQ(y));
   PetscCall(SNESGetConvergedReason(y->snes, &reason));
   PetscCall(SNESGetIterationNumber(y->snes, &its));
   y->stats.newton_its += its;
   y->stats.newton_its_max = PetscMax(y->stats.newton_its_max, its);
+  if (reason == SNES_DIVERGED_LINEAR_SOLVE) { /* delayed pivots that outgrew MUMPS's workspace: more of it, and the step again */
+    KSP             ksp;
+    PC              pc;
+    PCFailedReason  pcr;
+    PetscBool       raised = PETSC_FALSE;
+    PetscCall(SNESGetKSP(y->snes, &ksp));
+    PetscCall(KSPGetPC(ksp, &pc));
+    PetscCall(PCGetFailedReason(pc, &pcr));
+    if (pcr == PC_FACTOR_OUTMEMORY) PetscCall(VKMUMPSRaiseWorkspace(ksp, NULL, &y->mumps_workspace, y->mumps_option, sizeof(y->mumps_option), &raised));
+    if (raised) {
+      PetscCall(RestoreStart(y));
+      PetscCall(MatDestroy(&y->J)); /* a new matrix: a new symbolic factorization reads the option */
+      PetscCall(Advance(y, dt, depth));
+      PetscFunctionReturn(0);
+    }
+  }
   if (reason <= 0 && depth < y->max_halvings) {
     PetscCall(PetscInfo(y->snes, "yarn-level step %d: Newton failed (%s) with dt %g s, |grad Phi| %g N (tolerance %g N); two steps of dt/2 instead\n", (int)y->step + 1, SNESConvergedReasons[reason], (double)dt, (double)y->residual, (double)y->tolerance));
     y->stats.halved_steps++;
@@ -338,13 +476,18 @@ static PetscErrorCode Advance(VKYLS y, PetscReal dt, PetscInt depth)
       PetscCall(PetscFPrintf(y->comm, PETSC_STDERR, "volknit: warning: yarn-level step %d (t = %g s) did not converge (%s): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N, after %d Newton iterations (dt halved %d times)%s\n", (int)y->step + 1, (double)(y->t + dt), what, (double)y->residual, (double)(y->residual / y->tolerance), (double)y->tolerance, (int)its, (int)depth,
                              y->stats.unconverged_steps == YLS_WARNINGS ? "; further unconverged steps are only counted" : ""));
   }
-  /* v = (x - x_n) / dt, frames carried along */
-  PetscCall(VKYLSGather(y, y->x, y->xall));
+  /* v = (x - x_n) / dt, w = (theta - theta_n) / dt; the frames carried
+   * along, and the reference twist with them */
   {
     PetscScalar *va;
     PetscCall(VecGetArray(y->v, &va));
     for (PetscInt k = 0; k < 3 * (y->vend - y->vbeg); k++) va[k] = (y->xall[3 * y->vbeg + k] - y->xn[3 * y->vbeg + k]) / dt;
     PetscCall(VecRestoreArray(y->v, &va));
+  }
+  for (PetscInt sg = 0; sg < y->model.nseg; sg++) y->omn[sg] = (y->theta[sg] - y->thn[sg]) / dt;
+  {
+    const VKRodFrames chart = {y->tn, y->normal, y->mref};
+    PetscCall(VKRodModelReferenceTwist(&y->model, &chart, y->xall, y->mref));
   }
   PetscCall(VKTransportFramesInTime(y->model.nseg, y->model.seg, y->xn, y->xall, y->normal));
   y->t += dt;
@@ -376,10 +519,11 @@ PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscR
   const VKRodModel  *m = &y->model;
   const PetscScalar *va;
   PetscInt          *pairs, np;
-  PetscReal          E[3], glue = 0, d = 2 * m->par.radius, loc[5] = {0, 0, 0, 0, 0}, sum[5];
+  PetscReal          E[4], glue = 0, d = 2 * m->par.radius, loc[5] = {0, 0, 0, 0, 0}, sum[5], spin = 0;
 
   PetscFunctionBegin;
   PetscCall(VKYLSGather(y, y->x, y->xall));
+  PetscCall(VKYLSTangents(y, y->xall, y->tn)); /* between steps the chart's centre is here */
   PetscCall(VKRodModelFindPairs(m, y->xall, 0, 0, m->nseg, &np, &pairs));
   if (dmin) {
     for (PetscInt k = 0; k < np; k++) {
@@ -390,7 +534,9 @@ PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscR
   }
   if (npairs) *npairs = np;
   if (e || momentum) {
-    PetscCall(VKRodModelEnergy(m, y->xall, np, pairs, E, NULL));
+    const VKRodFrames chart = {y->tn, y->normal, y->mref};
+    PetscCall(VKRodModelEnergy(m, &chart, y->xall, y->theta, np, pairs, E, NULL, NULL));
+    for (PetscInt sg = 0; sg < m->nseg; sg++) spin += 0.5 * m->inertia[sg] * y->omn[sg] * y->omn[sg];
     for (PetscInt k = 0; k < y->nglue; k++) glue += VKRodStretch(y->xall + 3 * y->glue[2 * k], y->xall + 3 * y->glue[2 * k + 1], y->Lglue[k], m->par.ks, PETSC_FALSE, NULL, NULL);
     PetscCall(VecGetArrayRead(y->v, &va)); /* kinetic energy, gravity and momentum of the owned vertices */
     for (PetscInt i = y->vbeg; i < y->vend; i++)
@@ -405,10 +551,11 @@ PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscR
     if (e) {
       e[0] = E[0];
       e[1] = E[1];
-      e[2] = E[2];
-      e[3] = sum[0];
+      e[2] = E[3];
+      e[3] = sum[0] + spin;
       e[4] = sum[1];
       e[5] = glue;
+      e[6] = E[2];
     }
     if (momentum)
       for (int k = 0; k < 3; k++) momentum[k] = sum[2 + k];
@@ -417,7 +564,7 @@ PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscR
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKYLSEnergies(VKYLS y, PetscReal e[6], PetscReal momentum[3])
+PetscErrorCode VKYLSEnergies(VKYLS y, PetscReal e[7], PetscReal momentum[3])
 {
   PetscFunctionBegin;
   PetscCall(VKYLSMeasure(y, e, momentum, NULL, NULL));
@@ -492,9 +639,9 @@ PetscErrorCode VKYLSRun(VKYLS y)
 PetscErrorCode VKYLSView(VKYLS y, PetscViewer viewer)
 {
   PetscFunctionBegin;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "Yarn-level simulator: k_s %g N, k_b %g N m^2, k_c %g N/m (%d x %d quadrature), damping %g 1/s, dashpot %g N s, colliders %g N/m, cap %g r, dt %g s\n", (double)y->par.ks, (double)y->par.kb, (double)y->par.kc, (int)y->par.nq, (int)y->par.nq, (double)y->cv, (double)y->cs, (double)y->kw, (double)y->cap, (double)y->dt));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "Yarn-level simulator (discrete elastic rods): k_s %g N, k_b %g N m^2, k_t %g N m^2, k_c %g N/m (%d x %d quadrature), damping %g 1/s, dashpot %g N s, colliders %g N/m, cap %g r, dt %g s\n", (double)y->par.ks, (double)y->par.kb, (double)y->par.kt, (double)y->par.kc, (int)y->par.nq, (int)y->par.nq, (double)y->cv, (double)y->cs, (double)y->kw, (double)y->cap, (double)y->dt));
   if (y->setup) {
-    PetscCall(PetscViewerASCIIPrintf(viewer, "  %d vertices, %d segments, %d bending triples, %d glue springs, %d handle vertices\n", (int)y->model.nv, (int)y->model.nseg, (int)y->model.nbend, (int)y->nglue, (int)y->nhandle_vertices));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "  %d vertices, %d segments, %d bending and twisting stencils, %d glue springs, %d handle vertices\n", (int)y->model.nv, (int)y->model.nseg, (int)y->model.nbend, (int)y->nglue, (int)y->nhandle_vertices));
     PetscCall(PetscViewerASCIIPushTab(viewer));
     PetscCall(VKSceneView(y->scene, viewer));
     PetscCall(SNESView(y->snes, viewer));
@@ -515,6 +662,7 @@ PetscErrorCode VKYLSDestroy(VKYLS *py)
     PetscCall(PetscFree2(y->glue, y->Lglue));
     PetscCall(PetscFree(y->handle));
     PetscCall(PetscFree5(y->xall, y->xn, y->vn, y->tn, y->normal));
+    PetscCall(PetscFree5(y->theta, y->thn, y->omn, y->thheld, y->mref));
     PetscCall(PetscFree3(y->friction, y->contact_normal, y->contact_collider));
   }
   PetscCall(PetscFree(y->pairs));
@@ -523,8 +671,12 @@ PetscErrorCode VKYLSDestroy(VKYLS *py)
   PetscCall(VecDestroy(&y->v));
   PetscCall(VecDestroy(&y->xseq));
   PetscCall(VecScatterDestroy(&y->toall));
+  PetscCall(VecDestroy(&y->q));
+  PetscCall(VecDestroy(&y->qseq));
+  PetscCall(VecScatterDestroy(&y->qtoall));
   PetscCall(MatDestroy(&y->J));
   PetscCall(SNESDestroy(&y->snes));
+  if (y->mumps_option[0]) PetscCall(PetscOptionsClearValue(NULL, y->mumps_option));
   PetscCall(PetscFree(*py));
   PetscFunctionReturn(0);
 }
