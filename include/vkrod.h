@@ -14,6 +14,8 @@
  *     f(d) = 1/d^2 + d^2 - 2 for d < 1 (0 beyond), midpoint quadrature
  *     with nq points per segment, L the rest lengths (k_c: N/m).
  * Vertex coordinates are interleaved (3 per vertex); g and H may be NULL.
+ * The PSD versions: stretch and contact clamp their transverse terms,
+ * bending and twist keep the Gauss-Newton part of their Hessian.
  * The material frame of a segment is its reference director, carried in
  * time by the minimal rotation of its tangent (time-parallel transport),
  * turned about the tangent by the segment's twist angle theta. */
@@ -44,7 +46,9 @@ typedef struct {
 } VKRodBendTwistOut;
 /* x: 9, theta: 2 (theta_e, theta_f); g: 11, H: 121 in the order
  * (x0, x1, x2, theta_e, theta_f); out optional.  Infinite when an edge
- * folds back onto its neighbour or turned back against its chart. */
+ * folds back onto its neighbour or turned back against its chart.  With
+ * psd, H is the Gauss-Newton Hessian of the stencil's squared residuals:
+ * PSD, and the exact Hessian at the rest shape. */
 PETSC_EXTERN PetscReal VKRodBendTwist(const VKRodBendTwistData *, const PetscReal x[], const PetscReal theta[], PetscBool psd, PetscReal g[], PetscReal H[], VKRodBendTwistOut *out);
 /* x: 12 (a0, a1, b0, b1); g: 12, H: 144.  *npairs (optional) counts the
  * quadrature pairs closer than 2r. */

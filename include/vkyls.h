@@ -14,8 +14,10 @@
  * c_s/(2 dt L) ((e_j - e_n,j) . t_n,j)^2, colliders (inflated by r) the
  * penalty 1/2 k_w depth^2 with lagged, smoothed Coulomb friction.  Newton
  * steps through a PETSc SNES (prefix -yls_) with the element Hessians
- * assembled into a parallel Mat (exact, or PSD-projected element by element
- * when the exact one gives no descent: -yls_hessian); a line search of our
+ * assembled into a parallel Mat (PSD element by element by default --
+ * stretch and contact clamped, bending and twist by Gauss-Newton -- or
+ * exact, or exact with the PSD one when it gives no descent: -yls_hessian);
+ * a line search of our
  * own scales every Newton step so no vertex moves more than -yls_cap x r and
  * backtracks on Phi, while the contact pairs are re-found before each
  * Newton iteration within 2r + 2 cap, so no pair can come into range unseen

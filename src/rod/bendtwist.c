@@ -21,7 +21,12 @@
  *
  * The derivatives with respect to the edges come from jets (jet.h) in the
  * six edge coordinates: exact, also away from the chart's centre, which the
- * Newton iterates of a step leave.  The twist angles enter in closed form:
+ * Newton iterates of a step leave.  The energy is a sum of squares of the
+ * residuals w_j - wbar_j and m - mbar, so its Gauss-Newton Hessian (the
+ * outer products of their gradients, the residuals' own second derivatives
+ * dropped) is PSD by construction, equals the exact one at the rest shape,
+ * and needs first derivatives only: it is the PSD version of this stencil
+ * (psd), no eigen-decomposition needed.  The twist angles enter in closed form:
  * with p_j = kb . d1_j, q_j = kb . d2_j, s = sin theta_j, c = cos theta_j,
  *   |w_j - wbar_j|^2 = (p + alpha)^2 + (q + beta)^2,
  *   alpha = s wbar1 + c wbar2,  beta = -c wbar1 + s wbar2,
@@ -84,22 +89,9 @@ static void ToStencil(const PetscReal g8[], const PetscReal H8[], PetscReal g[],
       }
 }
 
-/* The PSD projection with the twist angles measured in lengths of l, so
- * that the eigen-decomposition does not mix units. */
-static void ProjectPSD(PetscReal H[], PetscReal l)
-{
-  PetscReal w[2 * 121 + 11], sc[11];
-  for (int a = 0; a < 11; a++) sc[a] = a < 9 ? 1 : 1 / l;
-  for (int a = 0; a < 11; a++)
-    for (int b = 0; b < 11; b++) H[11 * a + b] *= sc[a] * sc[b];
-  VKProjectPSD(11, H, w);
-  for (int a = 0; a < 11; a++)
-    for (int b = 0; b < 11; b++) H[11 * a + b] /= sc[a] * sc[b];
-}
-
 PetscReal VKRodBendTwist(const VKRodBendTwistData *s, const PetscReal x[], const PetscReal theta[], PetscBool psd, PetscReal g[], PetscReal H[], VKRodBendTwistOut *out)
 {
-  const int       o  = H ? 2 : (g ? 1 : 0);
+  const int       o  = H && !psd ? 2 : (g || H ? 1 : 0); /* the Gauss-Newton Hessian needs first derivatives only */
   const PetscReal cb = s->kb / (4 * s->l), ct = s->kt / s->l;
   VKJet           ed[2][3], t[2][3], d1[2][3], d2[2][3], chi, cr[3], kb[3], p[2], q[2], u[3], w, a, mref, cm, sm;
   PetscReal       E = 0, g8[8] = {0}, H8[64] = {0}, m;
@@ -155,11 +147,11 @@ PetscReal VKRodBendTwist(const VKRodBendTwistData *s, const PetscReal x[], const
       for (int i = 0; i < 6; i++) g8[i] += Fp * p[j].g[i] + Fq * q[j].g[i];
       g8[6 + j] += 2 * cb * (-be * P + al * Q);
     }
-    if (o > 1) {
+    if (H) {
       for (int i = 0; i < 6; i++)
         for (int k = i; k < 6; k++) {
-          int       h = VKJetIndex(i, k);
-          PetscReal v = Fp * p[j].h[h] + Fq * q[j].h[h] + 2 * cb * (p[j].g[i] * p[j].g[k] + q[j].g[i] * q[j].g[k]);
+          PetscReal v = 2 * cb * (p[j].g[i] * p[j].g[k] + q[j].g[i] * q[j].g[k]);
+          if (o > 1) v += Fp * p[j].h[VKJetIndex(i, k)] + Fq * q[j].h[VKJetIndex(i, k)];
           H8[8 * i + k] += v;
           if (k != i) H8[8 * k + i] += v;
         }
@@ -168,7 +160,7 @@ PetscReal VKRodBendTwist(const VKRodBendTwistData *s, const PetscReal x[], const
         H8[8 * i + 6 + j] += v;
         H8[8 * (6 + j) + i] += v;
       }
-      H8[8 * (6 + j) + 6 + j] += 2 * cb * (-al * P - be * Q);
+      H8[8 * (6 + j) + 6 + j] += 2 * cb * (psd ? al * al + be * be : -al * P - be * Q);
     }
   }
   /* twist */
@@ -180,10 +172,10 @@ PetscReal VKRodBendTwist(const VKRodBendTwistData *s, const PetscReal x[], const
     g8[6] -= ct * m;
     g8[7] += ct * m;
   }
-  if (o > 1) {
+  if (H) {
     for (int i = 0; i < 6; i++) {
       for (int k = i; k < 6; k++) {
-        PetscReal v = ct * (mref.g[i] * mref.g[k] + m * mref.h[VKJetIndex(i, k)]);
+        PetscReal v = ct * (mref.g[i] * mref.g[k] + (o > 1 ? m * mref.h[VKJetIndex(i, k)] : 0));
         H8[8 * i + k] += v;
         if (k != i) H8[8 * k + i] += v;
       }
@@ -198,6 +190,5 @@ PetscReal VKRodBendTwist(const VKRodBendTwistData *s, const PetscReal x[], const
     H8[8 * 7 + 6] -= ct;
   }
   ToStencil(g8, H8, g, H);
-  if (H && psd) ProjectPSD(H, s->l);
   return E;
 }

@@ -1,7 +1,7 @@
 /* newton.c: the SNES that minimizes the incremental potential of a step
  * (DESIGN §4): Newton (SNESNEWTONLS) on grad Phi = 0 with the Hessian of
- * potential.c (exact, or element-wise PSD-projected as -yls_hessian says;
- * "auto" re-solves with the projected one when the exact direction does not
+ * potential.c (element-wise PSD by default, or exact, as -yls_hessian
+ * says; "auto" re-solves with the PSD one when the exact direction does not
  * descend), linear solves by the KSP under the prefix yls_
  * (default: Cholesky by MUMPS), and a line search of our own (a shell
  * SNESLineSearch) that

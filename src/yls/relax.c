@@ -2,7 +2,8 @@
  * Procedural knits interpenetrate a little and are not in equilibrium.
  * The relaxation is a quasi-static solve by proximal steps: repeated
  * implicit Euler steps from rest with a long pseudo time step (doubled
- * after every step that needed no halving, up to 64 x -yls_relax_tau), no
+ * after a step Newton took in a few iterations, up to 1024 x -yls_relax_tau,
+ * halved after one it struggled with), no
  * scene (no gravity, handles or colliders) and no damping, until the state
  * is static to the Newton tolerance of newton.c.  The contact radius is grown from
  * -yls_relax_radius_start x r to r in -yls_relax_stages stages, so yarns
@@ -16,7 +17,8 @@
  * no stretch, bending or contact energy and stays still. */
 #include "ylsimpl.h"
 
-#define YLS_RELAX_TAU_GROWTH 64 /* the pseudo time step grows to at most this x -yls_relax_tau */
+#define YLS_RELAX_TAU_GROWTH 1024 /* the pseudo time step grows to at most this x -yls_relax_tau */
+#define YLS_RELAX_EASY_ITS   8  /* Newton iterations of a proximal step that let the next one grow */
 
 /* Proximal steps at the current contact radius until the state is static:
  * the next step's Newton solve converges at its first residual, which at
@@ -35,9 +37,11 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
     (*steps)++;
     PetscCall(SNESGetIterationNumber(y->snes, &its));
     if (its == 0) break; /* converged at x_n: static */
-    /* a proximal step that needed no halving: the next one twice as long
-     * (the slowest modes of a knit creep at tau^2 k / m per step) */
-    if (y->stats.halved_steps == halved) y->dt = PetscMin(2 * y->dt, YLS_RELAX_TAU_GROWTH * y->relax_tau);
+    /* the slowest modes of a knit creep at tau^2 k / m per step: a
+     * proximal step that Newton took easily makes the next one twice as
+     * long, one it struggled with (halved, or many capped iterations) half */
+    if (y->stats.halved_steps == halved && its <= YLS_RELAX_EASY_ITS) y->dt = PetscMin(2 * y->dt, YLS_RELAX_TAU_GROWTH * y->relax_tau);
+    else if (y->stats.halved_steps > halved || its > 2 * YLS_RELAX_EASY_ITS) y->dt = PetscMax(0.5 * y->dt, y->relax_tau);
   }
   PetscFunctionReturn(0);
 }

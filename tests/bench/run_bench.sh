@@ -99,6 +99,7 @@ yls_row() { # ranks scene duration [options]: one table row from the summary lin
   line=$(grep 'volknit yls: .* vertices, ' "$log")
   if [ -z "$line" ]; then echo "| $d | failed: see $log |"; return; fi
   nv=$(echo "$line" | sed -n 's/.*yls: \([0-9]*\) vertices.*/\1/p')
+  nseg=$(sed -n 's/.*"segments": \([0-9]*\).*/\1/p' "$d/yls.json")
   steps=$(echo "$line" | sed -n 's/.* \([0-9]*\) steps of \([^ ]*\) s.*/\1/p')
   dt=$(echo "$line" | sed -n 's/.* steps of \([^ ]*\) s.*/\1/p')
   its=$(echo "$line" | sed -n 's/.*Newton its \([0-9.]*\)\/step (max \([0-9]*\)).*/\1 (max \2)/p')
@@ -106,10 +107,10 @@ yls_row() { # ranks scene duration [options]: one table row from the summary lin
   wall=$(echo "$line" | sed -n 's/.*frames (\([0-9.]*\) s, .*/\1/p')
   persec=$(echo "$line" | sed -n 's/.*s, \([0-9.e+]*\) s per simulated second.*/\1/p')
   pairs=$(awk -F, 'NR > 2 { s += $9; if ($9 > m) m = $9; k++ } END { if (k) printf "%.0f (max %d)", s / k, m }' "$d/yls.csv")
-  printf '| rib1x1 %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.2f | %s | %s |\n' "$dims" "$nv" "$((3 * nv))" "$scene${*:+ $*}" "$n" "$dt" "$steps" "$its" "$pairs" "$dmin" \
+  printf '| rib1x1 %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.2f | %s | %s |\n' "$dims" "$nv" "$((3 * nv + nseg))" "$scene${*:+ $*}" "$n" "$dt" "$steps" "$its" "$pairs" "$dmin" \
     "$(awk -v w="$wall" -v s="$steps" 'BEGIN { print w / s }')" "$persec" "$relax_s"
 }
-echo "| patch | vertices | DOFs | scene | ranks | dt s | steps | Newton its/step | contact pairs/step | min dist / 2r | s/step | s per simulated s | relaxation s (2 ranks) |"
+echo "| patch | vertices | DOFs (positions, twists) | scene | ranks | dt s | steps | Newton its/step | contact pairs/step | min dist / 2r | s/step | s per simulated s | relaxation s (2 ranks) |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 dims="8x7";   yls_relaxed 8 7
 yls_row 1 stretch 0.05
@@ -139,7 +140,7 @@ yls_accuracy ftol -scene_output_interval 0.001 -yls_ftol 1e-2
 yls_accuracy dt2ms -scene_output_interval 0.002 -yls_dt 0.002 -yls_snes_max_it 200
 yls_accuracy dt5ms -scene_output_interval 0.005 -yls_dt 0.005 -yls_snes_max_it 200
 echo
-echo "| patch | vertices | DOFs | scene | ranks | dt s | steps | Newton its/step | contact pairs/step | min dist / 2r | s/step | s per simulated s | relaxation s (2 ranks) |"
+echo "| patch | vertices | DOFs (positions, twists) | scene | ranks | dt s | steps | Newton its/step | contact pairs/step | min dist / 2r | s/step | s per simulated s | relaxation s (2 ranks) |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 dims="24x25"; yls_relaxed 24 25
 yls_row 2 stretch 0.005
