@@ -36,6 +36,10 @@
 #include <vkscene.h>
 #include <vkyarn.h>
 
+/* The yarn-level model, named in yls.json and in the stamp of volknit
+ * run's cached reference: a new model makes every cached reference stale. */
+#define VK_YLS_MODEL "discrete elastic rods (2026-11)"
+
 /* Newton's Hessian: every element projected onto the PSD cone; exact; or
  * exact while it gives a descent direction, projected otherwise. */
 typedef enum { VK_YLS_HESSIAN_PROJECTED, VK_YLS_HESSIAN_EXACT, VK_YLS_HESSIAN_AUTO } VKYLSHessianType;

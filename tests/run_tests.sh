@@ -361,8 +361,8 @@ printf '%-22s       : %4d passed, %d failed\n' "fit command" "$((passed - fit_pa
 # 6. volknit run sweeps on the 2 x 2 rib stretch: the best uniform material's
 #    predicted REL (its trajectory loss) is what volknit report measures of
 #    its run; 1 and 2 ranks find the same material and error; a second run
-#    with the same reference options does not rerun the yarn-level reference
-#    and a changed -yls_ option does; mesh, step and PD-iteration lists give
+#    with the same reference options does not rerun the yarn-level reference,
+#    a changed -yls_ option or a reference of another model does; mesh, step and PD-iteration lists give
 #    one point each, with frames on the output interval (the report matches
 #    them to the reference's).
 run_passed=$passed
@@ -424,6 +424,10 @@ done
 stamp=$(stat -c %Y "$rd/s1/yls.h5" 2>/dev/null)
 if sweep_run "s1" 1 -run_sweep_material uniform && grep -q 'is up to date' "$rd/s1.log" && ! grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(stat -c %Y "$rd/s1/yls.h5")" = "$stamp" ]; then ok
 else not_ok "run sweep: the same reference options reran the yarn-level reference (see $rd/s1.log)"; fi
+# a reference made by another yarn-level model (its stamp's first line) is made again
+if head -n 1 "$rd/s2/reference.stamp" | grep -q '^yarn-level model: ' && sed -i '1s/.*/yarn-level model: unsigned curvature (before 2026-11)/' "$rd/s2/reference.stamp" \
+   && sweep_run "s2" 1 -run_sweep_material uniform && grep -q '^volknit yls: [0-9]* vertices' "$rd/s2.log" && head -n 1 "$rd/s2/reference.stamp" | grep -q 'discrete elastic rods'; then ok
+else not_ok "run sweep: a reference stamped by another yarn-level model was not made again (see $rd/s2.log)"; fi
 if sweep_run "s1" 1 -run_sweep_material uniform -run_sweep_mesh_h 0.003,0.004 -run_sweep_ts_dt 0.005 -run_sweep_pd_its 3 -yls_strict \
    && grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(grep -c '"label"' "$rd/s1/report/report.json")" -eq 2 ] \
    && grep -q '"label": "h0.004_uniform_dt0.005_its3"' "$rd/s1/report/report.json" && [ -s "$rd/s1/sweep/mesh_h0.004/mesh.h5" ] \

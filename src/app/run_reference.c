@@ -4,7 +4,9 @@
  * -yarn_, -yls_ and -scene_ option of the options database (after
  * -options_file expansion; viewers and monitors aside), sorted, each value
  * that names a readable file followed by an FNV-1a checksum of the file's
- * bytes, so an edited chart or BCC file counts as a change.  The stamp is
+ * bytes, so an edited chart or BCC file counts as a change; and first the
+ * yarn-level model (VK_YLS_MODEL), so a reference made by another model
+ * is made again.  The stamp is
  * written to DIR/reference.stamp after a reference run that converged and
  * removed before a run starts. */
 #include "appimpl.h"
@@ -80,7 +82,9 @@ PetscErrorCode VKAppReferenceStamp(MPI_Comm comm, char **stamp)
   }
   qsort(entry, (size_t)n, sizeof(char *), CompareStrings);
   for (PetscInt i = 0; i < n; i++) len += strlen(entry[i]) + 1;
+  len += strlen("yarn-level model: " VK_YLS_MODEL "\n");
   PetscCall(PetscCalloc1(len, stamp));
+  PetscCall(PetscStrlcat(*stamp, "yarn-level model: " VK_YLS_MODEL "\n", len));
   for (PetscInt i = 0; i < n; i++) {
     PetscCall(PetscStrlcat(*stamp, entry[i], len));
     PetscCall(PetscStrlcat(*stamp, "\n", len));

@@ -224,7 +224,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "radius_m", y->par.radius));
   PetscCall(VKJSONReal(&j, "density_kg_per_m", y->density));
   PetscCall(VKJSONReal(&j, "ks_N", y->par.ks));
-  PetscCall(VKJSONString(&j, "rod_model", "discrete elastic rods"));
+  PetscCall(VKJSONString(&j, "rod_model", VK_YLS_MODEL));
   PetscCall(VKJSONReal(&j, "kb_N_m2", y->par.kb));
   PetscCall(VKJSONReal(&j, "kt_N_m2", y->par.kt));
   PetscCall(VKJSONReal(&j, "kc_N_per_m", y->par.kc));

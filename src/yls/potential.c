@@ -48,23 +48,31 @@ PetscBool VKYLSFixed(VKYLS y, PetscInt v, PetscInt k)
 }
 
 /* An element's gradient and Hessian on the unknowns dof[0..n), the
- * angles among them in Newton's unknowns lambda theta (ylsimpl.h). */
+ * angles among them in Newton's unknowns lambda theta (ylsimpl.h).  The
+ * Hessian goes in as 4 x 4 blocks of its vertices (at most 4), with the
+ * rows and columns of fixed unknowns left zero: the matrix is blocked and
+ * symmetric (SBAIJ by default), so one search per block row places it. */
 static PetscErrorCode AddDofs(VKYLS y, Accum *acc, PetscInt n, const PetscInt dof[], const PetscReal ge[], const PetscReal He[])
 {
-  PetscReal sc[16], Hs[256];
+  PetscReal sc[16], Hb[256] = {0};
+  PetscInt  blk[4], nb = 0, at[16];
 
   PetscFunctionBegin;
   for (PetscInt a = 0; a < n; a++) sc[a] = dof[a] % 4 == 3 ? 1 / y->twist_scale : 1;
   if (acc->g)
     for (PetscInt a = 0; a < n; a++) acc->g[dof[a]] += sc[a] * ge[a];
-  if (acc->H) {
-    PetscInt idx[16];
-    for (PetscInt a = 0; a < n; a++) {
-      idx[a] = VKYLSFixed(y, dof[a] / 4, dof[a] % 4) ? -1 : dof[a];
-      for (PetscInt b = 0; b < n; b++) Hs[n * a + b] = sc[a] * sc[b] * He[n * a + b];
-    }
-    PetscCall(MatSetValues(acc->H, n, idx, n, idx, Hs, ADD_VALUES));
+  if (!acc->H) PetscFunctionReturn(0);
+  for (PetscInt a = 0; a < n; a++) { /* position of unknown a in the padded block matrix, or -1 if fixed */
+    PetscInt v = dof[a] / 4, b = 0;
+    while (b < nb && blk[b] != v) b++;
+    if (b == nb) blk[nb++] = v;
+    at[a] = VKYLSFixed(y, v, dof[a] % 4) ? -1 : 4 * b + dof[a] % 4;
   }
+  for (PetscInt a = 0; a < n; a++)
+    if (at[a] >= 0)
+      for (PetscInt c = 0; c < n; c++)
+        if (at[c] >= 0) Hb[4 * nb * at[a] + at[c]] += sc[a] * sc[c] * He[n * a + c];
+  PetscCall(MatSetValuesBlocked(acc->H, nb, blk, nb, blk, Hb, ADD_VALUES));
   PetscFunctionReturn(0);
 }
 
@@ -374,12 +382,18 @@ PetscErrorCode VKYLSCreateHessian(VKYLS y, Mat *H)
   PetscCall(MatAssemblyBegin(pre, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(pre, MAT_FINAL_ASSEMBLY));
   PetscCall(MatCreate(y->comm, H));
-  PetscCall(MatSetType(*H, MATAIJ));
+  PetscCall(MatSetType(*H, MATSBAIJ));
   PetscCall(MatSetSizes(*H, n, n, N, N));
   PetscCall(MatSetBlockSize(*H, 4));
   PetscCall(MatSetOptionsPrefix(*H, "yls_"));
+  PetscCall(MatSetFromOptions(*H)); /* -yls_mat_type aij for preconditioners that want it */
   PetscCall(MatPreallocatorPreallocate(pre, PETSC_TRUE, *H));
   PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  {
+    PetscBool sbaij;
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)*H, &sbaij, MATSEQSBAIJ, MATMPISBAIJ, ""));
+    if (sbaij) PetscCall(MatSetOption(*H, MAT_IGNORE_LOWER_TRIANGULAR, PETSC_TRUE)); /* elements give whole blocks */
+  }
   PetscCall(MatSetOption(*H, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(*H, MAT_SYMMETRY_ETERNAL, PETSC_TRUE));
   PetscCall(MatDestroy(&pre));
