@@ -62,7 +62,8 @@ PETSC_EXTERN PetscReal VKRodContact(const PetscReal x[], PetscReal La, PetscReal
  * whose axes come closer than 2r, except pairs along the same curve within
  * `exclude` of rest arc length (neighbours that touch by construction). */
 typedef struct {
-  PetscReal ks, kb, kt, kc, radius;
+  PetscReal ks, kb, kt, kc, radius; /* radius: of contact */
+  PetscReal section;                /* radius of the yarn's cross-section, for its spin inertia (0: radius) */
   PetscInt  nq;
 } VKRodParams;
 
@@ -76,7 +77,7 @@ typedef struct {
   PetscReal  *wbar, *mbar;      /* per stencil: rest material curvatures (2 in the frame of e, 2 of f) and rest twist */
   PetscReal  *t0, *d0;          /* per segment: rest tangent and rest director (3 each), the material frame at theta = 0 */
   PetscReal  *mass;             /* per vertex */
-  PetscReal  *inertia;          /* per segment: moment of inertia about its axis, m r^2 / 2 (kg m^2) */
+  PetscReal  *inertia;          /* per segment: moment of inertia about its axis, m r^2 / 2 with r the section radius (kg m^2) */
   PetscInt   *segcurve;         /* curve of each segment */
   PetscReal  *arc, *curvelen;   /* rest arc length at each segment start; per curve */
   PetscBool  *closed;           /* per curve */

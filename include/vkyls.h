@@ -8,9 +8,11 @@
  *   Phi(x, theta) = sum_i m_i/(2 dt^2) |x_i - x_n,i - dt v_n,i|^2
  *                 + sum_j I_j/(2 dt^2) (theta_j - theta_n,j - dt w_n,j)^2
  *                 + E(x, theta) - sum_i m_i g . x_i + damping + colliders,
+ * I_j the segment's moment of inertia about its axis,
  * E the rod energy of vkrod.h (stretch, bending, twist, Kaldor contact) plus glue
- * springs of the bound edges, damping the viscous term
- * c_v m_i/(2 dt) |x_i - x_n,i|^2 and the along-segment dashpots
+ * springs of the bound edges, damping the viscous terms
+ * c_v m_i/(2 dt) |x_i - x_n,i|^2 and c_v I_j/(2 dt) (theta_j - theta_n,j)^2
+ * and the along-segment dashpots
  * c_s/(2 dt L) ((e_j - e_n,j) . t_n,j)^2, colliders (inflated by r) the
  * penalty 1/2 k_w depth^2 with lagged, smoothed Coulomb friction.  Newton
  * steps through a PETSc SNES (prefix -yls_) with the element Hessians

@@ -222,7 +222,7 @@ static PetscErrorCode TestStretchChain(void)
 static PetscErrorCode ModelFromPolyline(PetscInt nv, const PetscReal x[], PetscBool closed, PetscReal kb, PetscReal kt, VKRodModel *m)
 {
   VKCurves    c;
-  VKRodParams par = {50, kb, kt, 10, 1e-4, 1};
+  VKRodParams par = {.ks = 50, .kb = kb, .kt = kt, .kc = 10, .radius = 1e-4, .section = 0, .nq = 1};
 
   PetscFunctionBegin;
   PetscCall(VKCurvesInit(&c));

@@ -98,6 +98,7 @@ int main(int argc, char **argv)
   PetscCall(VKYarnSetKnit(y, "rib1x1", 3, 3));
   PetscCall(VKYarnSetUp(y));
   PetscCall(VKYarnGetMass(y, &mass, &length));
+  PetscCall(PetscMemzero(&par, sizeof(par)));
   par.ks     = 50;
   par.kb     = 1e-7;
   par.kt     = 0.8e-7;

@@ -14,7 +14,8 @@
  *    still (stress-free rest);
  *  - the relaxed patch with k_s = 1e6 N falls freely as implicit Euler
  *    says (Newton's tolerance does not grow with k_s);
- *  - the relaxation gives the same yarn on 2 ranks as on 1;
+ *  - the relaxation gives the same yarn on 2 ranks as on 1, and with a
+ *    scene of moving, turning handles as without one (it ignores the scene);
  *  - the same patch pulled by its side edges to 150 % of its width: every
  *    crossing of two yarns in contact at the start, followed as the yarns
  *    slide, keeps its side (no pull-through) and its contact (no
@@ -247,6 +248,44 @@ static PetscErrorCode TestRelaxedStill(MPI_Comm comm, const char dir[], PetscRea
   PetscFunctionReturn(0);
 }
 
+/* The relaxation ignores the scene: the 3x3 rib relaxed inside a simulator
+ * whose scene holds its left and right edges (handles, the frames of held
+ * segments too) and pulls them apart comes out as the one relaxed without
+ * a scene, xrelaxed. */
+static PetscErrorCode TestRelaxIgnoresScene(MPI_Comm comm, const PetscReal xrelaxed[])
+{
+  Run       r;
+  VKYLS     y;
+  PetscReal d = 0, lo[3], hi[3];
+
+  PetscFunctionBegin;
+  PetscCall(RunCreate(comm, NULL, &r));
+  y = r.yls;
+  PetscCall(VKCurvesBoundingBox(&r.y->curves, lo, hi));
+  r.s->nhandles = 2;
+  for (int h = 0; h < 2; h++) {
+    VKHandle *hd = &r.s->handle[h];
+    for (int a = 0; a < 3; a++) {
+      hd->box[a]     = lo[a] - 1;
+      hd->box[3 + a] = hi[a] + 1;
+    }
+    if (h == 0) hd->box[3] = lo[0] + 0.1 * (hi[0] - lo[0]);
+    else hd->box[0] = hi[0] - 0.1 * (hi[0] - lo[0]);
+    hd->velocity[0] = h ? 0.01 : -0.01;
+    hd->axis[2]     = 1;
+    hd->omega       = h ? 1 : 0; /* the right edge also turns */
+    hd->window[1]   = 1;
+  }
+  r.s->gravity[2] = -9.81;
+  r.s->duration   = 1;
+  PetscCall(VKYLSSetUp(y));
+  PetscCall(VKYLSRelax(y));
+  for (PetscInt i = 0; i < 3 * y->model.nv; i++) d = PetscMax(d, PetscAbsReal(y->yarn->curves.x[i] - xrelaxed[i]));
+  PetscCall(VKTestCheck((PetscBool)(d <= 1e-12), NULL, "the relaxation ignores the scene's handles, turning handle and gravity: the same yarn as without a scene to %.1e m", (double)d));
+  PetscCall(RunDestroy(&r));
+  PetscFunctionReturn(0);
+}
+
 /* The relaxed rib of dir/yarn.h5 with k_s = 1e6 N (10^4 x the default),
  * free under gravity with no damping: internal forces cancel, so its
  * centre of mass falls as implicit Euler says, z_n = -g dt^2 n (n + 1) / 2,
@@ -423,6 +462,7 @@ int main(int argc, char **argv)
   PetscCall(TestConservation(PETSC_COMM_WORLD));
   PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
   PetscCall(TestRelaxedStill(PETSC_COMM_WORLD, dir, &rworld));
+  PetscCall(TestRelaxIgnoresScene(PETSC_COMM_WORLD, rworld));
   PetscCall(TestStiffFalls(PETSC_COMM_WORLD, dir));
   PetscCall(TestStretchCrossings(PETSC_COMM_WORLD));
   if (size > 1) { /* the same crossing on one rank (every rank runs its own copy) */

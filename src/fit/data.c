@@ -1,9 +1,11 @@
 /* data.c: the yarn-level frames the fitting learns from (DESIGN §8): the
  * DIR/yls.h5 that volknit yls writes (src/yls/output.c),
  *   /frames/NNNNNN/x       n_Y x 3 positions, attribute time
- *   /frames/NNNNNN/normal  n_seg x 3 material normals n1
+ *   /frames/NNNNNN/normal  n_seg x 3 normals n1 (the reference directors,
+ *                          carried by time-parallel transport)
  *   /yls/time, /yls/energy one row per frame (energy columns: stretch,
- *                          bending, contact, glue, kinetic, gravity)
+ *                          bending with twist, contact, glue, kinetic,
+ *                          gravity)
  * read by every rank (the same bytes, so a bad file fails on all ranks
  * together), checked against the mesh's yarn model, and the sample frames
  * picked from it: -fit_frames i,j,... or -fit_nsamples n chosen evenly in

@@ -79,7 +79,7 @@ PetscErrorCode VKRodModelCreate(const VKCurves *c, const VKRodParams *par, Petsc
     m->curvelen[cu] += m->L[s];
     m->mass[m->seg[2 * s]] += 0.5 * density * m->L[s];
     m->mass[m->seg[2 * s + 1]] += 0.5 * density * m->L[s];
-    m->inertia[s] = 0.5 * density * m->L[s] * par->radius * par->radius;
+    m->inertia[s] = 0.5 * density * m->L[s] * PetscSqr(par->section > 0 ? par->section : par->radius);
   }
   PetscCall(VKCurvesTransportFrames(c, m->d0));
   PetscCall(PetscArrayzero(m->wbar, 4 * m->nbend));
@@ -291,6 +291,10 @@ PetscErrorCode VKRodModelEnergy(const VKRodModel *m, const VKRodFrames *f, const
     VKRodModelStencil(m, f, k, &d);
     GatherStencil(m, k, x, theta, xe, te);
     Eb = VKRodBendTwist(&d, xe, te, PETSC_FALSE, g || gtheta ? ge : NULL, NULL, &out);
+    if (!(Eb < PETSC_INFINITY)) { /* folded back: nothing else was computed */
+      VKSumAdd(&sum[1], Eb);
+      continue;
+    }
     VKSumAdd(&sum[1], Eb - out.etwist);
     VKSumAdd(&sum[2], out.etwist);
     if (g)

@@ -195,7 +195,8 @@ static PetscErrorCode CapStep(VKYLS y, Vec Y, PetscReal *ymax)
   for (PetscInt i = 0; i < n; i += 4) {
     m[0] = PetscMax(m[0], ya[i] * ya[i] + ya[i + 1] * ya[i + 1] + ya[i + 2] * ya[i + 2]);
     m[1] = PetscMax(m[1], PetscAbsReal(ya[i + 3]) / y->twist_scale);
-    if (PetscIsInfOrNanReal(ya[i + 3])) m[0] = PETSC_INFINITY;
+    for (int k = 0; k < 4; k++)
+      if (PetscIsInfOrNanReal(ya[i + k])) m[0] = PETSC_INFINITY; /* PetscMax drops a NaN */
   }
   PetscCall(VecRestoreArrayRead(Y, &ya));
   PetscCall(MPIU_Allreduce(m, all, 2, MPIU_REAL, MPIU_MAX, y->comm));

@@ -44,11 +44,11 @@ PetscBool VKYLSFixed(VKYLS y, PetscInt v, PetscInt k)
 {
   PetscInt s = y->model.segof[v];
   if (k < 3) return y->handle[v] >= 0 ? PETSC_TRUE : PETSC_FALSE;
-  return s < 0 || !PetscIsNanReal(y->thheld[s]) ? PETSC_TRUE : PETSC_FALSE;
+  return s < 0 || (!PetscIsNanReal(y->thheld[s]) && y->handle[v] >= 0) ? PETSC_TRUE : PETSC_FALSE;
 }
 
 /* An element's gradient and Hessian on the unknowns dof[0..n), the
- * angles among them in Newton's unknowns lambda theta (ylsimpl.h).  The
+ * angles among them in Newton's unknowns twist_scale x theta (vkyls.h).  The
  * Hessian goes in as 4 x 4 blocks of its vertices (at most 4), with the
  * rows and columns of fixed unknowns left zero: the matrix is blocked and
  * symmetric (SBAIJ by default), so one search per block row places it. */

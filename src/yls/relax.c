@@ -72,7 +72,7 @@ static PetscErrorCode ResetRest(VKYLS y)
 PetscErrorCode VKYLSRelax(VKYLS y)
 {
   PetscInt      *handle, steps = 0, halved, nhandles, ncolliders;
-  PetscReal      g[3], dt, cv, cs, r;
+  PetscReal      g[3], dt, cv, cs, r, *thheld;
   VKYLSStats     stats;
   PetscLogDouble t0 = VKWallTime();
 
@@ -87,9 +87,11 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   stats      = y->stats;
   PetscCheck(y->step == 0, y->comm, PETSC_ERR_ORDER, "Relax before the first time step");
   /* no scene, no damping, a long pseudo time step */
-  PetscCall(PetscMalloc1(y->model.nv, &handle));
+  PetscCall(PetscMalloc2(y->model.nv, &handle, y->model.nseg + 1, &thheld));
   PetscCall(PetscArraycpy(handle, y->handle, y->model.nv));
+  PetscCall(PetscArraycpy(thheld, y->thheld, y->model.nseg));
   for (PetscInt i = 0; i < y->model.nv; i++) y->handle[i] = -1;
+  for (PetscInt sg = 0; sg < y->model.nseg; sg++) y->thheld[sg] = (PetscReal)NAN; /* no frame held either */
   for (int k = 0; k < 3; k++) {
     g[k]                  = y->scene->gravity[k];
     y->scene->gravity[k]  = 0;
@@ -107,7 +109,8 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   PetscCall(ResetRest(y));
   /* the scene back */
   PetscCall(PetscArraycpy(y->handle, handle, y->model.nv));
-  PetscCall(PetscFree(handle));
+  PetscCall(PetscArraycpy(y->thheld, thheld, y->model.nseg));
+  PetscCall(PetscFree2(handle, thheld));
   for (int k = 0; k < 3; k++) y->scene->gravity[k] = g[k];
   y->scene->nhandles   = nhandles;
   y->scene->ncolliders = ncolliders;

@@ -169,6 +169,7 @@ PetscErrorCode VKYLSSetUp(VKYLS y)
   y->twist_scale   = y->yarn->radius;
   {
     VKRodParams par = y->par; /* a relaxed rest state keeps the contact radius it was relaxed to */
+    par.section = y->yarn->radius;
     if (y->yarn->contact_radius > 0) par.radius = y->yarn->contact_radius;
     PetscCall(VKRodModelCreate(&y->yarn->curves, &par, y->density, &y->model));
   }
@@ -354,7 +355,7 @@ static PetscErrorCode BeginStep(VKYLS y)
   PetscCall(VKYLSTangents(y, y->xn, y->tn)); /* the chart of the step: these tangents, y->normal, y->mref */
   PetscCall(PetscArraycpy(y->thn, y->theta, m->nseg));
   for (PetscInt sg = 0; sg < m->nseg; sg++)
-    if (!PetscIsNanReal(y->thheld[sg])) y->theta[sg] = y->thheld[sg] = HeldAngle(y, sg, t1);
+    if (!PetscIsNanReal(y->thheld[sg]) && y->handle[m->seg[2 * sg]] >= 0) y->theta[sg] = y->thheld[sg] = HeldAngle(y, sg, t1);
   {
     const PetscReal *g = y->scene->gravity;
     PetscReal        m2 = 0, all;
@@ -448,7 +449,13 @@ static PetscErrorCode Advance(VKYLS y, PetscReal dt, PetscInt depth)
     PetscCall(SNESGetKSP(y->snes, &ksp));
     PetscCall(KSPGetPC(ksp, &pc));
     PetscCall(PCGetFailedReason(pc, &pcr));
-    if (pcr == PC_FACTOR_OUTMEMORY) PetscCall(VKMUMPSRaiseWorkspace(ksp, NULL, &y->mumps_workspace, y->mumps_option, sizeof(y->mumps_option), &raised));
+    if (pcr == PC_FACTOR_OUTMEMORY) {
+      MatSolverType solver = NULL;
+      PetscBool     mumps  = PETSC_FALSE;
+      PetscCall(PCFactorGetMatSolverType(pc, &solver));
+      if (solver) PetscCall(PetscStrcmp(solver, MATSOLVERMUMPS, &mumps));
+      if (mumps) PetscCall(VKMUMPSRaiseWorkspace(ksp, NULL, &y->mumps_workspace, y->mumps_option, sizeof(y->mumps_option), &raised));
+    }
     if (raised) {
       PetscCall(RestoreStart(y));
       PetscCall(MatDestroy(&y->J)); /* a new matrix: a new symbolic factorization reads the option */
