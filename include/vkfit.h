@@ -147,7 +147,7 @@ struct _n_VKFit {
   char      kkt_workspace_option[256]; /* the option the fit set to raise it ("" if none) */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
-  PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2];
+  PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2], gamma_max_rel, gamma_max[2];
   PetscBool best_uniform;              /* start from the best uniform material (uniform.c) */
   PetscReal uniform_range[2];          /* its search interval, Pa */
   PetscReal uniform_g, uniform_loss;   /* its result (uniform_g 0: not searched in this run) */
@@ -241,17 +241,22 @@ PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v
  * -fit_rtol.  r > 0 moves gamma in the span of the r lowest harmonics
  * (gamma = gamma0 + B q), r = 0 moves every parameter.  gamma stays above
  * the floor gamma_min (projection of every trial; frozen and pivoted
- * parameters in the full space).  Iterations are appended
+ * parameters in the full space) and below the ceiling gamma_max
+ * (projection only).  Iterations are appended
  * to fit->hist.  The frame is left at the equilibrium of the final gamma. */
 /* The uniform material g_s = g_v = g in [lo, hi] Pa minimizing the sum of
  * the frames' losses at equilibrium (uniform.c). */
 PETSC_EXTERN PetscErrorCode VKFitBestUniform(VKFit, PetscInt nf, VKFitFrame f[], PetscReal lo, PetscReal hi, PetscReal *g, PetscReal *loss);
 PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma);
 /* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
- * g_v in gamma. */
+ * g_v in gamma, and the ceiling (VKFitSetGammaCeiling). */
 PETSC_EXTERN PetscErrorCode VKFitSetGammaFloor(VKFit, Vec gamma);
-/* The fractions of the tets whose g_s and whose g_v sit on the floor. */
-PETSC_EXTERN PetscErrorCode VKFitGammaAtFloor(VKFit, Vec gamma, PetscReal fraction[2]);
+/* The ceiling gamma_max = -fit_gamma_max (relative) x the mean of g_s and
+ * of g_v in gamma: no fitted parameter goes above it. */
+PETSC_EXTERN PetscErrorCode VKFitSetGammaCeiling(VKFit, Vec gamma);
+/* The fractions of the tets whose g_s and whose g_v sit on the floor, and
+ * the largest g_s and g_v. */
+PETSC_EXTERN PetscErrorCode VKFitGammaAtFloor(VKFit, Vec gamma, PetscReal fraction[2], PetscReal largest[2]);
 
 /* ---- yarn-level data (data.c) ------------------------------------------- */
 typedef enum { VK_FIT_SAMPLE_BY_ENERGY, VK_FIT_SAMPLE_BY_EVEN } VKFitSampleBy;
@@ -349,11 +354,15 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory, Vec gamma, 
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetRestLoss(VKFitTrajectory, PetscReal *);
 /* The rolled-out positions at frame k of the last evaluation. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory, PetscInt k, Vec x);
-/* g0 + (gamma - g0) o exp(B_r q): never below the floor g0. */
+/* The fit a trajectory was made for. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryGetFit(VKFitTrajectory, VKFit *);
+/* g0 + (g1 - g0) o sigma(logit((gamma - g0)/(g1 - g0)) + B_r q): between
+ * the floor g0 and the ceiling g1. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryMove(VKFit, PetscInt r, Vec gamma, const PetscReal q[], Vec out);
 /* The prior (-fit_trajectory_prior mu > 0) keeps parameters the frames do
  * not determine near a reference material gref with loss L_ref:
- *   R(gamma) = mu L_ref mean_i log^2((gamma_i - g0)/(gref_i - g0)),
+ *   R(gamma) = mu L_ref mean_i (logit p(gamma_i) - logit p(gref_i))^2, p the
+ *   place (gamma - g0)/(g1 - g0) between floor and ceiling,
  * over all 2 ne parameters.  SetPriorReference records gref and L_ref
  * (VKFitTrajectoryOptimize does so at its first call when none is set);
  * AddPrior adds R to *obj and, with grad and P (2r, 2r x 2r) given, its

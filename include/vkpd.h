@@ -118,6 +118,7 @@ typedef struct {
   PetscInt       iterations, newton_its, fail_iteration;
   PetscReal      residual0, residual; /* |grad Phi| at the start and the end */
   PetscReal      force_scale, tolerance; /* f_scale and the tolerance on |grad Phi| at the end (N) */
+  PetscReal      requested;             /* the tolerance the options ask for, max(ftol f_scale, atol, rtol |grad Phi(x0)|): below tolerance where the round-off floor set it */
   PetscInt       line_search_restarts;  /* L-BFGS: directions rejected, PD step taken instead */
   PetscInt       newton_reason;         /* SNESConvergedReason of the Newton polish (0: none) */
   PetscReal      phi, energy;         /* Phi and the elastic energy at the end */

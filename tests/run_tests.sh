@@ -143,6 +143,14 @@ if timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$d30" -options_file opti
   if echo "$times" | awk '{ n = NF; ok = (n == 3 && $n == 0.05); for (k = 1; k < n; k++) { d = $k - (k - 1) / 30; if (d < -1e-12 || d > 1e-12) ok = 0 } exit !ok }'; then ok
   else not_ok "sim -scene_duration 0.05: frame times '$times', expected 0, 1/30 and 0.05 (see $d30.t005.log)"; fi
 else not_ok "sim -scene_duration 0.05 failed (see $d30.t005.log)"; fi
+# a material far too stiff for the tolerance (1e14 Pa): every step stops at
+# the round-off floor, above -pd_ftol x f_scale; said so, and counted in
+# sim.json; a sane material has no such step
+if timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -mat_gamma_s 1e14 -mat_gamma_v 1e14 > "$d30.roundoff.log" 2>&1 \
+   && grep -q 'WARNING: 3 of 3 steps stopped at the round-off floor' "$d30.roundoff.log" && grep -q '"roundoff_limited_steps": 3,' "$d30/sim.json" \
+   && timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 > "$d30.roundoff0.log" 2>&1 \
+   && ! grep -q 'round-off floor' "$d30.roundoff0.log" && grep -q '"roundoff_limited_steps": 0,' "$d30/sim.json"; then ok
+else not_ok "volknit sim at 1e14 Pa: expected the round-off warning and roundoff_limited_steps 3 in sim.json, none at the default material (see $d30.roundoff.log, $d30.roundoff0.log)"; fi
 # a step stopped at -pd_max_it: warned about, status "unconverged"; with -sim_strict an error
 if timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -pd_max_it 1 > "$d30.unconv.log" 2>&1 \
    && grep -q 'did not converge' "$d30.unconv.log" && grep -q '"status": "unconverged"' "$d30/sim.json"; then ok
@@ -202,6 +210,7 @@ fit_failed=$failed
 fd="$out/fit"
 # one option set for every fit mode (the trajectory loss reads no -fit_nsamples), so unread ones only warn
 FIT_OPTS="-options_file options/stretch.opts -fit_nsamples 2 -fit_sample_by energy -fit_gd_its 3 -fit_gn_its 5 -fit_harmonic 1,10 -options_unused_ok"
+json_num() { sed -n "s/.*\"$2\": \([^,]*\),\{0,1\}$/\1/p" "$1" | head -n "${3:-1}" | tail -n 1; }
 compare_material() { # a b rtol what
   log="$fd/compare.$4.log"
   bin/tests/tool_compare_material "$1" "$2" "$3" > "$log" 2>&1
@@ -271,6 +280,15 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
     else not_ok "volknit fit -n $n -fit_loss trajectory: status '$st' in fit.json, its log line or the iteration-limit warning missing (see $fd/traj$n.log)"; fi
   done
   compare_material "$fd/traj1/material.h5" "$fd/traj2/material.h5" 1e-5 "trajectory, 1 vs 2 ranks"
+  # a ceiling (-fit_gamma_max) twice the best uniform material: fit.json names
+  # it, and no fitted parameter goes above it
+  fit_dir "trajceil"
+  if fit_run "trajceil" 2 -fit_loss trajectory -fit_gamma_max 2 && [ -s "$fd/trajceil/material.h5" ] \
+     && awk -v c="$(json_num "$fd/trajceil/fit.json" g_s_Pa 2)" -v cv="$(json_num "$fd/trajceil/fit.json" g_v_Pa 2)" \
+            -v l="$(json_num "$fd/trajceil/fit.json" largest_g_s_Pa)" -v lv="$(json_num "$fd/trajceil/fit.json" largest_g_v_Pa)" \
+            -v u="$(json_num "$fd/trajceil/fit.json" gamma_Pa)" \
+            'BEGIN { exit !(c > 0 && c <= 2.000001 * u && l > 0 && l <= c && lv > 0 && lv <= cv) }'; then ok
+  else not_ok "volknit fit -fit_loss trajectory -fit_gamma_max 2: failed, or a parameter above the ceiling in fit.json (see $fd/trajceil.log, $fd/trajceil/fit.json)"; fi
   # one material on two scenes (-fit_joint): a hang run of the same yarn beside
   # the stretch; from 1 kPa (no search) the joint loss (the sum of the scenes'
   # normalized losses) falls and both scenes report theirs -- one scene may
@@ -370,7 +388,6 @@ run_failed=$failed
 rd="$out/run"
 mkdir -p "$rd"
 SWEEP_OPTS="-options_file options/stretch.opts -yarn_pattern rib1x1 -yarn_wales 2 -yarn_courses 2 -scene_duration 0.1"
-json_num() { sed -n "s/.*\"$2\": \([^,]*\),\{0,1\}$/\1/p" "$1" | head -n "${3:-1}" | tail -n 1; }
 close() { awk -v a="$1" -v b="$2" -v t="$3" 'BEGIN { d = a - b; if (d < 0) d = -d; s = (a < 0 ? -a : a); exit !(a != "" && b != "" && d <= t * s) }'; }
 sweep_run() { # dir ranks [options]: volknit run, log in dir.log
   d=$1; n=$2; shift 2

@@ -479,18 +479,18 @@ int main(int argc, char **argv)
   PetscCall(VKTestCheck((PetscBool)(err <= 0.05), NULL, "manufactured recovery: gamma within %.1e (relative) of gamma* where each parameter's own energy is above the median (5%% asked)", (double)err));
   PetscCall(VKTestCheck((PetscBool)(below == 0), NULL, "manufactured recovery: no parameter below the floor (%d)", (int)below));
   { /* the floor count: none of gamma* on it, every parameter of the floor itself */
-    PetscReal    f0[2], f1[2];
+    PetscReal    f0[2], f1[2], l1[2];
     PetscScalar *g;
     PetscInt     n;
     Vec          atf;
-    PetscCall(VKFitGammaAtFloor(p.fit, p.gstar, f0));
+    PetscCall(VKFitGammaAtFloor(p.fit, p.gstar, f0, l1));
     PetscCall(VecDuplicate(p.gstar, &atf));
     PetscCall(VecGetLocalSize(atf, &n));
     PetscCall(VecGetArray(atf, &g));
     for (PetscInt i = 0; i < n; i++) g[i] = p.fit->gamma_min[i % 2];
     PetscCall(VecRestoreArray(atf, &g));
-    PetscCall(VKFitGammaAtFloor(p.fit, atf, f1));
-    PetscCall(VKTestCheck((PetscBool)(f0[0] == 0 && f0[1] == 0 && f1[0] == 1 && f1[1] == 1), NULL, "VKFitGammaAtFloor: gamma* has %g, %g of g_s, g_v on the floor (0 expected), the floor itself %g, %g (1 expected)", (double)f0[0], (double)f0[1], (double)f1[0], (double)f1[1]));
+    PetscCall(VKFitGammaAtFloor(p.fit, atf, f1, l1));
+    PetscCall(VKTestCheck((PetscBool)(f0[0] == 0 && f0[1] == 0 && f1[0] == 1 && f1[1] == 1 && l1[0] == p.fit->gamma_min[0] && l1[1] == p.fit->gamma_min[1]), NULL, "VKFitGammaAtFloor: gamma* has %g, %g of g_s, g_v on the floor (0 expected), the floor itself %g, %g (1 expected) and its largest is the floor", (double)f0[0], (double)f0[1], (double)f1[0], (double)f1[1]));
     PetscCall(VecDestroy(&atf));
   }
   if (size > 1) { /* the same fit on one rank */

@@ -49,9 +49,10 @@ typedef struct {
   Vec             gstar, gamma0;
 } Problem;
 
-/* gamma = g0 + (gs - g0, gv - g0) o (exp(as h_2/max|h_2|), exp(av h_3/max|h_3|))
- * per tet, g0 the fit's floor (zero before it is set): the form the
- * trajectory fit's parametrization reaches exactly */
+/* gamma = g0 + (g1 - g0) sigma(logit((gs - g0)/(g1 - g0)) + as h_2/max|h_2|)
+ * for g_s (av, h_3 for g_v) per tet, g0 and g1 the fit's floor and ceiling:
+ * the form the trajectory fit's parametrization reaches exactly; before
+ * they are set, gs exp(as h_2/max|h_2|) */
 static PetscErrorCode Material(Problem *p, PetscReal gs, PetscReal as, PetscReal gv, PetscReal av, Vec gamma)
 {
   PetscInt     nloc, n;
@@ -66,10 +67,14 @@ static PetscErrorCode Material(Problem *p, PetscReal gs, PetscReal as, PetscReal
     for (int k = 0; k < 2; k++) hmax[k] = PetscMax(hmax[k], PetscAbsReal(B[(1 + k) * n + e]));
   PetscCallMPI(MPI_Allreduce(hmax, amax, 2, MPIU_REAL, MPIU_MAX, PETSC_COMM_WORLD));
   PetscCall(VecGetArray(gamma, &g));
-  for (PetscInt e = 0; e < n; e++) {
-    g[2 * e]     = p->fit->gamma_min[0] + (gs - p->fit->gamma_min[0]) * PetscExpReal(as * B[n + e] / amax[0]);
-    g[2 * e + 1] = p->fit->gamma_min[1] + (gv - p->fit->gamma_min[1]) * PetscExpReal(av * B[2 * n + e] / amax[1]);
-  }
+  for (PetscInt e = 0; e < n; e++)
+    for (int k = 0; k < 2; k++) {
+      PetscReal g0 = p->fit->gamma_min[k], g1 = p->fit->gamma_max[k], w = (k ? av : as) * B[(1 + k) * n + e] / amax[k], at = k ? gv : gs;
+      if (g1 > 0) {
+        PetscReal u = PetscLogReal((at - g0) / (g1 - at)) + w;
+        g[2 * e + k] = g0 + (g1 - g0) / (1 + PetscExpReal(-u));
+      } else g[2 * e + k] = at * PetscExpReal(w);
+    }
   PetscCall(VecRestoreArray(gamma, &g));
   PetscFunctionReturn(0);
 }
@@ -163,13 +168,41 @@ static PetscErrorCode RelDiff(Vec a, Vec b, PetscReal *d)
   PetscFunctionReturn(0);
 }
 
+/* Taylor test of grad_q L at gamma0 along dq (r = 3): the remainder
+ * |L(move(gamma0, h dq)) - L - h grad.dq| falls as h^2; grad and P at
+ * gamma0 are returned. */
+static PetscErrorCode TaylorTest(Problem *p, const PetscReal dq[6], PetscReal g[6], PetscReal P[36], char d[], size_t dn, PetscBool *pass, PetscReal *order)
+{
+  PetscReal L, q[6], r[5], gd = 0;
+  Vec       trial;
+  PetscBool ok, allok;
+  int       pairs;
+
+  PetscFunctionBegin;
+  PetscCall(VecDuplicate(p->gamma0, &trial));
+  PetscCall(VKFitTrajectoryEvaluate(p->T, p->gamma0, 3, &L, NULL, g, P, &allok));
+  for (int j = 0; j < 6; j++) gd += g[j] * dq[j];
+  for (int k = 0; k < 5; k++) {
+    PetscReal h = 0.5 * PetscPowReal(2, -k), Lh;
+    for (int j = 0; j < 6; j++) q[j] = h * dq[j];
+    PetscCall(VKFitTrajectoryMove(p->fit, 3, p->gamma0, q, trial));
+    PetscCall(VKFitTrajectoryEvaluate(p->T, trial, 0, &Lh, NULL, NULL, NULL, &ok));
+    allok = (PetscBool)(allok && ok);
+    r[k]  = PetscAbsReal(Lh - L - h * gd);
+  }
+  *order = VKTestTaylorOrder(5, r, 1e-12 * L, &pairs);
+  PetscCall(PetscSNPrintf(d, dn, "ceiling g_s %g, g_v %g Pa; remainders %.3e %.3e %.3e %.3e %.3e, order %.2f over %d pairs (L %.3e, g.dq %.3e)", (double)p->fit->gamma_max[0], (double)p->fit->gamma_max[1], (double)r[0], (double)r[1], (double)r[2], (double)r[3], (double)r[4], (double)*order, pairs, (double)L, (double)gd));
+  *pass = (PetscBool)(allok && pairs >= 3 && *order > 1.8 && PetscAbsReal(gd) > 1e-3 * L);
+  PetscCall(VecDestroy(&trial));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode TestRolloutAndDerivatives(void)
 {
   Problem   p;
-  PetscReal L, g[6], P[36], gs[6], Ps[36], dq[6] = {0.7, -0.4, 1.1, -0.9, 0.5, 0.8}, r[5], q[6], gd = 0, asym = 0, scale = 0, gnorm = 0, order;
+  PetscReal L, g[6], P[36], gs[6], Ps[36], dq[6] = {0.7, -0.4, 1.1, -0.9, 0.5, 0.8}, q[6], asym = 0, scale = 0, gnorm = 0, order;
   Vec       trial, x;
   PetscBool ok;
-  int       pairs;
   char      d[256];
 
   PetscFunctionBegin;
@@ -205,18 +238,8 @@ static PetscErrorCode TestRolloutAndDerivatives(void)
     PetscCall(VKTestCheck((PetscBool)(ok && worst < 1e-9), d, "trajectory: the rollout's frames equal implicit Euler step by step, shortened steps included (%.1e)", (double)worst));
   }
   /* Taylor test of grad_q L at gamma0 along dq */
-  PetscCall(VKFitTrajectoryEvaluate(p.T, p.gamma0, 3, &L, NULL, g, P, &ok));
-  for (int j = 0; j < 6; j++) gd += g[j] * dq[j];
-  for (int k = 0; k < 5; k++) {
-    PetscReal h = 0.5 * PetscPowReal(2, -k), Lh;
-    for (int j = 0; j < 6; j++) q[j] = h * dq[j];
-    PetscCall(VKFitTrajectoryMove(p.fit, 3, p.gamma0, q, trial));
-    PetscCall(VKFitTrajectoryEvaluate(p.T, trial, 0, &Lh, NULL, NULL, NULL, &ok));
-    r[k] = PetscAbsReal(Lh - L - h * gd);
-  }
-  order = VKTestTaylorOrder(5, r, 1e-12 * L, &pairs);
-  PetscCall(PetscSNPrintf(d, sizeof(d), "remainders %.3e %.3e %.3e %.3e %.3e, order %.2f over %d pairs (L %.3e, g.dq %.3e)", (double)r[0], (double)r[1], (double)r[2], (double)r[3], (double)r[4], (double)order, pairs, (double)L, (double)gd));
-  PetscCall(VKTestCheck((PetscBool)(pairs >= 3 && order > 1.8 && PetscAbsReal(gd) > 1e-3 * L), d, "trajectory: Taylor test of the sensitivity gradient in the log-harmonic parametrization (order %.2f)", (double)order));
+  PetscCall(TaylorTest(&p, dq, g, P, d, sizeof(d), &ok, &order));
+  PetscCall(VKTestCheck(ok, d, "trajectory: Taylor test of the sensitivity gradient in the log-harmonic parametrization (order %.2f)", (double)order));
   for (int i = 0; i < 6; i++)
     for (int j = 0; j < 6; j++) {
       asym  = PetscMax(asym, PetscAbsReal(P[6 * i + j] - P[6 * j + i]));
@@ -301,7 +324,7 @@ static PetscErrorCode TestBestUniform(void)
   PetscFunctionReturn(0);
 }
 
-/* The prior R = mu L_ref mean log^2((gamma - g0)/(gref - g0)) is exactly
+/* The prior R = mu L_ref mean (logit p(gamma) - logit p(gref))^2 is exactly
  * quadratic in q: its gradient and Hessian reproduce it along a direction
  * to round-off; and a heavy prior holds the optimizer at the reference. */
 static PetscErrorCode TestPrior(void)
@@ -418,6 +441,62 @@ static PetscErrorCode TestJoint(void)
   PetscFunctionReturn(0);
 }
 
+/* Near the ceiling (3x the start's mean: parameters a third of the way up)
+ * the parametrization is logistic: its sensitivities pass a Taylor test
+ * there, a long move ends between floor and ceiling, and moves compose
+ * (logit p is additive, what makes the prior exactly quadratic). */
+static PetscErrorCode TestCeiling(void)
+{
+  Problem   p;
+  PetscReal g[6], P[36], dq[6] = {0.7, -0.4, 1.1, -0.9, 0.5, 0.8}, q[6], q2[6], order, lo = PETSC_MAX_REAL, hi = 0, comp;
+  Vec       trial, step2, both;
+  PetscBool ok;
+  char      d[256];
+  PetscInt  n;
+  const PetscScalar *a;
+
+  PetscFunctionBegin;
+  PetscCall(Build(&p, PETSC_FALSE));
+  p.fit->gamma_max_rel = 3;
+  PetscCall(VKFitSetGammaCeiling(p.fit, p.gamma0));
+  PetscCall(VecDuplicate(p.gamma0, &trial));
+  PetscCall(VecDuplicate(p.gamma0, &step2));
+  PetscCall(VecDuplicate(p.gamma0, &both));
+  PetscCall(TaylorTest(&p, dq, g, P, d, sizeof(d), &ok, &order));
+  PetscCall(VKTestCheck(ok, d, "trajectory: Taylor test of the sensitivity gradient a third of the way to the ceiling (order %.2f)", (double)order));
+  /* a long move: every parameter between its bounds, some close to the ceiling */
+  for (int j = 0; j < 6; j++) q[j] = 40 * dq[j];
+  PetscCall(VKFitTrajectoryMove(p.fit, 3, p.gamma0, q, trial));
+  PetscCall(VecGetLocalSize(trial, &n));
+  PetscCall(VecGetArrayRead(trial, &a));
+  for (PetscInt i = 0; i < n; i++) {
+    lo = PetscMin(lo, PetscRealPart(a[i]) / p.fit->gamma_min[i % 2]);
+    hi = PetscMax(hi, PetscRealPart(a[i]) / p.fit->gamma_max[i % 2]);
+  }
+  PetscCall(VecRestoreArrayRead(trial, &a));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPIU_REAL, MPIU_MIN, PETSC_COMM_WORLD));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPIU_REAL, MPIU_MAX, PETSC_COMM_WORLD));
+  PetscCall(PetscSNPrintf(d, sizeof(d), "after q = 40 dq: smallest gamma / floor %.6f, largest gamma / ceiling %.6f", (double)lo, (double)hi));
+  PetscCall(VKTestCheck((PetscBool)(lo >= 1 && hi <= 1 && hi > 0.99), d, "trajectory: a long move ends between floor and ceiling (largest %.4f of the ceiling)", (double)hi));
+  /* moves compose: move(move(gamma0, q), q2) = move(gamma0, q + q2) */
+  for (int j = 0; j < 6; j++) {
+    q[j]  = 0.8 * dq[j];
+    q2[j] = -0.5 * dq[(j + 1) % 6];
+  }
+  PetscCall(VKFitTrajectoryMove(p.fit, 3, p.gamma0, q, trial));
+  PetscCall(VKFitTrajectoryMove(p.fit, 3, trial, q2, step2));
+  for (int j = 0; j < 6; j++) q[j] += q2[j];
+  PetscCall(VKFitTrajectoryMove(p.fit, 3, p.gamma0, q, both));
+  PetscCall(RelDiff(step2, both, &comp));
+  PetscCall(PetscSNPrintf(d, sizeof(d), "max relative difference %.3e", (double)comp));
+  PetscCall(VKTestCheck((PetscBool)(comp < 1e-12), d, "trajectory: moves compose between floor and ceiling (%.1e)", (double)comp));
+  PetscCall(VecDestroy(&trial));
+  PetscCall(VecDestroy(&step2));
+  PetscCall(VecDestroy(&both));
+  PetscCall(Destroy(&p));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL));
@@ -428,6 +507,7 @@ int main(int argc, char **argv)
   PetscCall(TestBestUniform());
   PetscCall(TestPrior());
   PetscCall(TestJoint());
+  PetscCall(TestCeiling());
   {
     int rc = VKTestFinish();
     PetscCall(SlepcFinalize());

@@ -69,7 +69,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   struct {
     const char *name;
     PetscReal   v;
-  } reals[] = {{"weight", st->weight}, {"gamma_min_s", fit->gamma_min[0]}, {"gamma_min_v", fit->gamma_min[1]}, {"fingerprint", Fingerprint(fit->mesh)}, {"wall", st->wall}, {"step_factor", fit->step_factor}, {"time_equilibrium", fit->time_eq}, {"time_adjoint", fit->time_adjoint}, {"time_kkt", fit->time_kkt}, {"time_eigensolves", fit->time_eigen}, {"band_lo", fit->mat->band.lo}, {"band_hi", fit->mat->band.hi}};
+  } reals[] = {{"weight", st->weight}, {"gamma_min_s", fit->gamma_min[0]}, {"gamma_min_v", fit->gamma_min[1]}, {"gamma_max_s", fit->gamma_max[0]}, {"gamma_max_v", fit->gamma_max[1]}, {"fingerprint", Fingerprint(fit->mesh)}, {"wall", st->wall}, {"step_factor", fit->step_factor}, {"time_equilibrium", fit->time_eq}, {"time_adjoint", fit->time_adjoint}, {"time_kkt", fit->time_kkt}, {"time_eigensolves", fit->time_eigen}, {"band_lo", fit->mat->band.lo}, {"band_hi", fit->mat->band.hi}};
   struct {
     const char *name;
     PetscInt    v;
@@ -178,6 +178,8 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "weight", &st->weight);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_min_s", &fit->gamma_min[0]);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_min_v", &fit->gamma_min[1]);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_max_s", &fit->gamma_max[0]);
+  if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "gamma_max_v", &fit->gamma_max[1]);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "wall", &st->wall);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "step_factor", &fit->step_factor);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "time_equilibrium", &fit->time_eq);
@@ -190,7 +192,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/stages", 1, &st->nstages, &stages);
   if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/average", 2, &rows, &avg);
   if (!ierr && rows != ne) ierr = BAD("%s: /checkpoint/average has %d rows for %d tets", path, (int)rows, (int)ne);
-  if (!ierr && !(st->ns >= 1 && st->ns <= VK_FIT_MAX_SAMPLES && st->nstages >= 1 && st->nstages <= VK_FIT_MAX_STAGES && st->sample >= 0 && st->sample <= st->ns && st->stage >= 0 && st->stage < st->nstages && st->phase >= -1 && st->phase <= VK_FIT_PHASE_DONE && st->iteration >= 0 && fit->nits >= 0 && st->weight >= 0 && fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && st->wall >= 0 && fit->step_factor > 0 && fit->step_factor <= 1))
+  if (!ierr && !(st->ns >= 1 && st->ns <= VK_FIT_MAX_SAMPLES && st->nstages >= 1 && st->nstages <= VK_FIT_MAX_STAGES && st->sample >= 0 && st->sample <= st->ns && st->stage >= 0 && st->stage < st->nstages && st->phase >= -1 && st->phase <= VK_FIT_PHASE_DONE && st->iteration >= 0 && fit->nits >= 0 && st->weight >= 0 && fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && fit->gamma_max[0] > fit->gamma_min[0] && fit->gamma_max[1] > fit->gamma_min[1] && st->wall >= 0 && fit->step_factor > 0 && fit->step_factor <= 1))
     ierr = BAD("%s: inconsistent position (sample %d of %d, stage %d of %d, phase %d, iteration %d) or totals", path, (int)st->sample, (int)st->ns, (int)st->stage, (int)st->nstages, (int)st->phase, (int)st->iteration);
   if (!ierr && st->phase >= 0) ierr = VKH5ReadReal(&h, "/checkpoint/gamma", 2, &rows, &gamma);
   if (!ierr && st->phase >= 0 && rows != ne) ierr = BAD("%s: /checkpoint/gamma has %d rows for %d tets", path, (int)rows, (int)ne);

@@ -44,6 +44,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->max_pivots    = 8;
   fit->kkt_reduced   = PETSC_TRUE;
   fit->gamma_min_rel = 1e-3;
+  fit->gamma_max_rel = 1e3;
   fit->nharm         = 3;
   fit->harm_r[0]     = 1;
   fit->harm_r[1]     = 10;
@@ -140,6 +141,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsBool("-fit_kkt_reduced", "Gauss-Newton KKT with d eliminated, [G -H; -H -J J^T/kappa] (needs kappa > 0); false: the three-block form of Eq. 21", "VKFitGaussNewtonDirection", fit->kkt_reduced, &fit->kkt_reduced, NULL));
   PetscCall(VKOptionsRangeInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s or g_v of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
+  PetscCall(PetscOptionsReal("-fit_gamma_max", "Ceiling of every parameter, relative to the mean g_s or g_v of the starting material (the best uniform one when searched)", "VKFitSetGammaCeiling", fit->gamma_max_rel, &fit->gamma_max_rel, NULL));
   PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
   PetscCall(VKOptionsRangeInt("-fit_checkpoint_every", "Write DIR/fit_checkpoint.h5 every this many iterations (0: only after each sample)", "VKFitRun", fit->checkpoint_every, &fit->checkpoint_every, NULL, 0, PETSC_MAX_INT));
   PetscCall(VKOptionsRangeInt("-fit_max_iterations", "Stop after this many iterations in all, with a checkpoint to go on from (0: no limit)", "VKFitRun", fit->max_iterations, &fit->max_iterations, NULL, 0, PETSC_MAX_INT));
@@ -174,6 +176,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->traj_max_factor > 1 && fit->traj_max_factor < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_max_factor must be > 1 and finite, got %g", (double)fit->traj_max_factor);
   PetscCheck(fit->loss != VK_FIT_LOSS_TRAJECTORY || fit->inertia == VK_FIT_INERTIA_IMPLICIT, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory rolls the model out as volknit sim does, with implicit inertia; -fit_inertia %s applies to -fit_loss frames only", VKFitInertias[fit->inertia]);
   PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
+  PetscCheck(fit->gamma_max_rel > 1 && fit->gamma_max_rel < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_max must be a finite number above 1, got %g", (double)fit->gamma_max_rel);
   if (set) {
     PetscCheck(nharm >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_harmonic needs a list of basis sizes, e.g. 1,10,30 (or 0 for none)");
     fit->nharm = nharm;
@@ -218,7 +221,7 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
   if (fit->loss == VK_FIT_LOSS_TRAJECTORY) PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting the trajectory: rolled out from rest at dt %g s, compared at every frame, prior weight %g; equilibrium of each step to %g relative (PD, then up to %d Newton iterations)\n", (double)VKFitTrajectoryStep(fit), (double)fit->traj_prior, (double)fit->eq_rtol, (int)fit->eq_newton_its));
   else PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting sample frames: frame interval %g s, inertia %s, equilibrium to %g relative (PD, then up to %d Newton iterations)\n", (double)fit->dt, VKFitInertias[fit->inertia], (double)fit->eq_rtol, (int)fit->eq_newton_its));
   PetscCall(PetscViewerASCIIPushTab(viewer));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), steps accepted above %g relative decrease, up to %d halvings%s; floor %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, fit->step_memory ? " from the last accepted step" : " from the full step", (double)fit->gamma_min_rel));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), steps accepted above %g relative decrease, up to %d halvings%s; floor %g and ceiling %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, fit->step_memory ? " from the last accepted step" : " from the full step", (double)fit->gamma_min_rel, (double)fit->gamma_max_rel));
   PetscCall(PetscViewerASCIIUseTabs(viewer, PETSC_FALSE));
   for (PetscInt i = 0; i < fit->nharm; i++) PetscCall(PetscViewerASCIIPrintf(viewer, " %d,", (int)fit->harm_r[i]));
   PetscCall(PetscViewerASCIIPrintf(viewer, " then full\n"));

@@ -71,7 +71,7 @@ typedef struct {
   VKFit              fit;
   VKFitData          data;
   const VKFitResult *res;
-  PetscReal          at_floor[2]; /* of the final material */
+  PetscReal          at_floor[2], largest[2]; /* of the final material */
 } Summary;
 
 static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
@@ -113,6 +113,12 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "g_v_Pa", fit->gamma_min[1]));
   PetscCall(VKJSONReal(&j, "fraction_of_g_s_on_it", c->at_floor[0]));
   PetscCall(VKJSONReal(&j, "fraction_of_g_v_on_it", c->at_floor[1]));
+  PetscCall(VKJSONObjectEnd(&j));
+  PetscCall(VKJSONObjectBegin(&j, "parameter_ceiling"));
+  PetscCall(VKJSONReal(&j, "g_s_Pa", fit->gamma_max[0]));
+  PetscCall(VKJSONReal(&j, "g_v_Pa", fit->gamma_max[1]));
+  PetscCall(VKJSONReal(&j, "largest_g_s_Pa", c->largest[0]));
+  PetscCall(VKJSONReal(&j, "largest_g_v_Pa", c->largest[1]));
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONString(&j, "loss", VKFitLosses[fit->loss]));
   if (res->trajectory) {
@@ -300,7 +306,7 @@ static PetscErrorCode Resume(VKFit fit, VKFitData data, VKFitState *st, const ch
 PetscErrorCode VKFitWriteOutputs_Private(VKFit fit, VKFitData data, const VKFitResult *res, const char dir[])
 {
   char           path[PETSC_MAX_PATH_LEN];
-  Summary        sum = {fit, data, res, {0, 0}};
+  Summary        sum = {fit, data, res, {0, 0}, {0, 0}};
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
 
@@ -309,7 +315,7 @@ PetscErrorCode VKFitWriteOutputs_Private(VKFit fit, VKFitData data, const VKFitR
   PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
   PetscCall(VKMaterialWriteH5(fit->mat, path));
   PetscCall(PetscStrncpy(fit->mat->file, path, sizeof(fit->mat->file))); /* the material is now that file's (VKMaterialView) */
-  PetscCall(VKFitGammaAtFloor(fit, res->gamma, sum.at_floor));
+  PetscCall(VKFitGammaAtFloor(fit, res->gamma, sum.at_floor, sum.largest));
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));
     ierr = VKOutputWrite(path, PETSC_TRUE, WriteXdmf, fit->mesh);
@@ -384,7 +390,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
   if (st->sample < st->ns) PetscCall(PetscPrintf(fit->comm, "volknit fit: %d sample frame%s of %s (frame interval %g s), %d parameters\n", (int)st->ns, st->ns > 1 ? "s" : "", data->path, (double)dt, (int)(2 * fit->mesh->ne)));
   for (; st->sample < st->ns && !fit->stopped; st->sample++) {
     PetscInt   frame = st->samples[st->sample], its;
-    PetscReal  l0, l1, w = st->weight, atfloor[2];
+    PetscReal  l0, l1, w = st->weight, atfloor[2], largest[2];
     VKFitFrame f;
     fit->sample = frame;
     PetscCall(SampleFrame(fit, data, frame, &f));
@@ -406,7 +412,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
       else PetscCall(VecAXPBY(st->avg, f.weight / (w + f.weight), w / (w + f.weight), st->gamma));
       st->weight = PetscMax(w, f.weight);
       SampleLosses(fit, frame, &l0, &l1, &its);
-      PetscCall(VKFitGammaAtFloor(fit, st->gamma, atfloor));
+      PetscCall(VKFitGammaAtFloor(fit, st->gamma, atfloor, largest));
       PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e (of its excess over the floor eps(xhat) = %.4e, %.1f%% remains) in %d iterations (%.1f s); on the parameter floor: %.0f%% of g_s, %.0f%% of g_v\n", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (double)f.eps_hat, l0 > f.eps_hat ? 100 * (double)((l1 - f.eps_hat) / (l0 - f.eps_hat)) : 0.0, (int)its, VKWallTime() - fit->wall0, 100 * (double)atfloor[0], 100 * (double)atfloor[1]));
       PetscCall(Checkpoint(fit, -1, 0, &c)); /* the next sample from its start */
     }

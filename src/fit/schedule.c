@@ -26,7 +26,10 @@
  * iteration count or when no step is accepted.
  *
  * Non-negativity (DESIGN §8): every parameter stays above its floor
- * gamma_min.  Over every parameter a trial is projected onto the floor;
+ * gamma_min and below its ceiling gamma_max (-fit_gamma_max: a stiffness
+ * far above the knit's own conditions every later solve and reaches PD's
+ * round-off; the ceiling is a projection only, no active set).  Over every
+ * parameter a trial is projected onto the floor;
  * parameters at the floor whose gradient pushes down are frozen (d = 0);
  * when the projected Gauss-Newton step no longer descends, the parameter
  * that would go most negative is pivoted out (frozen) and the KKT system
@@ -54,7 +57,8 @@ typedef struct {
   PetscReal   loss, gnorm, eq_residual;
 } Opt;
 
-PetscErrorCode VKFitSetGammaFloor(VKFit fit, Vec gamma)
+/* bound[k] = rel x the mean of g_s (k = 0) or g_v (k = 1) in gamma */
+static PetscErrorCode RelativeToMean(VKFit fit, Vec gamma, PetscReal rel, PetscReal bound[2])
 {
   const PetscScalar *g;
   PetscInt           n;
@@ -68,22 +72,41 @@ PetscErrorCode VKFitSetGammaFloor(VKFit fit, Vec gamma)
   PetscCallMPI(MPI_Allreduce(s, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
   for (int k = 0; k < 2; k++) {
     PetscCheck(all[k] > 0, fit->comm, PETSC_ERR_ARG_WRONG, "The starting material has no %s anywhere; give a positive uniform start (-mat_gamma_s, -mat_gamma_v)", k ? "g_v" : "g_s");
-    fit->gamma_min[k] = fit->gamma_min_rel * all[k] / fit->mesh->ne;
+    bound[k] = rel * all[k] / fit->mesh->ne;
   }
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitGammaAtFloor(VKFit fit, Vec gamma, PetscReal fraction[2])
+PetscErrorCode VKFitSetGammaFloor(VKFit fit, Vec gamma)
+{
+  PetscFunctionBegin;
+  PetscCall(RelativeToMean(fit, gamma, fit->gamma_min_rel, fit->gamma_min));
+  PetscCall(VKFitSetGammaCeiling(fit, gamma));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitSetGammaCeiling(VKFit fit, Vec gamma)
+{
+  PetscFunctionBegin;
+  PetscCall(RelativeToMean(fit, gamma, fit->gamma_max_rel, fit->gamma_max));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGammaAtFloor(VKFit fit, Vec gamma, PetscReal fraction[2], PetscReal largest[2])
 {
   const PetscScalar *g;
   PetscInt           n;
-  PetscReal          c[2] = {0, 0}, all[2];
+  PetscReal          c[2] = {0, 0}, all[2], mx[2] = {0, 0};
 
   PetscFunctionBegin;
   PetscCall(VecGetLocalSize(gamma, &n));
   PetscCall(VecGetArrayRead(gamma, &g));
-  for (PetscInt i = 0; i < n; i++) c[i % 2] += g[i] <= fit->gamma_min[i % 2] * (1 + 1e-9);
+  for (PetscInt i = 0; i < n; i++) {
+    c[i % 2] += g[i] <= fit->gamma_min[i % 2] * (1 + 1e-9);
+    mx[i % 2] = PetscMax(mx[i % 2], PetscRealPart(g[i]));
+  }
   PetscCall(VecRestoreArrayRead(gamma, &g));
+  PetscCallMPI(MPI_Allreduce(mx, largest, 2, MPIU_REAL, MPIU_MAX, fit->comm));
   PetscCallMPI(MPI_Allreduce(c, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
   for (int k = 0; k < 2; k++) fraction[k] = all[k] / fit->mesh->ne;
   PetscFunctionReturn(0);
@@ -124,6 +147,11 @@ static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal 
 static PetscReal Floor(VKFit fit, PetscInt i)
 {
   return fit->gamma_min[i % 2];
+}
+
+static PetscReal Ceiling(VKFit fit, PetscInt i)
+{
+  return fit->gamma_max[i % 2];
 }
 
 /* v_i = 0 for the frozen parameters. */
@@ -175,7 +203,7 @@ static PetscErrorCode Gradient(Opt *o)
   PetscFunctionReturn(0);
 }
 
-/* trial = gamma + s d (harmonic: d = D B dq), projected onto the floor. */
+/* trial = gamma + s d (harmonic: d = D B dq), projected into [floor, ceiling]. */
 static PetscErrorCode Trial(Opt *o, PetscReal s)
 {
   VKFit        fit = o->fit;
@@ -194,7 +222,7 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
     PetscCall(PetscFree(sdq));
   } else PetscCall(VecAXPY(o->trial, s, o->d));
   PetscCall(VecGetArray(o->trial, &t));
-  for (PetscInt i = 0; i < o->nloc; i++) t[i] = PetscMax(t[i], Floor(fit, i));
+  for (PetscInt i = 0; i < o->nloc; i++) t[i] = PetscMin(PetscMax(t[i], Floor(fit, i)), Ceiling(fit, i));
   PetscCall(VecRestoreArray(o->trial, &t));
   PetscFunctionReturn(0);
 }

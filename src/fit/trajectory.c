@@ -13,14 +13,21 @@
  * against the shape-fit targets xhat_k at every frame time t_k:
  *   L(gamma) = sum_k eps_k(x(t_k)).
  * The parameters move in the span of the r lowest harmonics of the tet
- * graph (paper Eq. 23-24), multiplicatively above the floor g0,
- * gamma(q) = g0 + (gamma - g0) o exp(B_r q): stiffness spans decades, a
- * log step can neither cross the floor nor favour the stiff end, and a
- * parameter that sinks towards the floor stops pulling the step (with a
- * clamp at the floor it kept asking for more, and the largest-change cap
- * then froze every other parameter).  Forward sensitivities S = dx/dq
+ * graph (paper Eq. 23-24), logistically between the floor g0 and the
+ * ceiling g1 (-fit_gamma_max),
+ *   gamma(q) = g0 + (g1 - g0) o sigma(logit((gamma - g0)/(g1 - g0)) + B_r q),
+ * which well below the ceiling is the multiplicative
+ * g0 + (gamma - g0) o exp(B_r q): stiffness spans decades, a log step can
+ * cross neither bound nor favour the stiff end, and a parameter that sinks
+ * towards the floor stops pulling the step (with a clamp at the floor it
+ * kept asking for more, and the largest-change cap then froze every other
+ * parameter).  The ceiling: without it the hang fit drove a few tets to
+ * 4.5e16 Pa, where PD's global solve reaches round-off at 10x the
+ * tolerance and the simulated run left the fitted trajectory (REL 0.305
+ * against the fit's 0.213).  Forward sensitivities S = dx/dq
  * (2r columns) follow the rollout,
- *   H_{n+1} S_{n+1} = M/h^2 ((1 + h/h') S_n - (h/h') S_{n-1}) - J_{n+1} diag(gamma - g0) B_r,
+ *   H_{n+1} S_{n+1} = M/h^2 ((1 + h/h') S_n - (h/h') S_{n-1}) - J_{n+1} diag(e) B_r,
+ *   e = (gamma - g0)(g1 - gamma)/(g1 - g0) = dgamma/dq's factor,
  * one factorization of the exact Hessian H per step (the adjoint solver,
  * prefix -fit_adjoint_), and give grad_q L = 2 sum_k S_k^T A (x_k - xhat_k)
  * and the Gauss-Newton matrix P = 2 sum_k S_k^T A S_k.  Levenberg-Marquardt
@@ -28,7 +35,9 @@
  * step and lowered threefold on an accepted one, and raised further where
  * the step would change a parameter by more than the factor
  * -fit_trajectory_max_factor.  An optional prior (-fit_trajectory_prior)
- * adds mu L0 mean_i log^2((gamma_i - g0)/(gamma0_i - g0)), gamma0 the
+ * adds mu L0 mean_i (logit p(gamma_i) - logit p(gamma0_i))^2, p the place
+ * between floor and ceiling (about log^2((gamma_i - g0)/(gamma0_i - g0))
+ * well below the ceiling), gamma0 the
  * start: measured on the rib stretch, the frames leave the overall
  * stiffness almost free and the fit drifts 1000-fold stiffer for a few
  * per cent of loss (docs/FIDELITY.md). */
@@ -36,7 +45,7 @@
 #include <vkutil.h>
 #include <vklog.h>
 
-#define FLOOR_LIFT 1e-3 /* of the floor, for a parameter that starts a stage on it */
+#define FLOOR_LIFT 1e-3 /* of the floor (ceiling), for a parameter that starts a stage on it */
 
 struct _n_VKFitTrajectory {
   VKFit      fit;
@@ -174,6 +183,13 @@ PetscErrorCode VKFitTrajectoryGetRestLoss(VKFitTrajectory T, PetscReal *loss)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKFitTrajectoryGetFit(VKFitTrajectory T, VKFit *fit)
+{
+  PetscFunctionBegin;
+  *fit = T->fit;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory T, PetscInt k, Vec x)
 {
   PetscFunctionBegin;
@@ -182,14 +198,28 @@ PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory T, PetscInt k, Vec x)
   PetscFunctionReturn(0);
 }
 
-/* gamma' = g0 + (gamma - g0) exp(w): a parameter moved by w in the
- * log-harmonic parametrization above its floor g0 */
-static inline PetscReal Moved(PetscReal g0, PetscReal gamma, PetscReal w)
+/* p = (gamma - g0)/(g1 - g0) in [0, 1]: where gamma sits between floor and ceiling */
+static inline PetscReal Place(PetscReal g0, PetscReal g1, PetscReal gamma)
 {
-  return g0 + PetscMax(gamma - g0, 0) * PetscExpReal(PetscMin(w, 700));
+  return PetscMin(PetscMax((gamma - g0) / (g1 - g0), 0), 1);
 }
 
-/* gamma - floor, per parameter (the part the log-harmonic step scales) */
+/* gamma' = g0 + (g1 - g0) sigma(logit p + w): a parameter moved by w in
+ * the logistic-harmonic parametrization between its floor g0 and ceiling
+ * g1, written so that neither exp(w) nor exp(-w) overflows */
+static inline PetscReal Moved(PetscReal g0, PetscReal g1, PetscReal gamma, PetscReal w)
+{
+  PetscReal p = Place(g0, g1, gamma), ew;
+
+  if (w > 0) {
+    ew = PetscExpReal(-PetscMin(w, 700));
+    return p > 0 ? g0 + (g1 - g0) * (p / (p + (1 - p) * ew)) : g0;
+  }
+  ew = PetscExpReal(PetscMax(w, -700));
+  return p < 1 ? g0 + (g1 - g0) * (p * ew / (1 - p + p * ew)) : g1;
+}
+
+/* dgamma/dw at w = 0 per parameter: (gamma - g0)(g1 - gamma)/(g1 - g0) */
 static PetscErrorCode GammaExcess(VKFit fit, Vec gamma, Vec excess)
 {
   PetscInt           n;
@@ -200,7 +230,10 @@ static PetscErrorCode GammaExcess(VKFit fit, Vec gamma, Vec excess)
   PetscCall(VecGetLocalSize(gamma, &n));
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArray(excess, &e));
-  for (PetscInt i = 0; i < n; i++) e[i] = PetscMax(g[i] - fit->gamma_min[i % 2], 0);
+  for (PetscInt i = 0; i < n; i++) {
+    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = Place(g0, g1, g[i]);
+    e[i] = (g1 - g0) * p * (1 - p);
+  }
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArray(excess, &e));
   PetscFunctionReturn(0);
@@ -218,7 +251,7 @@ PetscErrorCode VKFitTrajectoryMove(VKFit fit, PetscInt r, Vec gamma, const Petsc
   PetscCall(VecGetLocalSize(out, &n));
   PetscCall(VecGetArray(out, &a));
   PetscCall(VecGetArrayRead(gamma, &g));
-  for (PetscInt i = 0; i < n; i++) a[i] = Moved(fit->gamma_min[i % 2], g[i], a[i]);
+  for (PetscInt i = 0; i < n; i++) a[i] = Moved(fit->gamma_min[i % 2], fit->gamma_max[i % 2], g[i], a[i]);
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArray(out, &a));
   PetscFunctionReturn(0);
@@ -306,7 +339,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
     PetscCall(VecDuplicateVecs(gamma, 2 * r, &T->Gb));
     T->rmax = r;
   }
-  if (r) { /* dgamma/dq_j = (gamma - floor) o b_j; S = 0 at rest */
+  if (r) { /* dgamma/dq_j = e o b_j (GammaExcess); S = 0 at rest */
     PetscReal *e;
     Vec        excess;
     PetscCall(VecDuplicate(gamma, &excess));
@@ -393,14 +426,13 @@ static PetscErrorCode CapScale(VKFit fit, PetscInt r, Vec gamma, const PetscReal
   PetscCall(VecGetLocalSize(gamma, &m));
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArrayRead(work, &w));
-  for (PetscInt i = 0; i < m; i++) {
-    PetscReal g0 = fit->gamma_min[i % 2], e = PetscMax(g[i] - g0, PETSC_SMALL * g0), bound = PETSC_INFINITY;
-    if (w[i] > 0) bound = PetscLogReal((g[i] * PetscExpReal(cap) - g0) / e) / w[i];
-    else if (w[i] < 0 && g[i] * PetscExpReal(-cap) > g0) bound = PetscLogReal(e / (g[i] * PetscExpReal(-cap) - g0)) / -w[i];
+  for (PetscInt i = 0; i < m; i++) { /* sigma(u + s w) reaches the bound's place q at s = (logit q - u)/w */
+    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = Place(g0, g1, g[i]), to = g[i] * PetscExpReal(w[i] > 0 ? cap : -cap), q = Place(g0, g1, to), bound = PETSC_INFINITY;
+    if (p > 0 && p < 1 && q > 0 && q < 1 && w[i] != 0) bound = (PetscLogReal(q / (1 - q)) - PetscLogReal(p / (1 - p))) / w[i];
     s = PetscMin(s, bound);
   }
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &s, 1, MPIU_REAL, MPIU_MIN, fit->comm));
-  for (PetscInt i = 0; i < m; i++) big = PetscMax(big, PetscAbsReal(PetscLogReal(Moved(fit->gamma_min[i % 2], g[i], s * w[i]) / g[i])));
+  for (PetscInt i = 0; i < m; i++) big = PetscMax(big, PetscAbsReal(PetscLogReal(Moved(fit->gamma_min[i % 2], fit->gamma_max[i % 2], g[i], s * w[i]) / g[i])));
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArrayRead(work, &w));
   PetscCallMPI(MPI_Allreduce(&big, change, 1, MPIU_REAL, MPIU_MAX, fit->comm));
@@ -448,8 +480,19 @@ PetscErrorCode VKFitTrajectorySetPriorReference(VKFitTrajectory T, Vec gamma, Pe
   PetscFunctionReturn(0);
 }
 
-/* c = mu L_ref / (2 ne); d_i = log((gamma_i - g0)/(gref_i - g0)), both
- * excesses at least the floor lift; B_r orthonormal, so P gains 2c I. */
+/* logit p of parameter i's place between floor and ceiling, p kept the
+ * floor lift inside either bound */
+static PetscReal Logit(VKFit fit, PetscInt i, PetscReal gamma)
+{
+  PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], lift = FLOOR_LIFT * g0 / (g1 - g0);
+  PetscReal p = PetscMin(PetscMax(Place(g0, g1, gamma), lift), 1 - lift);
+
+  return PetscLogReal(p) - log1p(-p);
+}
+
+/* c = mu L_ref / (2 ne); d_i = logit p(gamma_i) - logit p(gref_i), the
+ * parameter's move in the coordinates of the harmonic step (exactly B_r q
+ * between two materials it connects); B_r orthonormal, so P gains 2c I. */
 PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory T, PetscInt r, Vec gamma, PetscReal *obj, PetscReal grad[], PetscReal P[])
 {
   VKFit              fit = T->fit;
@@ -466,10 +509,7 @@ PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory T, PetscInt r, Vec gamma,
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArrayRead(T->gref, &gr));
   PetscCall(VecGetArray(T->dlog, &d));
-  for (PetscInt i = 0; i < m; i++) {
-    PetscReal g0 = fit->gamma_min[i % 2], lift = FLOOR_LIFT * g0;
-    d[i] = PetscLogReal(PetscMax(g[i] - g0, lift) / PetscMax(gr[i] - g0, lift));
-  }
+  for (PetscInt i = 0; i < m; i++) d[i] = Logit(fit, i, g[i]) - Logit(fit, i, gr[i]);
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArrayRead(T->gref, &gr));
   PetscCall(VecRestoreArray(T->dlog, &d));
@@ -537,17 +577,17 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
 
   PetscFunctionBegin;
   PetscCheck(r >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The trajectory fit moves in a harmonic basis of size r >= 1, got %d", (int)r);
-  for (PetscInt i = 1; i < nt; i++) PetscCheck(T[i]->fit->mat == fit->mat && T[i]->fit->rbasis >= r && T[i]->fit->gamma_min[0] == fit->gamma_min[0] && T[i]->fit->gamma_min[1] == fit->gamma_min[1], fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: trajectory %d is not fitted on the same material, basis and floor as trajectory 0", (int)i);
+  for (PetscInt i = 1; i < nt; i++) PetscCheck(T[i]->fit->mat == fit->mat && T[i]->fit->rbasis >= r && T[i]->fit->gamma_min[0] == fit->gamma_min[0] && T[i]->fit->gamma_min[1] == fit->gamma_min[1] && T[i]->fit->gamma_max[0] == fit->gamma_max[0] && T[i]->fit->gamma_max[1] == fit->gamma_max[1], fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: trajectory %d is not fitted on the same material, basis, floor and ceiling as trajectory 0", (int)i);
   PetscCall(PetscMalloc4(n, &grad, n * n, &P, n, &gt, n * n, &Pt));
   PetscCall(PetscMalloc5(n, &l, n * n, &Q, n, &dq, n * n, &work, n + n * n, &scratch));
   PetscCall(VecDuplicate(gamma, &trial));
   PetscCall(VecDuplicate(gamma, &work_v));
-  { /* a parameter on the floor has no excess to scale: lift it a little above */
+  { /* a parameter on a bound does not move: lift it a little inside */
     PetscScalar *g;
     PetscInt     m;
     PetscCall(VecGetLocalSize(gamma, &m));
     PetscCall(VecGetArray(gamma, &g));
-    for (PetscInt i = 0; i < m; i++) g[i] = PetscMax(g[i], (1 + FLOOR_LIFT) * fit->gamma_min[i % 2]);
+    for (PetscInt i = 0; i < m; i++) g[i] = PetscMin(PetscMax(g[i], (1 + FLOOR_LIFT) * fit->gamma_min[i % 2]), (1 - FLOOR_LIFT) * fit->gamma_max[i % 2]);
     PetscCall(VecRestoreArray(gamma, &g));
   }
   PetscCall(EvaluateAll(nt, T, gamma, r, &loss, grad, P, scratch, &bad, &ok));

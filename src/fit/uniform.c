@@ -158,6 +158,11 @@ PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], Pets
   PetscCall(Search(comm, lo, hi, TrajectoryLossAt, &c, &g[0], loss));
   g[1] = g[0];
   PetscCall(VecSet(gamma, g[0]));
+  for (PetscInt i = 0; i < nt; i++) { /* the ceiling is relative to the fit's start */
+    VKFit fit;
+    PetscCall(VKFitTrajectoryGetFit(T[i], &fit));
+    PetscCall(VKFitSetGammaCeiling(fit, gamma));
+  }
   if (reason) *reason = VK_FIT_STAGE_CONVERGED;
   if (refine) {
     const PetscScalar *a;

@@ -353,7 +353,8 @@ PetscErrorCode VKPDTest(VKPD pd, PetscInt it, VKPDStats *st)
   }
   tf            = pd->ftol * st->force_scale;
   tr            = pd->rtol * st->residual0;
-  st->tolerance = PetscMax(PetscMax(tf, tr), PetscMax(pd->atol, pd->res_floor));
+  st->requested = PetscMax(PetscMax(tf, tr), pd->atol);
+  st->tolerance = PetscMax(st->requested, pd->res_floor);
   if (pd->monitor) {
     if (pd->fixed_its) PetscCall(PetscPrintf(pd->comm, "  PD %3d Phi %.15e\n", (int)it, (double)st->phi));
     else PetscCall(PetscPrintf(pd->comm, "  PD %3d Phi %.15e |grad Phi| %.6e N (%.3e of f_scale %.3e N, tolerance %.3e)\n", (int)it, (double)st->phi, (double)res, (double)(st->force_scale > 0 ? res / st->force_scale : 0), (double)st->force_scale, (double)st->tolerance));

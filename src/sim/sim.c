@@ -248,6 +248,8 @@ PetscErrorCode VKSimRun(VKSim sim)
     else PetscCall(PetscSNPrintf(conv, sizeof(conv), "converged in every step (|grad Phi| <= %.2g x f_scale at most)", (double)st.residual_force_max));
     PetscCall(PetscPrintf(sim->comm, "volknit sim: %s, %d steps of %g s to t = %g s, %s iterations %.1f per step (max %d), %s, %d inverted tets (max), %.3f s per step (local %.3f, global %.3f, other %.3f)%s%s\n", sim->scene->name, (int)steps, (double)dt, (double)t, VKPDTypes[sim->pd->type], st.steps ? (double)st.iterations / st.steps : 0.0, (int)st.iterations_max, conv, (int)st.inverted_max, st.steps ? sim->time_run / st.steps : 0.0,
                           st.steps ? st.time_local / st.steps : 0.0, st.steps ? st.time_global / st.steps : 0.0, st.steps ? st.time_other / st.steps : 0.0, sim->dir[0] ? " -> " : "", sim->dir[0] ? sim->dir : ""));
+    if (st.roundoff_steps)
+      PetscCall(PetscPrintf(sim->comm, "volknit sim: WARNING: %d of %d steps stopped at the round-off floor of |grad Phi| (%.3g N), above the -pd_ftol %g x f_scale asked for: the material is stiff enough somewhere that the requested accuracy cannot be reached (a fitted material: refit with a lower -fit_gamma_max)\n", (int)st.roundoff_steps, (int)st.steps, (double)sim->pd->res_floor, (double)sim->pd->ftol));
   }
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);

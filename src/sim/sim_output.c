@@ -307,6 +307,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "unconverged_steps", st.unconverged_steps));
   if (st.unconverged_steps) PetscCall(VKJSONInt(&j, "first_unconverged_step", st.first_unconverged_step));
   PetscCall(VKJSONInt(&j, "unmeasured_steps", st.unmeasured_steps));
+  PetscCall(VKJSONInt(&j, "roundoff_limited_steps", st.roundoff_steps));
   PetscCall(VKJSONReal(&j, "residual_over_tolerance_max", st.residual_over_tol_max));
   PetscCall(VKJSONReal(&j, "residual_over_force_scale_max", st.residual_force_max));
   PetscCall(VKJSONReal(&j, "iterations_mean", (PetscReal)st.iterations / nsteps));

@@ -100,6 +100,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   if (s->last.reason == VK_PD_MAX_IT) s->max_it_steps++;
   if (s->last.reason == VK_PD_CONVERGED_ITS) s->unmeasured_steps++;
   else {
+    if (s->last.reason > 0 && s->last.requested > 0 && s->last.residual > s->last.requested) s->roundoff_steps++;
     if (s->last.force_scale > 0) s->residual_force_max = PetscMax(s->residual_force_max, s->last.residual / s->last.force_scale);
     if (s->last.tolerance > 0) s->residual_over_tol_max = PetscMax(s->residual_over_tol_max, s->last.residual / s->last.tolerance);
   }

@@ -25,7 +25,9 @@
 # "-mat_band 0.7,1.5"), FID_JOINT and FID_JOINT_OPTS (step 4) and FID_TAG (a suffix of the homogenized runs'
 # directories, so runs with other material or fit options sit beside them:
 # a fit is redone only when its yarn-level data is newer than its material).
-# Outputs in out/fidelity (outside tests/out, which make check clears).
+# Outputs in out/fidelity (outside tests/out, which make check clears); the
+# mesh has one METIS domain per rank (a mesh cached from before 2026-11-27
+# has one domain: remove out/fidelity/<pattern>_<W>x<C>/mesh to remake it).
 # Cost: the 4 x 4 rib with hang and stretch took 14 min on 2 cores (the hang
 # fit 10 of them); at the defaults expect a few hours, mostly the fits.
 # Nothing is asserted: the table is the result.
@@ -70,7 +72,7 @@ for pat in $PATTERNS; do
   fi
   mesh="$d/mesh"
   if [ ! -s "$mesh/mesh.h5" ]; then
-    run bin/volknit mesh -o "$mesh" -yarn_h5 "$d/yarn.h5" > "$d/mesh.log" 2>&1 || { echo "mesh failed: $d/mesh.log"; exit 1; }
+    run bin/volknit mesh -o "$mesh" -yarn_h5 "$d/yarn.h5" -dd_domains "$NP" > "$d/mesh.log" 2>&1 || { echo "mesh failed: $d/mesh.log"; exit 1; }
   fi
   for s in $SCENES; do
     ref="$(sdir "$s")/yls"; mkdir -p "$ref"
