@@ -102,6 +102,7 @@ PETSC_EXTERN const char *const VKFitLosses[];
 
 typedef struct {
   PetscInt  pd_its, newton_its, fail_iteration;
+  PetscInt  inverted; /* tets with det F <= 0 at the equilibrium */
   PetscReal residual, tolerance; /* residual = +inf when Phi became NaN/Inf */
 } VKFitEqStats;
 

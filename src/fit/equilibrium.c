@@ -164,6 +164,7 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
     stats->residual       = st.reason == VK_PD_DIVERGED_NAN ? PETSC_INFINITY : st.residual;
     stats->tolerance      = tol;
     stats->fail_iteration = st.fail_iteration;
+    stats->inverted       = st.inverted;
   }
   fit->time_eq += VKWallTime() - t0;
   PetscCall(PetscLogEventEnd(VK_EVENT_FitEquilibrium, 0, 0, 0, 0));

@@ -56,6 +56,7 @@ struct _n_VKFitTrajectory {
   PetscReal  rest_loss;          /* the loss of staying at rest: a joint fit's unit for this trajectory */
   PetscInt   steps;              /* of the last rollout */
   PetscReal  eq_worst;           /* largest |g|/tolerance of its steps */
+  PetscInt   inverted_max;       /* most tets inverted at one step's equilibrium */
   VKFitFrame f;                  /* the step being solved */
   Vec        xold, xcur, grad, As;
   PetscInt   rmax;               /* sensitivity storage: 2 rmax columns, three generations */
@@ -360,8 +361,9 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
   }
   *loss = 0;
   *ok   = PETSC_TRUE;
-  T->steps    = 0;
-  T->eq_worst = 0;
+  T->steps        = 0;
+  T->eq_worst     = 0;
+  T->inverted_max = 0;
   PetscCall(VKMeshGetRestPositions(fit->mesh, T->xcur));
   PetscCall(VecCopy(T->xcur, T->xold));
   T->f.scale_min = T->force_min;
@@ -383,7 +385,8 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
       PetscCall(VecRestoreArray(T->f.y, &ya));
       PetscCall(VecCopy(T->f.y, T->f.x));
       PetscCall(VKFitEquilibriumTry(fit, &T->f, &st, ok));
-      T->eq_worst = PetscMax(T->eq_worst, st.residual / st.tolerance);
+      T->eq_worst     = PetscMax(T->eq_worst, st.residual / st.tolerance);
+      T->inverted_max = PetscMax(T->inverted_max, st.inverted);
       if (!*ok) break;
       if (r) PetscCall(Sensitivities(T, r, h, a));
       PetscCall(VecCopy(T->xcur, T->xold));
@@ -394,6 +397,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
     if (*ok) PetscCall(AddFrame(T, k, r, loss, grad, P));
   }
   if (!*ok) *loss = PETSC_INFINITY;
+  PetscCall(PetscInfo(NULL, "rollout: loss %.10e over %d steps, worst |g|/tol %.3g, up to %d tets inverted\n", (double)*loss, (int)T->steps, (double)T->eq_worst, (int)T->inverted_max));
   if (lossf)
     for (PetscInt k = 0; k < T->nf; k++) lossf[k] = *ok ? T->lossf[k] : PETSC_INFINITY;
   PetscFunctionReturn(0);
