@@ -184,8 +184,20 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
     for (PetscInt i = 0; i < fit->nharm; i++) PetscCheck(fit->harm_r[i] >= 1 && (i == 0 || fit->harm_r[i] > fit->harm_r[i - 1]), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_harmonic: the basis sizes must be positive and increasing, got %d after %d", (int)fit->harm_r[i], i ? (int)fit->harm_r[i - 1] : 0);
   }
   if (fit->loss == VK_FIT_LOSS_TRAJECTORY) {
+    PetscBool given;
     PetscCheck(fit->nharm > 0, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... (not 0)");
     PetscCheck(!fit->restart && fit->max_iterations == 0, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory writes no checkpoint: -fit_restart and -fit_max_iterations apply to -fit_loss frames only (bound each stage with -fit_gn_its)");
+    /* the rollout's equilibria by the simulation's solver (-pd_type, default
+     * lbfgs) unless -fit_pd_type says otherwise: where tets invert the step
+     * has two equilibria, and PD then Newton took the other one than
+     * volknit sim's L-BFGS on the twist (docs/FIDELITY.md) */
+    PetscCall(PetscOptionsHasName(NULL, NULL, "-fit_pd_type", &given));
+    if (!given) {
+      PetscEnum t = (PetscEnum)VK_PD_TYPE_LBFGS;
+      PetscCall(PetscOptionsGetEnum(NULL, NULL, "-pd_type", VKPDTypes, &t, NULL));
+      fit->pd_type = (VKPDType)t;
+      PetscCall(VKPDSetType(fit->pd, fit->pd_type));
+    }
   }
   PetscCall(KSPSetFromOptions(fit->kadj));
   PetscCall(KSPSetFromOptions(fit->kkkt));
@@ -218,7 +230,7 @@ PetscErrorCode VKFitSetUp(VKFit fit)
 PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
 {
   PetscFunctionBegin;
-  if (fit->loss == VK_FIT_LOSS_TRAJECTORY) PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting the trajectory: rolled out from rest at dt %g s, compared at every frame, prior weight %g; equilibrium of each step to %g relative (PD, then up to %d Newton iterations)\n", (double)VKFitTrajectoryStep(fit), (double)fit->traj_prior, (double)fit->eq_rtol, (int)fit->eq_newton_its));
+  if (fit->loss == VK_FIT_LOSS_TRAJECTORY) PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting the trajectory: rolled out from rest at dt %g s, compared at every frame, prior weight %g; equilibrium of each step to %g relative (%s, then up to %d Newton iterations)\n", (double)VKFitTrajectoryStep(fit), (double)fit->traj_prior, (double)fit->eq_rtol, VKPDTypes[fit->pd_type], (int)fit->eq_newton_its));
   else PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting sample frames: frame interval %g s, inertia %s, equilibrium to %g relative (PD, then up to %d Newton iterations)\n", (double)fit->dt, VKFitInertias[fit->inertia], (double)fit->eq_rtol, (int)fit->eq_newton_its));
   PetscCall(PetscViewerASCIIPushTab(viewer));
   PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), steps accepted above %g relative decrease, up to %d halvings%s; floor %g and ceiling %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, fit->step_memory ? " from the last accepted step" : " from the full step", (double)fit->gamma_min_rel, (double)fit->gamma_max_rel));
