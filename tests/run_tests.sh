@@ -144,13 +144,17 @@ if timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$d30" -options_file opti
   else not_ok "sim -scene_duration 0.05: frame times '$times', expected 0, 1/30 and 0.05 (see $d30.t005.log)"; fi
 else not_ok "sim -scene_duration 0.05 failed (see $d30.t005.log)"; fi
 # a material far too stiff for the tolerance (1e14 Pa): every step stops at
-# the round-off floor, above -pd_ftol x f_scale; said so, and counted in
-# sim.json; a sane material has no such step
+# the round-off floor, above -pd_ftol x f_scale; said so, counted in
+# sim.json, status unconverged, an error with -sim_strict; a sane material
+# has no such step
 if timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -mat_gamma_s 1e14 -mat_gamma_v 1e14 > "$d30.roundoff.log" 2>&1 \
    && grep -q 'WARNING: 3 of 3 steps stopped at the round-off floor' "$d30.roundoff.log" && grep -q '"roundoff_limited_steps": 3,' "$d30/sim.json" \
+   && grep -q '"status": "unconverged"' "$d30/sim.json" \
+   && ! timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -mat_gamma_s 1e14 -mat_gamma_v 1e14 -sim_strict > "$d30.roundoff.strict.log" 2>&1 \
+   && grep -q 'stopped at the round-off floor of |grad Phi| (-sim_strict)' "$d30.roundoff.strict.log" \
    && timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 > "$d30.roundoff0.log" 2>&1 \
    && ! grep -q 'round-off floor' "$d30.roundoff0.log" && grep -q '"roundoff_limited_steps": 0,' "$d30/sim.json"; then ok
-else not_ok "volknit sim at 1e14 Pa: expected the round-off warning and roundoff_limited_steps 3 in sim.json, none at the default material (see $d30.roundoff.log, $d30.roundoff0.log)"; fi
+else not_ok "volknit sim at 1e14 Pa: expected the round-off warning, roundoff_limited_steps 3 and status unconverged in sim.json, an error with -sim_strict, none at the default material (see $d30.roundoff.log, $d30.roundoff.strict.log, $d30.roundoff0.log)"; fi
 # a step stopped at -pd_max_it: warned about, status "unconverged"; with -sim_strict an error
 if timeout "$TIMEOUT" bin/volknit sim -o "$d30" -options_file options/hang.opts -scene_duration 0.02 -pd_max_it 1 > "$d30.unconv.log" 2>&1 \
    && grep -q 'did not converge' "$d30.unconv.log" && grep -q '"status": "unconverged"' "$d30/sim.json"; then ok

@@ -230,7 +230,9 @@ PetscErrorCode VKSimRun(VKSim sim)
   PetscCall(VKTSPDGetStats(sim->ts, &st));
   if (reason < 0) {
     char msg[512];
-    if (st.last.reason == VK_PD_MAX_IT || st.last.reason == VK_PD_NEWTON_FAILED)
+    if (st.last.reason > 0) /* converged only to the round-off floor (VKTSPDStats.roundoff_steps) */
+      PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) stopped at the round-off floor of |grad Phi| (-sim_strict): %.3e N, %.3g x the requested tolerance %.3e N; the material is too stiff somewhere for -pd_ftol %g (a fitted material: refit with a lower -fit_gamma_max)", (int)(steps + 1), (double)(t + dt), (double)st.last.residual, (double)(st.last.residual / st.last.requested), (double)st.last.requested, (double)sim->pd->ftol));
+    else if (st.last.reason == VK_PD_MAX_IT || st.last.reason == VK_PD_NEWTON_FAILED)
       PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) did not converge (%s, -sim_strict): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N after %d iterations; raise -pd_max_it, or try -pd_type lbfgs", (int)(steps + 1), (double)(t + dt), VKPDReasonName(st.last.reason), (double)st.last.residual, (double)(st.last.residual / st.last.tolerance), (double)st.last.tolerance, (int)st.last.iterations));
     else PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) failed at PD iteration %d: %s", (int)(steps + 1), (double)(t + dt), (int)st.last.fail_iteration, st.last.reason == VK_PD_DIVERGED_NAN ? "non-finite energy or residual (NaN/Inf)" : "the global-step solver (-pd_global_) failed"));
     if (sim->out) PetscCall(VKSimOutputFrame(sim, t, sim->x));
@@ -249,7 +251,7 @@ PetscErrorCode VKSimRun(VKSim sim)
     PetscCall(PetscPrintf(sim->comm, "volknit sim: %s, %d steps of %g s to t = %g s, %s iterations %.1f per step (max %d), %s, %d inverted tets (max), %.3f s per step (local %.3f, global %.3f, other %.3f)%s%s\n", sim->scene->name, (int)steps, (double)dt, (double)t, VKPDTypes[sim->pd->type], st.steps ? (double)st.iterations / st.steps : 0.0, (int)st.iterations_max, conv, (int)st.inverted_max, st.steps ? sim->time_run / st.steps : 0.0,
                           st.steps ? st.time_local / st.steps : 0.0, st.steps ? st.time_global / st.steps : 0.0, st.steps ? st.time_other / st.steps : 0.0, sim->dir[0] ? " -> " : "", sim->dir[0] ? sim->dir : ""));
     if (st.roundoff_steps)
-      PetscCall(PetscPrintf(sim->comm, "volknit sim: WARNING: %d of %d steps stopped at the round-off floor of |grad Phi| (%.3g N), above the -pd_ftol %g x f_scale asked for: the material is stiff enough somewhere that the requested accuracy cannot be reached (a fitted material: refit with a lower -fit_gamma_max)\n", (int)st.roundoff_steps, (int)st.steps, (double)sim->pd->res_floor, (double)sim->pd->ftol));
+      PetscCall(PetscPrintf(sim->comm, "volknit sim: WARNING: %d of %d steps stopped at the round-off floor of |grad Phi| (%.3g N), above the -pd_ftol %g x f_scale asked for, and count as unconverged: the material is stiff enough somewhere that the requested accuracy cannot be reached (a fitted material: refit with a lower -fit_gamma_max)\n", (int)st.roundoff_steps, (int)st.steps, (double)sim->pd->res_floor, (double)sim->pd->ftol));
   }
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);

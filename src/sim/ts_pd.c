@@ -44,7 +44,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   VKPD            pd = p->pd;
   Vec             x  = ts->vec_sol;
   PetscReal       dt = ts->time_step, t1 = ts->ptime + dt, rel;
-  PetscBool       last = PETSC_FALSE;
+  PetscBool       last = PETSC_FALSE, roundoff;
   const PetscReal *g = pd->scene->gravity;
   PetscScalar    *ya;
   PetscInt        n;
@@ -66,16 +66,22 @@ static PetscErrorCode TSStep_PD(TS ts)
   PetscCall(VecRestoreArray(p->y, &ya));
   PetscCall(VecCopy(p->y, x));
   PetscCall(VKPDSolve(pd, t1, p->y, p->xprev, x, &s->last));
-  if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED) {
+  /* stopped at the round-off floor above the requested tolerance: the
+   * accuracy asked for was not reached, so the step is unconverged too */
+  roundoff = (PetscBool)(s->last.reason > 0 && s->last.reason != VK_PD_CONVERGED_ITS && s->last.requested > 0 && s->last.residual > s->last.requested);
+  if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED || roundoff) {
     MPI_Comm comm = PetscObjectComm((PetscObject)ts);
     if (!s->unconverged_steps) s->first_unconverged_step = ts->steps + 1;
     s->unconverged_steps++;
+    if (roundoff) s->roundoff_steps++;
     if (p->strict) {
       PetscCall(VecCopy(p->xprev, x));
       ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
       PetscFunctionReturn(0);
     }
-    if (s->unconverged_steps <= VK_TSPD_WARNINGS)
+    if (roundoff && s->unconverged_steps <= VK_TSPD_WARNINGS)
+      PetscCall(PetscFPrintf(comm, PETSC_STDERR, "volknit: warning: step %d (t = %g s) stopped at the round-off floor of |grad Phi|, %.3e N, %.3g x the requested tolerance %.3e N%s\n", (int)(ts->steps + 1), (double)t1, (double)s->last.residual, (double)(s->last.residual / s->last.requested), (double)s->last.requested, s->unconverged_steps == VK_TSPD_WARNINGS ? "; further unconverged steps are only counted" : ""));
+    else if (s->unconverged_steps <= VK_TSPD_WARNINGS)
       PetscCall(PetscFPrintf(comm, PETSC_STDERR, "volknit: warning: step %d (t = %g s) did not converge (%s): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N, after %d iterations%s\n", (int)(ts->steps + 1), (double)t1, VKPDReasonName(s->last.reason), (double)s->last.residual, (double)(s->last.residual / s->last.tolerance), (double)s->last.tolerance, (int)s->last.iterations,
                              s->unconverged_steps == VK_TSPD_WARNINGS ? "; further unconverged steps are only counted" : ""));
   }
@@ -100,7 +106,6 @@ static PetscErrorCode TSStep_PD(TS ts)
   if (s->last.reason == VK_PD_MAX_IT) s->max_it_steps++;
   if (s->last.reason == VK_PD_CONVERGED_ITS) s->unmeasured_steps++;
   else {
-    if (s->last.reason > 0 && s->last.requested > 0 && s->last.residual > s->last.requested) s->roundoff_steps++;
     if (s->last.force_scale > 0) s->residual_force_max = PetscMax(s->residual_force_max, s->last.residual / s->last.force_scale);
     if (s->last.tolerance > 0) s->residual_over_tol_max = PetscMax(s->residual_over_tol_max, s->last.residual / s->last.tolerance);
   }
