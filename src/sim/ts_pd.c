@@ -68,7 +68,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   PetscCall(VKPDSolve(pd, t1, p->y, p->xprev, x, &s->last));
   /* stopped at the round-off floor above the requested tolerance: the
    * accuracy asked for was not reached, so the step is unconverged too */
-  roundoff = (PetscBool)(s->last.reason > 0 && s->last.reason != VK_PD_CONVERGED_ITS && s->last.requested > 0 && s->last.residual > s->last.requested);
+  roundoff = (PetscBool)(VKPDReasonConverged(s->last.reason) && s->last.requested > 0 && s->last.residual > s->last.requested);
   if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED || roundoff) {
     MPI_Comm comm = PetscObjectComm((PetscObject)ts);
     if (!s->unconverged_steps) s->first_unconverged_step = ts->steps + 1;
