@@ -250,11 +250,11 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   fit_dir "cms"
   if fit_run "cms" 2 -fit_pd_global_pc_type cms; then compare_material "$fd/n1/material.h5" "$fd/cms/material.h5" 1e-5 "-fit_pd_global_pc_type cms vs Cholesky"
   else not_ok "volknit fit -fit_pd_global_pc_type cms failed (see $fd/cms.log)"; fi
-  # CG over cms cut short (-pd_global_ksp_max_it 2, it needs about 9) fails the run: an error, status failed in sim.json
+  # plain PD's CG over cms cut short (-pd_global_ksp_max_it 2, it needs about 9) fails the run: an error, status failed in sim.json
   rm -rf "$fd/cms.short"; mkdir -p "$fd/cms.short"; cp "$fd/ref/mesh.h5" "$fd/cms.short/"
-  if ! timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$fd/cms.short" -options_file options/stretch.opts -scene_duration 0.02 -pd_global_pc_type cms -pd_global_ksp_max_it 2 > "$fd/cms.short.log" 2>&1 \
+  if ! timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$fd/cms.short" -options_file options/stretch.opts -scene_duration 0.02 -pd_type pd -pd_global_pc_type cms -pd_global_ksp_max_it 2 > "$fd/cms.short.log" 2>&1 \
      && grep -q 'the global-step solver (-pd_global_) failed' "$fd/cms.short.log" && grep -q '"status": "failed"' "$fd/cms.short/sim.json"; then ok
-  else not_ok "volknit sim -pd_global_pc_type cms -pd_global_ksp_max_it 2: expected an error and status failed in sim.json (see $fd/cms.short.log)"; fi
+  else not_ok "volknit sim -pd_type pd -pd_global_pc_type cms -pd_global_ksp_max_it 2: expected an error and status failed in sim.json (see $fd/cms.short.log)"; fi
   # the best uniform material first (-fit_best_uniform): reported, in fit.json
   fit_dir "uniform"
   if fit_run "uniform" 2 -fit_best_uniform && grep -q 'best uniform material g_s = g_v' "$fd/uniform.log" && grep -q '"best_uniform"' "$fd/uniform/fit.json" && [ -s "$fd/uniform/material.h5" ]; then ok

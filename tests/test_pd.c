@@ -14,9 +14,12 @@
  *  - K follows a change of the material (VKMaterialSetGamma) by itself;
  *  - the same trajectory with 1 and 2 ranks (in-process against a
  *    one-rank build on PETSC_COMM_SELF), also with the global step by
- *    PC cms (CG to 1e-10) against the direct solve on one rank.
+ *    PC cms (CG to 1e-10) against the direct solve on one rank, and L-BFGS
+ *    with one two-level cms cycle as its K^-1 (no projected-Newton switch)
+ *    against L-BFGS with the direct solve, every step converged.
  * ranks: 1 2
  */
+#include <string.h>
 #include <vksim.h>
 #include <slepcsys.h>
 #include "vktest.h"
@@ -383,30 +386,43 @@ static PetscErrorCode TestTSMomentum(VKMaterial mat)
 }
 
 /* A hang-and-stretch trajectory; final positions by node key. */
-static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton, PetscBool cms, PetscReal **xk)
+/* kind 0: plain PD, direct global step; 1: plain PD, CG over PC cms to
+ * 1e-10; 2 and 3: L-BFGS without the projected-Newton switch, with the
+ * direct solve (2) or one two-level cms cycle (3, KSP preonly: what
+ * -pd_global_pc_type cms gives L-BFGS) as K^-1.  Every step must converge. */
+static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton, PetscInt kind, PetscReal **xk)
 {
-  VKScene s;
-  VKSim   sim;
+  VKScene     s;
+  VKSim       sim;
+  const char *status;
 
   PetscFunctionBegin;
   PetscCall(StretchScene(mat->mesh, -9.81, &s));
   PetscCall(VKSimCreate(mat, s, &sim));
   sim->quiet           = PETSC_TRUE;
-  sim->pd->type        = VK_PD_TYPE_PD;
-  sim->pd->ftol        = 0;
-  sim->pd->rtol        = rtol;
-  sim->pd->max_it      = 2000;
-  sim->pd->newton_its  = newton;
-  sim->pd->newton_rtol = 1e-11;
-  if (cms) { /* as -pd_global_pc_type cms sets it */
+  sim->pd->type         = kind < 2 ? VK_PD_TYPE_PD : VK_PD_TYPE_LBFGS;
+  sim->pd->lbfgs_switch = 0;
+  sim->pd->ftol         = 0;
+  sim->pd->rtol         = rtol;
+  sim->pd->max_it       = 2000;
+  sim->pd->newton_its   = newton;
+  sim->pd->newton_rtol  = 1e-11;
+  if (kind == 1 || kind == 3) { /* as -pd_global_pc_type cms sets it */
     PC pc;
-    PetscCall(KSPSetType(sim->pd->ksp, KSPCG));
+    if (kind == 1) PetscCall(KSPSetType(sim->pd->ksp, KSPCG));
     PetscCall(KSPGetPC(sim->pd->ksp, &pc));
     PetscCall(PCSetType(pc, PCCMS));
   }
   PetscCall(TSSetTimeStep(sim->ts, 1.0 / 150));
   PetscCall(TSSetMaxTime(sim->ts, 5.0 / 150));
   PetscCall(VKSimRun(sim));
+  if (kind == 3) {
+    PetscBool preonly;
+    PetscCall(PetscObjectTypeCompare((PetscObject)sim->pd->ksp, KSPPREONLY, &preonly));
+    PetscCall(VKTestCheck(preonly, NULL, "L-BFGS's global KSP over PC cms stays preonly (one two-level cycle per solve)"));
+  }
+  PetscCall(VKSimGetStatus(sim, &status));
+  PetscCall(VKTestCheck((PetscBool)(!strcmp(status, "completed")), NULL, "trajectory (solver kind %d, PD rtol %g) completed: status %s", (int)kind, (double)rtol, status));
   PetscCall(VKTestGatherByKey(mat->mesh, sim->x, xk));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&s));
@@ -424,18 +440,18 @@ static PetscErrorCode TestRanks(VKMaterial mat)
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(mat->comm, &size));
   PetscCall(Build(PETSC_COMM_SELF, &ys, &ms, &mats));
-  for (int pass = 0; pass < 3; pass++) { /* pass 2: the global step by CMS (CG to 1e-10) on the distributed mesh */
-    PetscReal rtol = pass ? 1e-4 : 1e-6, tol = pass ? 1e-6 : 1e-8;
+  for (int pass = 0; pass < 4; pass++) { /* pass 2: the global step by CMS (CG to 1e-10) on the distributed mesh; pass 3: L-BFGS with one cms cycle as K^-1 against L-BFGS with the direct solve */
+    PetscReal rtol = pass == 0 ? 1e-6 : pass == 3 ? 1e-7 : 1e-4, tol = pass ? 1e-6 : 1e-8;
     PetscInt  newton = pass ? 0 : 10;
-    PetscCall(Trajectory(mat, rtol, newton, (PetscBool)(pass == 2), &xp));
-    PetscCall(Trajectory(mats, rtol, newton, PETSC_FALSE, &xs));
+    PetscCall(Trajectory(mat, rtol, newton, pass == 2 ? 1 : pass == 3 ? 3 : 0, &xp));
+    PetscCall(Trajectory(mats, rtol, newton, pass == 3 ? 2 : 0, &xs));
     d     = 0;
     scale = 0;
     for (PetscInt i = 0; i < 3 * ms->nv; i++) {
       d     = PetscMax(d, PetscAbsReal(xp[i] - xs[i]));
       scale = PetscMax(scale, PetscAbsReal(xs[i]));
     }
-    PetscCall(VKTestCheck((PetscBool)(d <= tol * scale), NULL, "5 steps with %d ranks and with one (PD rtol %g%s%s): max difference %.2e of the patch size", (int)size, (double)rtol, newton ? " + Newton" : "", pass == 2 ? ", global step by PC cms" : "", (double)(d / scale)));
+    PetscCall(VKTestCheck((PetscBool)(d <= tol * scale), NULL, "5 steps with %d ranks and with one (PD rtol %g%s%s): max difference %.2e of the patch size", (int)size, (double)rtol, newton ? " + Newton" : "", pass == 2 ? ", global step by CG over PC cms" : pass == 3 ? ", L-BFGS with one cms cycle as K^-1" : "", (double)(d / scale)));
     PetscCall(PetscFree(xp));
     PetscCall(PetscFree(xs));
   }

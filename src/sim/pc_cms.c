@@ -26,8 +26,10 @@
  * <pc prefix>cms_) with interpolation Q, the coarse operator K_r = Q^T K Q
  * (assembled from the blocks above) factored once (MUMPS Cholesky,
  * distributed), and Chebyshev-accelerated
- * Jacobi smoothing on the full K (the paper's A-Jacobi), run under an
- * outer Krylov method (the PD makes it CG) to the requested residual. */
+ * Jacobi smoothing on the full K (the paper's A-Jacobi).  L-BFGS takes one
+ * cycle as its initial inverse Hessian (KSP preonly; PCMatApply runs the
+ * three coordinates as one block); plain PD runs CG over it to the
+ * requested residual. */
 #include <vkpd.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -768,6 +770,18 @@ static PetscErrorCode PCApply_CMS(PC pc, Vec x, Vec y)
   PetscFunctionReturn(0);
 }
 
+/* The three coordinates of a PD global step at once: PCMG restricts,
+ * solves and interpolates a block of columns, so each pass over Q and
+ * each triangular solve of K_r serves all of them. */
+static PetscErrorCode PCMatApply_CMS(PC pc, Mat X, Mat Y)
+{
+  PC_CMS *cms = (PC_CMS *)pc->data;
+
+  PetscFunctionBegin;
+  PetscCall(PCMatApply(cms->mg, X, Y));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode PCSetFromOptions_CMS(PC pc, PetscOptionItems *PetscOptionsObject)
 {
   PC_CMS  *cms = (PC_CMS *)pc->data;
@@ -834,6 +848,7 @@ PetscErrorCode VKPCCreate_CMS(PC pc)
   pc->data             = cms;
   pc->ops->setup       = PCSetUp_CMS;
   pc->ops->apply       = PCApply_CMS;
+  pc->ops->matapply    = PCMatApply_CMS;
   pc->ops->setfromoptions = PCSetFromOptions_CMS;
   pc->ops->view        = PCView_CMS;
   pc->ops->reset       = PCReset_CMS;

@@ -262,7 +262,12 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
     PetscCall(KSPGetPC(pd->ksp, &pc));
     PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
     PetscCall(PetscObjectTypeCompare((PetscObject)pd->ksp, KSPPREONLY, &preonly));
-    if (iscms && preonly) { /* cms preconditions; CG iterates to -pd_global_ksp_rtol.  Options again: PETSc reads no tolerances for preonly */
+    /* cms is an approximate inverse of K.  L-BFGS needs only an SPD model
+     * of the inverse Hessian to start its recursion from, so one two-level
+     * cycle serves (preonly); plain PD's global step must be K^-1 itself,
+     * so CG iterates to -pd_global_ksp_rtol.  Options again: PETSc reads
+     * no tolerances for preonly. */
+    if (iscms && preonly && pd->type != VK_PD_TYPE_LBFGS) {
       PetscCall(KSPSetType(pd->ksp, KSPCG));
       PetscCall(KSPSetFromOptions(pd->ksp));
     }

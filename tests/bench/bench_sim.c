@@ -110,8 +110,11 @@ static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, Pet
     char      res[32];
     if (st.unmeasured_steps == st.steps) PetscCall(PetscSNPrintf(res, sizeof(res), "not measured"));
     else PetscCall(PetscSNPrintf(res, sizeof(res), "%.1e%s", (double)st.residual_force_max, st.unconverged_steps ? " (unconverged)" : ""));
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, res, 1e3 * sim->time_run / n, 1e3 * st.time_local / n,
-                          1e3 * st.time_global / n, 1e9 * st.time_local / n / nlocal * size, (double)tsetup));
+    PetscLogDouble peak, peak_max;
+    PetscCall(VKPeakMemory(&peak));
+    PetscCallMPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_DOUBLE, MPI_MAX, PETSC_COMM_WORLD));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f | %.0f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, res, 1e3 * sim->time_run / n, 1e3 * st.time_local / n,
+                          1e3 * st.time_global / n, 1e9 * st.time_local / n / nlocal * size, (double)tsetup, peak_max / 1048576.0));
   }
   PetscFunctionReturn(0);
 }
@@ -139,8 +142,8 @@ int main(int argc, char **argv)
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| patch | DOFs | domains | ranks | global solver | first set-up s | one domain changed: set-up s (domains rebuilt) | all changed: set-up s | ratio all / one |\n"));
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "|---|---|---|---|---|---|---|---|---|\n"));
   } else if (header) {
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| patch | nodes | DOFs | tets | ranks | solver, global solve | its/step | |grad Phi| / f_scale (max) | ms/step | local ms | global ms | ns/tet/local step | set-up s |\n"));
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| patch | nodes | DOFs | tets | ranks | solver, global solve | its/step | |grad Phi| / f_scale (max) | ms/step | local ms | global ms | ns/tet/local step | set-up s | peak MB per rank (max) |\n"));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"));
   }
   PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &yarn));
   PetscCall(VKYarnSetKnit(yarn, "rib1x1", wales, courses));
