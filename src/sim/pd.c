@@ -117,10 +117,34 @@ PetscErrorCode VKPDSetTolerances(VKPD pd, PetscReal ftol, PetscReal atol, PetscR
   PetscFunctionReturn(0);
 }
 
+/* cms is an approximate inverse of K.  L-BFGS needs only an SPD model of
+ * the inverse Hessian to start its recursion from, so one two-level cycle
+ * serves (preonly); plain PD's global step must be K^-1 itself, so CG
+ * iterates to -pd_global_ksp_rtol.  Options again: PETSc reads no
+ * tolerances for preonly. */
+static PetscErrorCode GlobalKSPForType(VKPD pd)
+{
+  PC        pc;
+  PetscBool iscms, preonly;
+
+  PetscFunctionBegin;
+  PetscCall(KSPGetPC(pd->ksp, &pc));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pd->ksp, KSPPREONLY, &preonly));
+  if (iscms && preonly && pd->type != VK_PD_TYPE_LBFGS) {
+    PetscCall(KSPSetType(pd->ksp, KSPCG));
+    PetscCall(KSPSetFromOptions(pd->ksp));
+  }
+  PetscFunctionReturn(0);
+}
+
+/* A switch to plain PD after the options (the fit's solvers do it) turns
+ * one cms cycle into CG over cms; the other way CG stays (exact, slower). */
 PetscErrorCode VKPDSetType(VKPD pd, VKPDType type)
 {
   PetscFunctionBegin;
   pd->type = type;
+  PetscCall(GlobalKSPForType(pd));
   PetscFunctionReturn(0);
 }
 
@@ -256,22 +280,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCheck(pd->newton_its >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_newton_its must be >= 0, got %d", pd->prefix, (int)pd->newton_its);
   PetscCheck(pd->newton_rtol >= 0 && pd->newton_rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_newton_rtol must be in [0, 1), got %g", pd->prefix, (double)pd->newton_rtol);
   PetscCall(KSPSetFromOptions(pd->ksp));
-  {
-    PC        pc;
-    PetscBool iscms, preonly;
-    PetscCall(KSPGetPC(pd->ksp, &pc));
-    PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
-    PetscCall(PetscObjectTypeCompare((PetscObject)pd->ksp, KSPPREONLY, &preonly));
-    /* cms is an approximate inverse of K.  L-BFGS needs only an SPD model
-     * of the inverse Hessian to start its recursion from, so one two-level
-     * cycle serves (preonly); plain PD's global step must be K^-1 itself,
-     * so CG iterates to -pd_global_ksp_rtol.  Options again: PETSc reads
-     * no tolerances for preonly. */
-    if (iscms && preonly && pd->type != VK_PD_TYPE_LBFGS) {
-      PetscCall(KSPSetType(pd->ksp, KSPCG));
-      PetscCall(KSPSetFromOptions(pd->ksp));
-    }
-  }
+  PetscCall(GlobalKSPForType(pd));
   {
     PC             pc;
     MatSolverType  st;
