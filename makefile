@@ -15,9 +15,10 @@ CC        := mpicc
 CSTD      := -std=c99 -D_POSIX_C_SOURCE=200809L
 OPT       ?= -O3 -g
 # ARCH: code generation for the host, e.g. make ARCH=-march=native (AVX2 or
-# AVX-512 lanes for the PD local step's batched 3x3 SVDs; the binaries then
-# need a CPU like the build machine's).  Empty by default: portable x86-64.
-# With 512-bit vectors add -DVK_SVD3_BATCH=8 so a batch fills them.
+# AVX-512 lanes for the PD local step's batched 3x3 SVDs, 8 tets a batch
+# where AVX-512 is on; the binaries then need a CPU like the build
+# machine's; `make clean` first).  Empty by default: portable x86-64.
+# docs/BENCHMARKS.md has the local step's ns per tet for both.
 ARCH      ?=
 WARN      := -Wall -Wextra
 # Evaluated lazily so that `make run` can install the packages first.

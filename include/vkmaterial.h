@@ -24,7 +24,11 @@ PETSC_EXTERN void VKSVD3ComputeFrom(const PetscReal F[], const PetscReal W0[], V
 /* n <= VK_SVD3_BATCH matrices at once (F and W0: 9 n entries, W0 may be
  * NULL), faster per matrix than one at a time. */
 #ifndef VK_SVD3_BATCH
-  #define VK_SVD3_BATCH 4 /* doubles in a 256-bit vector; make ARCH='-march=native -DVK_SVD3_BATCH=8' for 512 */
+  #if defined(__AVX512F__)
+    #define VK_SVD3_BATCH 8 /* doubles in a 512-bit vector (make ARCH=-march=native on an AVX-512 host) */
+  #else
+    #define VK_SVD3_BATCH 4 /* doubles in a 256-bit vector (two SSE2 vectors in the portable build) */
+  #endif
 #endif
 PETSC_EXTERN void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKSVD3 svd[]);
 /* Eigen-decomposition of a symmetric 3x3 matrix: A = Q diag(l) Q^T. */
