@@ -23,6 +23,7 @@
 #include <vksim.h>
 #include <slepcsys.h>
 #include "vktest.h"
+#include "../src/sim/pdimpl.h" /* K and the held nodes, for white-box checks */
 #include "meshcompare.h"
 
 PETSC_UNUSED static PetscErrorCode (*unused_compare)(VKMesh, VKMesh, const char[], PetscBool) = VKTestCompareMeshes;
@@ -225,8 +226,10 @@ static PetscErrorCode TestMonotoneAndNewton(VKMaterial mat)
   VKScene   s;
   VKPD      pd;
   Vec       x, y, xn;
-  VKPDStats st;
-  PetscReal dt = 1.0 / 150, worst = 0, dx, ref, t = 0.2;
+  VKPDStats        st;
+  PetscReal        dt = 1.0 / 150, worst = 0, dx, ref, t = 0.2;
+  const PetscReal *hist;
+  PetscInt         nhist;
 
   PetscFunctionBegin;
   PetscCall(StretchScene(m, -9.81, &s));
@@ -238,30 +241,26 @@ static PetscErrorCode TestMonotoneAndNewton(VKMaterial mat)
   PetscCall(RestTarget(m, dt, s->gravity, y));
 
   /* monotone Phi over 60 plain PD iterations */
-  pd->type   = VK_PD_TYPE_PD; /* plain PD: the local/global iterations themselves */
-  pd->max_it = 60;
-  pd->rtol   = 0;
-  pd->ftol   = 0;
-  pd->atol   = 1e-300;
+  PetscCall(VKPDSetType(pd, VK_PD_TYPE_PD)); /* plain PD: the local/global iterations themselves */
+  PetscCall(VKPDSetTolerances(pd, 0, 1e-300, 0, 60));
   PetscCall(VKPDSetUp(pd));
   PetscCall(VecCopy(y, x));
   PetscCall(VKPDSolve(pd, t, y, NULL, x, &st));
-  for (PetscInt k = 1; k < pd->hist_n; k++) worst = PetscMax(worst, (pd->hist_phi[k] - pd->hist_phi[k - 1]) / PetscAbsReal(pd->hist_phi[0]));
-  PetscCall(VKTestCheck((PetscBool)(pd->hist_n == 61 && worst <= 1e-14), NULL, "PD never increases Phi within a step: %d iterations, largest relative increase %.2e", (int)pd->hist_n - 1, (double)worst));
-  PetscCall(VKTestCheck((PetscBool)(pd->hist_phi[60] < 0.5 * pd->hist_phi[0] && st.residual < 0.5 * st.residual0), NULL, "PD decreases Phi (%.4e -> %.4e) and |grad Phi| (%.3e -> %.3e)", (double)pd->hist_phi[0], (double)pd->hist_phi[60], (double)st.residual0, (double)st.residual));
+  PetscCall(VKPDGetHistory(pd, &nhist, &hist));
+  for (PetscInt k = 1; k < nhist; k++) worst = PetscMax(worst, (hist[k] - hist[k - 1]) / PetscAbsReal(hist[0]));
+  PetscCall(VKTestCheck((PetscBool)(nhist == 61 && worst <= 1e-14), NULL, "PD never increases Phi within a step: %d iterations, largest relative increase %.2e", (int)nhist - 1, (double)worst));
+  PetscCall(VKTestCheck((PetscBool)(nhist == 61 && hist[60] < 0.5 * hist[0] && st.residual < 0.5 * st.residual0), NULL, "PD decreases Phi (%.4e -> %.4e) and |grad Phi| (%.3e -> %.3e)", (double)hist[0], (double)hist[nhist - 1], (double)st.residual0, (double)st.residual));
 
   /* Newton after a few PD iterations: quadratic convergence to 1e-12 */
-  pd->max_it      = 3;
-  pd->newton_its  = 30;
-  pd->newton_rtol = 1e-12;
+  PetscCall(VKPDSetTolerances(pd, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, 3));
+  PetscCall(VKPDSetNewton(pd, 30, 1e-12));
   PetscCall(VecCopy(y, xn));
   PetscCall(VKPDSolve(pd, t, y, NULL, xn, &st));
   PetscCall(VKTestCheck((PetscBool)(st.reason > 0 && st.residual <= 1e-12 * st.residual0 && st.newton_its <= 12), NULL, "Newton (SNES, exact Hessian) reaches |grad Phi| %.2e relative in %d iterations", (double)(st.residual / st.residual0), (int)st.newton_its));
 
   /* PD alone to 1e-8 relative reaches the Newton solution */
-  pd->max_it     = 20000;
-  pd->rtol       = 1e-8;
-  pd->newton_its = 0;
+  PetscCall(VKPDSetTolerances(pd, PETSC_DEFAULT, PETSC_DEFAULT, 1e-8, 20000));
+  PetscCall(VKPDSetNewton(pd, 0, 1e-12));
   PetscCall(VecCopy(y, x));
   PetscCall(VKPDSolve(pd, t, y, NULL, x, &st));
   PetscCall(VecNorm(xn, NORM_2, &ref));
@@ -342,7 +341,7 @@ static PetscErrorCode TestTSMomentum(VKMaterial mat)
   PetscCall(VKCurvesBoundingBox(&m->yarn->curves, lo, hi));
   PetscCall(VKSceneSetUp(s, lo, hi));
   PetscCall(VKPDCreate(mat, s, &pd));
-  pd->max_it = 7; /* any tolerance: momentum holds at every iteration */
+  PetscCall(VKPDSetTolerances(pd, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, 7)); /* any tolerance: momentum holds at every iteration */
   PetscCall(VKSimInitializePackage());
   PetscCall(TSCreate(m->comm, &ts));
   PetscCall(TSSetType(ts, TSPD));
@@ -394,31 +393,29 @@ static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton
 {
   VKScene     s;
   VKSim       sim;
+  KSP         ksp;
   const char *status;
 
   PetscFunctionBegin;
   PetscCall(StretchScene(mat->mesh, -9.81, &s));
   PetscCall(VKSimCreate(mat, s, &sim));
   sim->quiet           = PETSC_TRUE;
-  sim->pd->type         = kind < 2 ? VK_PD_TYPE_PD : VK_PD_TYPE_LBFGS;
-  sim->pd->lbfgs_switch = 0;
-  sim->pd->ftol         = 0;
-  sim->pd->rtol         = rtol;
-  sim->pd->max_it       = 2000;
-  sim->pd->newton_its   = newton;
-  sim->pd->newton_rtol  = 1e-11;
+  PetscCall(VKPDGetKSP(sim->pd, &ksp));
   if (kind == 1 || kind == 3) { /* as -pd_global_pc_type cms sets it */
     PC pc;
-    if (kind == 1) PetscCall(KSPSetType(sim->pd->ksp, KSPCG));
-    PetscCall(KSPGetPC(sim->pd->ksp, &pc));
+    PetscCall(KSPGetPC(ksp, &pc));
     PetscCall(PCSetType(pc, PCCMS));
   }
+  PetscCall(VKPDSetType(sim->pd, kind < 2 ? VK_PD_TYPE_PD : VK_PD_TYPE_LBFGS)); /* plain PD over cms: CG */
+  PetscCall(VKPDSetLBFGS(sim->pd, PETSC_DEFAULT, 0));
+  PetscCall(VKPDSetTolerances(sim->pd, 0, PETSC_DEFAULT, rtol, 2000));
+  PetscCall(VKPDSetNewton(sim->pd, newton, 1e-11));
   PetscCall(TSSetTimeStep(sim->ts, 1.0 / 150));
   PetscCall(TSSetMaxTime(sim->ts, 5.0 / 150));
   PetscCall(VKSimRun(sim));
   if (kind == 3) {
     PetscBool preonly;
-    PetscCall(PetscObjectTypeCompare((PetscObject)sim->pd->ksp, KSPPREONLY, &preonly));
+    PetscCall(PetscObjectTypeCompare((PetscObject)ksp, KSPPREONLY, &preonly));
     PetscCall(VKTestCheck(preonly, NULL, "L-BFGS's global KSP over PC cms stays preonly (one two-level cycle per solve)"));
   }
   PetscCall(VKSimGetStatus(sim, &status));

@@ -81,9 +81,9 @@ static PetscErrorCode HangSim(VKMaterial mat, VKScene s, PetscReal duration, con
   if (type) {
     PetscBool lbfgs;
     PetscCall(PetscStrcmp(type, "lbfgs", &lbfgs));
-    (*sim)->pd->type = lbfgs ? VK_PD_TYPE_LBFGS : VK_PD_TYPE_PD;
+    PetscCall(VKPDSetType((*sim)->pd, lbfgs ? VK_PD_TYPE_LBFGS : VK_PD_TYPE_PD));
   }
-  (*sim)->pd->newton_its = newton;
+  PetscCall(VKPDSetNewton((*sim)->pd, newton, PETSC_DEFAULT));
   PetscCall(TSSetMaxTime((*sim)->ts, duration));
   PetscFunctionReturn(0);
 }
@@ -102,8 +102,7 @@ static PetscErrorCode StaticEquilibrium(VKMaterial mat, VKScene s, Vec x)
   PetscCall(VKPDCreate(mat, s, &pd));
   PetscCall(VKPDSetStatic(pd, PETSC_TRUE));
   PetscCall(VKPDSetTolerances(pd, 0, 0, 1e-13, 5000));
-  pd->newton_its  = 50;
-  pd->newton_rtol = 1e-13;
+  PetscCall(VKPDSetNewton(pd, 50, 1e-13));
   PetscCall(VecDuplicate(x, &f));
   PetscCall(VecDuplicate(x, &y));
   PetscCall(VecGetArray(f, &fa));
@@ -198,7 +197,7 @@ static PetscErrorCode TestVolumeDominated(PetscReal ratio)
   PetscCall(VKTestCheck((PetscBool)!strcmp(status, "completed"), NULL, "g_v/g_s = %g, default solver: status %s, %d of %d steps unconverged, %.1f iterations per step (max %d)", (double)ratio, status, (int)st.unconverged_steps, (int)st.steps, (double)st.iterations / st.steps, (int)st.iterations_max));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(HangSim(mat, s, 0.1, NULL, 20, &sim));
-  sim->pd->newton_rtol = 1e-12;
+  PetscCall(VKPDSetNewton(sim->pd, PETSC_DEFAULT, 1e-12));
   PetscCall(VKSimRun(sim));
   PetscCall(VecDuplicate(x, &rest));
   PetscCall(VKMeshGetRestPositions(m, rest));
@@ -254,7 +253,7 @@ static PetscErrorCode TestFixedCount(void)
   VKMesh     m;
   VKMaterial mat;
   VKScene    s;
-  PetscReal  phi[3], gap[3], phistar;
+  PetscReal  phi[3], gap[3], phistar, dt = 1.0 / 150;
   const char *name[3] = {"plain PD", "Chebyshev PD (rho 0.99, delay 3)", "L-BFGS"};
 
   PetscFunctionBegin;
@@ -265,16 +264,13 @@ static PetscErrorCode TestFixedCount(void)
     Vec       x, yv;
     VKPDStats st;
     PetscCall(VKPDCreate(mat, s, &pd));
-    pd->dt = 1.0 / 150;
+    PetscCall(VKPDSetTimeStep(pd, dt));
     if (k < 3) {
       PetscCall(VKPDSetTolerances(pd, 0, 0, 0, 10));
-      pd->fixed_its = PETSC_TRUE;
+      PetscCall(VKPDSetFixedIterations(pd, PETSC_TRUE));
     } else PetscCall(VKPDSetTolerances(pd, 0, 0, 1e-12, 2000)); /* Phi at the minimum */
-    pd->type = k == 2 || k == 3 ? VK_PD_TYPE_LBFGS : VK_PD_TYPE_PD;
-    if (k == 1) {
-      pd->cheb_rho   = 0.99;
-      pd->cheb_delay = 3;
-    }
+    PetscCall(VKPDSetType(pd, k == 2 || k == 3 ? VK_PD_TYPE_LBFGS : VK_PD_TYPE_PD));
+    if (k == 1) PetscCall(VKPDSetChebyshev(pd, 0.99, 3));
     PetscCall(VKMeshCreateNodeVec(m, 3, &x));
     PetscCall(VecDuplicate(x, &yv));
     PetscCall(VKMeshGetRestPositions(m, yv));
@@ -283,11 +279,11 @@ static PetscErrorCode TestFixedCount(void)
       PetscInt     n;
       PetscCall(VecGetLocalSize(yv, &n));
       PetscCall(VecGetArray(yv, &a));
-      for (PetscInt i = 2; i < n; i += 3) a[i] += pd->dt * pd->dt * s->gravity[2];
+      for (PetscInt i = 2; i < n; i += 3) a[i] += dt * dt * s->gravity[2];
       PetscCall(VecRestoreArray(yv, &a));
     }
     PetscCall(VecCopy(yv, x));
-    PetscCall(VKPDSolve(pd, pd->dt, yv, NULL, x, &st));
+    PetscCall(VKPDSolve(pd, dt, yv, NULL, x, &st));
     PetscCall(VKPDObjective(pd, yv, x, k < 3 ? &phi[k] : &phistar));
     PetscCall(VecDestroy(&x));
     PetscCall(VecDestroy(&yv));

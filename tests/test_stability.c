@@ -157,22 +157,22 @@ static PetscErrorCode Run(MPI_Comm comm, Scene which, PetscReal **xk, PetscInt *
   PetscCall(Setup(&p, which, -9.81, &s, &dt, &T));
   PetscCall(VKSimCreate(p.mat, s, &sim));
   sim->quiet         = PETSC_TRUE;
-  sim->pd->type      = VK_PD_TYPE_PD;
-  sim->pd->ftol      = 0;
-  sim->pd->rtol      = 1e-6;
-  sim->pd->max_it    = 3000;
-  sim->pd->cheb_rho  = 0.99;
+  PetscCall(VKPDSetType(sim->pd, VK_PD_TYPE_PD));
+  PetscCall(VKPDSetTolerances(sim->pd, 0, PETSC_DEFAULT, 1e-6, 3000));
+  PetscCall(VKPDSetChebyshev(sim->pd, 0.99, 10));
   PetscCall(TSSetTimeStep(sim->ts, dt));
   PetscCall(TSSetMaxTime(sim->ts, T));
   *inverted0 = 0;
   if (which == CRUMPLE) {
-    Vec       x;
+    Vec       x, b;
     PetscReal E;
     PetscCall(VKSimSetUp(sim));
     PetscCall(VecDuplicate(sim->x, &x));
+    PetscCall(VecDuplicate(sim->x, &b));
     PetscCall(Crumpled(p.m, x));
-    PetscCall(VKPDLocalStep(sim->pd, x, sim->pd->b, &E, inverted0));
+    PetscCall(VKPDLocalStep(sim->pd, x, b, &E, inverted0));
     PetscCall(VKSimSetInitialState(sim, x, NULL));
+    PetscCall(VecDestroy(&b));
     PetscCall(VecDestroy(&x));
   }
   PetscCall(VKSimRun(sim));

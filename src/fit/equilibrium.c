@@ -112,9 +112,14 @@ static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
 /* *ok says whether |g| <= eq_rtol x scale was reached.  A PD global-solve
  * failure stays an error: it is not a matter of gamma. */
 /* A solve ended finite at the tolerance (or PD's round-off floor). */
-static PetscBool Reached(VKPD pd, const VKPDStats *st, PetscReal tol)
+static PetscErrorCode Reached(VKPD pd, const VKPDStats *st, PetscReal tol, PetscBool *ok)
 {
-  return (st->reason != VK_PD_DIVERGED_NAN && st->residual <= PetscMax(tol, pd->res_floor)) ? PETSC_TRUE : PETSC_FALSE;
+  PetscReal floor;
+
+  PetscFunctionBegin;
+  PetscCall(VKPDGetRoundoffFloor(pd, &floor));
+  *ok = (st->reason != VK_PD_DIVERGED_NAN && st->residual <= PetscMax(tol, floor)) ? PETSC_TRUE : PETSC_FALSE;
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats, PetscBool *ok)
@@ -140,7 +145,7 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
   PetscCall(VKPDSetConstantForce(pd, f->fext));
   PetscCall(VKPDSolve(pd, f->t, f->y, f->xprev, f->x, &st));
   PetscCheck(st.reason != VK_PD_DIVERGED_GLOBAL, fit->comm, PETSC_ERR_NOT_CONVERGED, "Equilibrium of sample frame %d (t = %g s): the PD global solve failed (see -fit_pd_global_ksp_converged_reason)", (int)f->index, (double)f->t);
-  *ok = Reached(pd, &st, tol);
+  PetscCall(Reached(pd, &st, tol, ok));
   if (!*ok && st.reason != VK_PD_DIVERGED_NAN) {
     /* Newton after PD did not get there (a large deformation, where the
      * exact Hessian is indefinite and its line search on |g|^2 stalls):
@@ -155,7 +160,7 @@ PetscErrorCode VKFitEquilibriumTry(VKFit fit, VKFitFrame *f, VKFitEqStats *stats
     st.iterations += its;
     st.newton_its += nits;
     fit->eq_fallbacks++;
-    *ok = Reached(pd, &st, tol);
+    PetscCall(Reached(pd, &st, tol, ok));
   }
   PetscCall(VKPDSetConstantForce(pd, NULL));
   if (stats) {

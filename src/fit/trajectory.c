@@ -268,9 +268,11 @@ static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, 
   KSPConvergedReason reason;
   Vec               *Sn = T->S[1], *Sp = T->S[2], *Snew = T->S[0];
   PetscLogDouble     t0 = VKWallTime();
-  PetscReal          ch = fit->pd->damping * h;
+  PetscReal          ch;
 
   PetscFunctionBegin;
+  PetscCall(VKPDGetDamping(fit->pd, &ch));
+  ch *= h;
   PetscCall(PetscLogEventBegin(VK_EVENT_FitAdjoint, 0, 0, 0, 0));
   PetscCall(VKPDHessian(fit->pd, T->f.x, fit->H));
   PetscCall(KSPSetOperators(fit->kadj, fit->H, fit->H));

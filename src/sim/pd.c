@@ -14,6 +14,7 @@
 #include <vkpd.h>
 #include <vklog.h>
 #include <vkutil.h>
+#include "pdimpl.h"
 
 const char *VKPDReasonName(VKPDReason r)
 {
@@ -155,9 +156,90 @@ PetscErrorCode VKPDGetType(VKPD pd, VKPDType *type)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKPDGetKSP(VKPD pd, KSP *ksp)
+{
+  PetscFunctionBegin;
+  *ksp = pd->ksp;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetLBFGS(VKPD pd, PetscInt m, PetscInt newton_switch)
+{
+  PetscFunctionBegin;
+  if (m != PETSC_DEFAULT && m != pd->lbfgs_m) {
+    PetscCheck(m >= 1 && m <= 100, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "L-BFGS history %d: must be in [1, 100]", (int)m);
+    if (pd->lbfgs_s) { /* reallocated at the next solve */
+      PetscCall(VecDestroyVecs(pd->lbfgs_m, &pd->lbfgs_s));
+      PetscCall(VecDestroyVecs(pd->lbfgs_m, &pd->lbfgs_y));
+      PetscCall(PetscFree2(pd->lbfgs_rho, pd->lbfgs_alpha));
+      for (int k = 0; k < 3; k++) PetscCall(VecDestroy(&pd->lbfgs_work[k]));
+    }
+    pd->lbfgs_m = m;
+  }
+  if (newton_switch != PETSC_DEFAULT) {
+    PetscCheck(newton_switch >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "L-BFGS iterations before projected Newton: %d, must be >= 0", (int)newton_switch);
+    pd->lbfgs_switch = newton_switch;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetFixedIterations(VKPD pd, PetscBool fixed)
+{
+  PetscFunctionBegin;
+  pd->fixed_its = fixed;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGetFixedIterations(VKPD pd, PetscBool *fixed)
+{
+  PetscFunctionBegin;
+  *fixed = pd->fixed_its;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetChebyshev(VKPD pd, PetscReal rho, PetscInt delay)
+{
+  PetscFunctionBegin;
+  PetscCheck(rho >= 0 && rho < 1 && delay >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "Chebyshev acceleration: rho %g must be in [0, 1), delay %d >= 1", (double)rho, (int)delay);
+  pd->cheb_rho   = rho;
+  pd->cheb_delay = delay;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGetRoundoffFloor(VKPD pd, PetscReal *floor)
+{
+  PetscFunctionBegin;
+  *floor = pd->res_floor;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGetDamping(VKPD pd, PetscReal *c)
+{
+  PetscFunctionBegin;
+  *c = pd->damping;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGetContactWeight(VKPD pd, PetscReal *w)
+{
+  PetscFunctionBegin;
+  *w = pd->contact_weight;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDGetHistory(VKPD pd, PetscInt *n, const PetscReal *phi[])
+{
+  PetscFunctionBegin;
+  *n   = pd->hist_n;
+  *phi = pd->hist_phi;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKPDSetNewton(VKPD pd, PetscInt its, PetscReal rtol)
 {
   PetscFunctionBegin;
+  if (its == PETSC_DEFAULT) its = pd->newton_its;
+  if (rtol == (PetscReal)PETSC_DEFAULT) rtol = pd->newton_rtol;
   PetscCheck(its >= 0 && rtol >= 0 && rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "Newton after PD: %d iterations (>= 0), rtol %g (in [0, 1))", (int)its, (double)rtol);
   pd->newton_its  = its;
   pd->newton_rtol = rtol;

@@ -1,8 +1,91 @@
-/* pdimpl.h: internals of the PD solver shared by pd_solve.c (the solve,
- * the local and global steps, the stopping rule), pd_lbfgs.c and
- * pd_newton.c. */
+/* pdimpl.h: the PD solver's private struct and the internals shared by
+ * pd.c (set-up, options, accessors), pd_solve.c (the solve, the local and
+ * global steps, the stopping rule), pd_lbfgs.c, pd_newton.c and
+ * pd_contact.c; the sim and its TS read it too.  Everything else goes
+ * through include/vkpd.h. */
 #pragma once
 #include <vkpd.h>
+
+struct _n_VKPD {
+  MPI_Comm   comm;
+  VKMesh     mesh;
+  VKMaterial mat;
+  VKScene    scene;
+  PetscReal  dt;
+  /* inertia: 1, or 0 for a static equilibrium (fitting, -fit_inertia
+   * data|none), where Phi = E(x) - fconst . x; fconst (optional, not
+   * owned) is a constant force per node, added in either case */
+  PetscReal  inertia;
+  Vec        fconst;
+  /* the scene's mass-proportional damping c (1/s): Phi gains
+   * c/(2 dt) |x - x_n|^2_M, i.e. the inertia term is scaled by 1 + c dt
+   * and its target becomes (y + c dt x_n)/(1 + c dt) (VKPDInertiaScale) */
+  PetscReal  damping;
+  Vec        ydamp;
+  /* options */
+  VKPDType  type;
+  PetscReal ftol, rtol, atol;
+  PetscInt  max_it;
+  PetscBool fixed_its;
+  PetscBool monitor;
+  PetscInt  lbfgs_m;     /* L-BFGS history */
+  Vec      *lbfgs_s, *lbfgs_y, lbfgs_work[3]; /* history pairs; direction, previous gradient, two-loop vector */
+  PetscReal *lbfgs_rho, *lbfgs_alpha;
+  PetscReal  fconst_norm; /* |f_const| over the free nodes, for f_scale */
+  PetscReal cheb_rho, cheb_gamma;
+  PetscInt  cheb_delay;
+  PetscInt  newton_its;
+  PetscReal newton_rtol;
+  /* eliminated owned nodes (local owned index, handle, global row): the
+   * scene's handle nodes first (nscene), then frozen nodes (handle -1:
+   * neither mass nor stiffness, held where they are) */
+  PetscInt  nhandle, nscene, *handle_node, *handle_id, *handle_row;
+  PetscInt  nhandle_total; /* over all ranks */
+  PetscInt  *node_handle; /* per owned node: handle, VK_SCENE_MAX if frozen, or -1 */
+  /* colliders (DESIGN §7): every free owned node carries the PD constraint
+   * w_i/2 |x_i - P(x_i)|^2, P the projection out of the colliders with
+   * Coulomb friction relative to the node's position at the start of the
+   * step; w_i = contact_weight * K_ii is in K, so K stays constant.
+   * contact[i] is set when x_i is inside a collider. */
+  PetscReal  contact_weight;
+  char       prefix[64]; /* options prefix (VKPDSetOptionsPrefix) */
+  PetscObjectState mat_state; /* of the material K was assembled with */
+  VKPDHandleNodes handle_nodes;
+  PetscReal *contact_w;
+  PetscBool *contact;
+  PetscReal  t;    /* time of the current solve (handles, moving colliders) */
+  Vec        prev; /* start of the step (friction reference), or NULL */
+  PetscReal *tetW; /* per owned tet: W of its last SVD (warm start) */
+  /* global step */
+  Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
+  PetscReal kdiag;  /* diagonal put on eliminated rows: the mean diagonal of K, kept while within 10x of it */
+  PetscReal res_floor; /* round-off level of |grad Phi|: 1e-12 kdiag L (N) */
+  PetscReal f_gravity, f_unit; /* |M g| over the free nodes; elastic force of a unit strain (N) */
+  PetscReal f_reaction;        /* handle and collider reactions at the last evaluation (N) */
+  KSP       ksp;
+  Vec       xc, bc, rc, xd[3];   /* scalar work; handle values per coordinate */
+  Mat       B, X;                /* dense n x 3: right-hand sides and solutions of the global step */
+  Vec       b, My, xold, xhat, r; /* block-3 ghosted work */
+  /* Newton: polish (SNES) and the projected Newton L-BFGS hands over to */
+  PetscInt  lbfgs_switch; /* L-BFGS iterations before projected Newton takes over (0: never) */
+  KSP       pksp;
+  SNES      snes;
+  Mat       H;
+  Vec       hdiag; /* diagonal added to the material Hessian: inertia M/dt^2 + contact weights */
+  const Vec *ysnes; /* inertial target seen by the SNES callbacks */
+  PetscInt   step;  /* time step number for messages (set by the caller) */
+  /* Phi and |grad Phi| at every iteration of the last solve (max_it + 1) */
+  PetscReal *hist_phi, *hist_res;
+  PetscInt   hist_n, hist_cap;
+  PetscBool  setup, kset;
+};
+
+/* The factor of M/dt^2 in Phi, K and the Hessian: 0 in a static solve,
+ * else 1 + c dt with c the scene's damping. */
+static inline PetscReal VKPDInertiaScale(VKPD pd)
+{
+  return pd->inertia * (1 + pd->damping * pd->dt);
+}
 
 /* One evaluation at x: the local step (and collider step) into pd->b,
  * Phi, and, unless pd->fixed_its, the residual grad Phi = K x - b(x) into

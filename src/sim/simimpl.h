@@ -2,6 +2,7 @@
  * sim_output.c (the frame writer). */
 #pragma once
 #include <vksim.h>
+#include "pdimpl.h"
 
 /* Begin DIR/sim.h5 (nothing without an output directory). */
 PETSC_INTERN PetscErrorCode VKSimOutputOpen(VKSim);

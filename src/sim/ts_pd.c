@@ -12,6 +12,7 @@
  * sliver of less than 1e-6 dt left before it is absorbed into the step
  * before); the time step itself is kept for any later TSSolve.  Modelled on PETSc's own TS implementations (TSStep_Euler). */
 #include <vksim.h>
+#include "pdimpl.h"
 #include <petsc/private/tsimpl.h>
 
 typedef struct {

@@ -24,7 +24,8 @@ static const char help[] = "Benchmark of the homogenized PD simulator (issue 3):
 static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble tfirst)
 {
   VKPD           pd   = sim->pd;
-  VKMesh         mesh = pd->mesh;
+  VKMesh         mesh = sim->mesh;
+  KSP            ksp;
   const VKLayout *L   = &mesh->layout;
   Vec            g;
   PetscLogDouble t[2] = {0, 0};
@@ -36,21 +37,22 @@ static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble 
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
-  PetscCall(KSPGetPC(pd->ksp, &pc));
+  PetscCall(VKPDGetKSP(pd, &ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCGetType(pc, &pctype));
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &cms));
-  PetscCall(VKMaterialCreateGammaVec(pd->mat, &g));
+  PetscCall(VKMaterialCreateGammaVec(sim->mat, &g));
   for (int all = 0; all < 2; all++)
     for (PetscInt r = 0; r < n; r++) {
       PetscScalar   *a;
       PetscReal      f = r % 2 ? 1 / 1.1 : 1.1;
       PetscLogDouble t0;
-      PetscCall(VKMaterialGetGamma(pd->mat, g));
+      PetscCall(VKMaterialGetGamma(sim->mat, g));
       PetscCall(VecGetArray(g, &a));
       for (PetscInt e = 0; e < L->eEnd - L->eStart; e++)
         if (all || mesh->tet_domain[L->eStart + e] == 0) a[2 * e] *= f, a[2 * e + 1] *= f;
       PetscCall(VecRestoreArray(g, &a));
-      PetscCall(VKMaterialSetGamma(pd->mat, g));
+      PetscCall(VKMaterialSetGamma(sim->mat, g));
       PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
       t0 = VKWallTime();
       PetscCall(VKPDSetUp(pd));
@@ -71,7 +73,10 @@ static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble 
 /* Run the scene; one row of the PD table. */
 static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, PetscLogDouble tsetup)
 {
-  VKMesh      mesh = sim->pd->mesh;
+  VKMesh      mesh = sim->mesh;
+  KSP         ksp;
+  VKPDType    type;
+  PetscBool   fixed;
   VKTSPDStats st;
   PetscMPIInt size;
   const char *pctype, *solver = "";
@@ -82,7 +87,10 @@ static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, Pet
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscCall(VKSimRun(sim));
   PetscCall(VKTSPDGetStats(sim->ts, &st));
-  PetscCall(KSPGetPC(sim->pd->ksp, &pc));
+  PetscCall(VKPDGetKSP(sim->pd, &ksp));
+  PetscCall(VKPDGetType(sim->pd, &type));
+  PetscCall(VKPDGetFixedIterations(sim->pd, &fixed));
+  PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCGetType(pc, &pctype));
   {
     PetscBool factor, columns;
@@ -98,15 +106,15 @@ static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, Pet
     }
     else {
       KSPType kt;
-      PetscCall(KSPGetType(sim->pd->ksp, &kt));
+      PetscCall(KSPGetType(ksp, &kt));
       solver = kt;
     }
   }
-  PetscCall(PetscSNPrintf(name, sizeof(name), "%s%s, %s %s", VKPDTypes[sim->pd->type], sim->pd->fixed_its ? " fixed" : "", pctype, solver));
+  PetscCall(PetscSNPrintf(name, sizeof(name), "%s%s, %s %s", VKPDTypes[type], fixed ? " fixed" : "", pctype, solver));
   {
     PetscReal its = (PetscReal)st.iterations / PetscMax(st.steps, 1), n = PetscMax(st.steps, 1);
     /* local steps per step: one per iteration plus the final evaluation, none with -pd_fixed_its (plain PD) */
-    PetscReal nlocal = (its + (sim->pd->fixed_its && sim->pd->type == VK_PD_TYPE_PD ? 0 : 1)) * mesh->ne;
+    PetscReal nlocal = (its + (fixed && type == VK_PD_TYPE_PD ? 0 : 1)) * mesh->ne;
     char      res[32];
     if (st.unmeasured_steps == st.steps) PetscCall(PetscSNPrintf(res, sizeof(res), "not measured"));
     else PetscCall(PetscSNPrintf(res, sizeof(res), "%.1e%s", (double)st.residual_force_max, st.unconverged_steps ? " (unconverged)" : ""));
