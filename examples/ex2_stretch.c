@@ -25,18 +25,18 @@ static const char help[] = "Stretch a knitted patch with the homogenized simulat
 #include <vksim.h>
 
 /* Width of the driven yarns along x (all ranks). */
-static PetscErrorCode YarnWidth(VKSim sim, PetscReal *w)
+static PetscErrorCode YarnWidth(VKMesh mesh, VKSim sim, PetscReal *w)
 {
-  VKMesh             mesh = sim->mesh;
   VecScatter         sc;
-  Vec                all;
+  Vec                all, xs;
   const PetscScalar *x;
   PetscReal         *xy, lo = PETSC_MAX_REAL, hi = -PETSC_MAX_REAL;
 
   PetscFunctionBeginUser;
-  PetscCall(VecScatterCreateToAll(sim->x, &sc, &all));
-  PetscCall(VecScatterBegin(sc, sim->x, all, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sc, sim->x, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VKSimGetSolution(sim, &xs));
+  PetscCall(VecScatterCreateToAll(xs, &sc, &all));
+  PetscCall(VecScatterBegin(sc, xs, all, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, xs, all, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(PetscMalloc1(3 * mesh->ny, &xy));
   PetscCall(VecGetArrayRead(all, &x));
   PetscCall(VKMeshApplyEmbedding(mesh, x, xy));
@@ -62,6 +62,7 @@ int main(int argc, char **argv)
   VKMaterial  mat;
   VKScene     scene;
   VKSim       sim;
+  TS          ts;
   VKTSPDStats st;
 
   PetscCall(PetscInitialize(&argc, &argv, NULL, help));
@@ -110,10 +111,11 @@ int main(int argc, char **argv)
   PetscCall(VKSimSetFromOptions(sim));
   PetscCall(VKSimSetOutputDirectory(sim, dir));
   PetscCall(VKSimSetUp(sim));
-  PetscCall(YarnWidth(sim, &w0));
+  PetscCall(YarnWidth(mesh, sim, &w0));
   PetscCall(VKSimRun(sim));
-  PetscCall(YarnWidth(sim, &w1));
-  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  PetscCall(YarnWidth(mesh, sim, &w1));
+  PetscCall(VKSimGetTS(sim, &ts));
+  PetscCall(VKTSPDGetStats(ts, &st));
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "ex2: yarn patch width %.4f mm at rest, %.4f mm after the stretch (ratio %.4f); %d steps, %.1f PD iterations per step\n", (double)(1e3 * w0), (double)(1e3 * w1), (double)(w1 / w0), (int)st.steps, (double)st.iterations / PetscMax(st.steps, 1)));
 
   PetscCall(VKSimDestroy(&sim));

@@ -40,23 +40,6 @@ PETSC_EXTERN PetscErrorCode VKTSPDGetStats(TS, VKTSPDStats *);
 PETSC_EXTERN PetscErrorCode VKTSPDSetStrict(TS, PetscBool);
 
 typedef struct _n_VKSim *VKSim;
-struct _n_VKSim {
-  MPI_Comm   comm;
-  VKMesh     mesh;
-  VKMaterial mat;
-  VKScene    scene;
-  VKPD       pd;
-  TS         ts;
-  Vec        x, x0, v0; /* state; initial state (NULL: rest, at rest) */
-  char       dir[PETSC_MAX_PATH_LEN]; /* output directory, "" for none */
-  PetscBool  quiet, setup, strict;
-  void      *out;                     /* frame writer (sim_output.c) */
-  PetscReal  next_output, last_frame_time;
-  PetscInt   frames;
-  PetscReal  energy[3]; /* last frame: elastic, kinetic, gravitational potential */
-  PetscLogDouble time_run;
-};
-
 PETSC_EXTERN PetscErrorCode VKSimCreate(VKMaterial, VKScene, VKSim *);
 /* -pd_* and -ts_* options; the defaults come from the scene
  * (-ts_max_time = -scene_duration, -ts_dt = min(1/150 s, output interval)). */
@@ -77,3 +60,16 @@ PETSC_EXTERN PetscErrorCode VKSimView(VKSim, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKSimDestroy(VKSim *);
 /* Energies of a state: elastic, kinetic 1/2 v^T M v, gravitational -g . M x. */
 PETSC_EXTERN PetscErrorCode VKSimEnergies(VKSim, Vec x, Vec v, PetscReal e[3]);
+/* Its parts: the PD solver (solver settings, VKPDGetKSP), the TS (-ts_*,
+ * VKTSPDGetStats) and the state x (owned by the sim; after VKSimRun the
+ * final positions). */
+PETSC_EXTERN PetscErrorCode VKSimGetPD(VKSim, VKPD *);
+PETSC_EXTERN PetscErrorCode VKSimGetTS(VKSim, TS *);
+PETSC_EXTERN PetscErrorCode VKSimGetSolution(VKSim, Vec *);
+PETSC_EXTERN PetscErrorCode VKSimGetComm(VKSim, MPI_Comm *);
+/* No progress lines on stdout (warnings still go to stderr). */
+PETSC_EXTERN PetscErrorCode VKSimSetQuiet(VKSim, PetscBool);
+/* Wall time of the last VKSimRun (s) and the energies of its last frame
+ * (elastic, kinetic, gravitational potential; J). */
+PETSC_EXTERN PetscErrorCode VKSimGetRunTime(VKSim, PetscLogDouble *);
+PETSC_EXTERN PetscErrorCode VKSimGetFrameEnergies(VKSim, PetscReal e[3]);

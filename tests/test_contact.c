@@ -17,6 +17,7 @@
  */
 #include <vksim.h>
 #include "vktest.h"
+#include "simtest.h"
 #include "../src/sim/pdimpl.h" /* VKPDNodeContact */
 #include "meshcompare.h"
 
@@ -82,9 +83,9 @@ static PetscErrorCode RunCreate(MPI_Comm comm, Case which, PetscReal T, Run *r)
   r->s->duration = T;
   PetscCall(VKSceneSetUp(r->s, lo, hi));
   PetscCall(VKSimCreate(r->mat, r->s, &r->sim));
-  r->sim->quiet        = PETSC_TRUE;
-  PetscCall(TSSetTimeStep(r->sim->ts, 1.0 / 150));
-  PetscCall(TSSetMaxTime(r->sim->ts, T));
+  PetscCall(VKSimSetQuiet(r->sim, PETSC_TRUE));
+  PetscCall(TSSetTimeStep(VKTestSimTS(r->sim), 1.0 / 150));
+  PetscCall(TSSetMaxTime(VKTestSimTS(r->sim), T));
   PetscCall(VKSimRun(r->sim));
   PetscFunctionReturn(0);
 }
@@ -109,7 +110,7 @@ static PetscErrorCode MeanVelocityX(Run *r, PetscReal *vx)
   PetscReal          mine[2] = {0, 0}, all[2];
 
   PetscFunctionBegin;
-  PetscCall(VKTSPDGetVelocity(r->sim->ts, &v));
+  PetscCall(VKTSPDGetVelocity(VKTestSimTS(r->sim), &v));
   PetscCall(VecGetArrayRead(v, &va));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
     mine[0] += r->m->mass[L->nStart + i] * va[3 * i];
@@ -128,14 +129,14 @@ static PetscErrorCode MeanVelocityX(Run *r, PetscReal *vx)
  * smoothing length 2 mu d and the contact surface. */
 static PetscErrorCode TestTaylor(Run *r, const char label[])
 {
-  VKPD        pd = r->sim->pd;
-  Vec         x = r->sim->x, d, xh, grad;
+  VKPD        pd = VKTestSimPD(r->sim);
+  Vec         x = VKTestSimX(r->sim), d, xh, grad;
   PetscRandom rnd;
   PetscReal   phi0, phi, slope, h, rem[6], worst = PETSC_MAX_REAL;
   VKTSPDStats st;
 
   PetscFunctionBegin;
-  PetscCall(VKTSPDGetStats(r->sim->ts, &st));
+  PetscCall(VKTSPDGetStats(VKTestSimTS(r->sim), &st));
   PetscCall(VecDuplicate(x, &d));
   PetscCall(VecDuplicate(x, &xh));
   PetscCall(VecDuplicate(x, &grad));
@@ -258,11 +259,11 @@ static PetscErrorCode TestIncline(void)
   PetscFunctionBegin;
   PetscCall(RunCreate(PETSC_COMM_WORLD, SLIDE, T, &r));
   PetscCall(MeanVelocityX(&r, &vx));
-  PetscCall(VKTSPDGetStats(r.sim->ts, &st));
+  PetscCall(VKTSPDGetStats(VKTestSimTS(r.sim), &st));
   /* the friction builds up over the first step or two while the patch
    * settles into the constraint: 2 % */
   PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(vx - want) <= 0.02 * want), NULL, "incline 30 deg, friction 0.2: mean velocity %.5f m/s after %g s, rigid block %.5f (error %.2f %%)", (double)vx, (double)T, (double)want, (double)(100 * (vx / want - 1))));
-  bound = g * dt * dt / r.sim->pd->contact_weight;
+  bound = g * dt * dt / VKTestSimPD(r.sim)->contact_weight;
   PetscCall(VKTestCheck((PetscBool)(st.last.depth > 0 && st.last.depth <= bound), NULL, "incline: penetration at the end %.3e m <= g dt^2 / w = %.3e m (%d nodes in contact; PD %.1f its per step)", (double)st.last.depth, (double)bound, (int)st.last.contacts, (double)st.iterations / st.steps));
   PetscCall(VKTestCheck((PetscBool)(st.unconverged_steps == 0), NULL, "incline, sliding: every step converged at the default tolerance (%d did not)", (int)st.unconverged_steps));
   PetscCall(TestTaylor(&r, "incline, sliding"));
@@ -287,9 +288,9 @@ static PetscErrorCode TestDrape(void)
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscCall(RunCreate(PETSC_COMM_WORLD, DRAPE, T, &rp));
   PetscCall(RunCreate(PETSC_COMM_SELF, DRAPE, T, &rs));
-  PetscCall(VKTSPDGetStats(rp.sim->ts, &sp));
-  PetscCall(VKTestGatherByKey(rp.m, rp.sim->x, &xp));
-  PetscCall(VKTestGatherByKey(rs.m, rs.sim->x, &xs));
+  PetscCall(VKTSPDGetStats(VKTestSimTS(rp.sim), &sp));
+  PetscCall(VKTestGatherByKey(rp.m, VKTestSimX(rp.sim), &xp));
+  PetscCall(VKTestGatherByKey(rs.m, VKTestSimX(rs.sim), &xs));
   top = rp.s->collider[0].point[2] + rp.s->collider[0].radius;
   for (PetscInt i = 0; i < rp.m->nv; i++) {
     PetscReal r2 = PetscSqr(xp[3 * i] - rp.s->collider[0].point[0]) + PetscSqr(xp[3 * i + 1] - rp.s->collider[0].point[1]);
@@ -300,7 +301,7 @@ static PetscErrorCode TestDrape(void)
   PetscCall(VKTestCheck((PetscBool)(sp.inverted_max == 0 && sp.contacts_max > 0), NULL, "drape: %d steps (PD %.1f its per step), %d nodes on the sphere at most, no inverted tet (%d)", (int)sp.steps, (double)sp.iterations / sp.steps, (int)sp.contacts_max, (int)sp.inverted_max));
   PetscCall(VKTestCheck((PetscBool)(sp.unconverged_steps == 0), NULL, "drape with friction 0.3: every step converged at the default tolerance (%d did not)", (int)sp.unconverged_steps));
   PetscCall(VKTestCheck((PetscBool)(zc >= top && zc <= top + 0.2 * rp.L && zlow < top - 0.15 * rp.L), NULL, "drape: the centre rests on the sphere (%.4f m above its top), the edges hang %.4f m below it (patch %.4f m)", (double)(zc - top), (double)(top - zlow), (double)rp.L));
-  PetscCall(VKTestCheck((PetscBool)(sp.depth_max <= 3 * g * dt * dt / rp.sim->pd->contact_weight), NULL, "drape: deepest penetration during the run %.3e m <= 3 g dt^2 / w = %.3e m", (double)sp.depth_max, (double)(3 * g * dt * dt / rp.sim->pd->contact_weight)));
+  PetscCall(VKTestCheck((PetscBool)(sp.depth_max <= 3 * g * dt * dt / VKTestSimPD(rp.sim)->contact_weight), NULL, "drape: deepest penetration during the run %.3e m <= 3 g dt^2 / w = %.3e m", (double)sp.depth_max, (double)(3 * g * dt * dt / VKTestSimPD(rp.sim)->contact_weight)));
   PetscCall(VKTestCheck((PetscBool)(d <= 1e-6 * rp.L), NULL, "drape: %d ranks and one agree: max difference %.2e of the patch size", (int)size, (double)(d / rp.L)));
   PetscCall(PetscFree(xp));
   PetscCall(PetscFree(xs));

@@ -23,6 +23,7 @@
 #include <vksim.h>
 #include <slepcsys.h>
 #include "vktest.h"
+#include "simtest.h"
 #include "../src/sim/pdimpl.h" /* K and the held nodes, for white-box checks */
 #include "meshcompare.h"
 
@@ -399,19 +400,19 @@ static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton
   PetscFunctionBegin;
   PetscCall(StretchScene(mat->mesh, -9.81, &s));
   PetscCall(VKSimCreate(mat, s, &sim));
-  sim->quiet           = PETSC_TRUE;
-  PetscCall(VKPDGetKSP(sim->pd, &ksp));
+  PetscCall(VKSimSetQuiet(sim, PETSC_TRUE));
+  PetscCall(VKPDGetKSP(VKTestSimPD(sim), &ksp));
   if (kind == 1 || kind == 3) { /* as -pd_global_pc_type cms sets it */
     PC pc;
     PetscCall(KSPGetPC(ksp, &pc));
     PetscCall(PCSetType(pc, PCCMS));
   }
-  PetscCall(VKPDSetType(sim->pd, kind < 2 ? VK_PD_TYPE_PD : VK_PD_TYPE_LBFGS)); /* plain PD over cms: CG */
-  PetscCall(VKPDSetLBFGS(sim->pd, PETSC_DEFAULT, 0));
-  PetscCall(VKPDSetTolerances(sim->pd, 0, PETSC_DEFAULT, rtol, 2000));
-  PetscCall(VKPDSetNewton(sim->pd, newton, 1e-11));
-  PetscCall(TSSetTimeStep(sim->ts, 1.0 / 150));
-  PetscCall(TSSetMaxTime(sim->ts, 5.0 / 150));
+  PetscCall(VKPDSetType(VKTestSimPD(sim), kind < 2 ? VK_PD_TYPE_PD : VK_PD_TYPE_LBFGS)); /* plain PD over cms: CG */
+  PetscCall(VKPDSetLBFGS(VKTestSimPD(sim), PETSC_DEFAULT, 0));
+  PetscCall(VKPDSetTolerances(VKTestSimPD(sim), 0, PETSC_DEFAULT, rtol, 2000));
+  PetscCall(VKPDSetNewton(VKTestSimPD(sim), newton, 1e-11));
+  PetscCall(TSSetTimeStep(VKTestSimTS(sim), 1.0 / 150));
+  PetscCall(TSSetMaxTime(VKTestSimTS(sim), 5.0 / 150));
   PetscCall(VKSimRun(sim));
   if (kind == 3) {
     PetscBool preonly;
@@ -420,7 +421,7 @@ static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton
   }
   PetscCall(VKSimGetStatus(sim, &status));
   PetscCall(VKTestCheck((PetscBool)(!strcmp(status, "completed")), NULL, "trajectory (solver kind %d, PD rtol %g) completed: status %s", (int)kind, (double)rtol, status));
-  PetscCall(VKTestGatherByKey(mat->mesh, sim->x, xk));
+  PetscCall(VKTestGatherByKey(mat->mesh, VKTestSimX(sim), xk));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&s));
   PetscFunctionReturn(0);

@@ -19,6 +19,7 @@
  */
 #include <vksim.h>
 #include "vktest.h"
+#include "simtest.h"
 
 static PetscErrorCode Build(MPI_Comm comm, PetscInt n, PetscReal gs, PetscReal gv, VKYarn *y, VKMesh *m, VKMaterial *mat)
 {
@@ -77,14 +78,14 @@ static PetscErrorCode HangSim(VKMaterial mat, VKScene s, PetscReal duration, con
   PetscFunctionBegin;
   PetscCall(VKSimCreate(mat, s, sim));
   PetscCall(VKSimSetFromOptions(*sim));
-  (*sim)->quiet = PETSC_TRUE;
+  PetscCall(VKSimSetQuiet((*sim), PETSC_TRUE));
   if (type) {
     PetscBool lbfgs;
     PetscCall(PetscStrcmp(type, "lbfgs", &lbfgs));
-    PetscCall(VKPDSetType((*sim)->pd, lbfgs ? VK_PD_TYPE_LBFGS : VK_PD_TYPE_PD));
+    PetscCall(VKPDSetType(VKTestSimPD((*sim)), lbfgs ? VK_PD_TYPE_LBFGS : VK_PD_TYPE_PD));
   }
-  PetscCall(VKPDSetNewton((*sim)->pd, newton, PETSC_DEFAULT));
-  PetscCall(TSSetMaxTime((*sim)->ts, duration));
+  PetscCall(VKPDSetNewton(VKTestSimPD((*sim)), newton, PETSC_DEFAULT));
+  PetscCall(TSSetMaxTime(VKTestSimTS((*sim)), duration));
   PetscFunctionReturn(0);
 }
 
@@ -154,13 +155,13 @@ static PetscErrorCode TestHangAtRest(void)
   PetscCall(HangSim(mat, s, 2.0, NULL, 0, &sim));
   PetscCall(VKSimRun(sim));
   PetscCall(VKSimGetStatus(sim, &status));
-  PetscCall(VecDuplicate(sim->x, &xeq));
-  PetscCall(VecDuplicate(sim->x, &rest));
-  PetscCall(VecCopy(sim->x, xeq));
+  PetscCall(VecDuplicate(VKTestSimX(sim), &xeq));
+  PetscCall(VecDuplicate(VKTestSimX(sim), &rest));
+  PetscCall(VecCopy(VKTestSimX(sim), xeq));
   PetscCall(StaticEquilibrium(mat, s, xeq));
   PetscCall(VKMeshGetRestPositions(m, rest));
   PetscCall(MaxNodeDistance(xeq, rest, &sag));
-  PetscCall(MaxNodeDistance(xeq, sim->x, &err));
+  PetscCall(MaxNodeDistance(xeq, VKTestSimX(sim), &err));
   PetscCall(VKTestCheck((PetscBool)(err <= 5e-3 * sag && !strcmp(status, "completed")), NULL, "4x4 rib hanging 2 s at the default options: status %s, %.2e m from the static equilibrium, %.3f %% of the sag %.3e m (<= 0.5 %%)", status, (double)err, (double)(100 * err / sag), (double)sag));
   PetscCall(VecDestroy(&xeq));
   PetscCall(VecDestroy(&rest));
@@ -191,24 +192,24 @@ static PetscErrorCode TestVolumeDominated(PetscReal ratio)
   PetscCall(HangSim(mat, s, 0.1, NULL, 0, &sim));
   PetscCall(VKSimRun(sim));
   PetscCall(VKSimGetStatus(sim, &status));
-  PetscCall(VKTSPDGetStats(sim->ts, &st));
-  PetscCall(VecDuplicate(sim->x, &x));
-  PetscCall(VecCopy(sim->x, x));
+  PetscCall(VKTSPDGetStats(VKTestSimTS(sim), &st));
+  PetscCall(VecDuplicate(VKTestSimX(sim), &x));
+  PetscCall(VecCopy(VKTestSimX(sim), x));
   PetscCall(VKTestCheck((PetscBool)!strcmp(status, "completed"), NULL, "g_v/g_s = %g, default solver: status %s, %d of %d steps unconverged, %.1f iterations per step (max %d)", (double)ratio, status, (int)st.unconverged_steps, (int)st.steps, (double)st.iterations / st.steps, (int)st.iterations_max));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(HangSim(mat, s, 0.1, NULL, 20, &sim));
-  PetscCall(VKPDSetNewton(sim->pd, PETSC_DEFAULT, 1e-12));
+  PetscCall(VKPDSetNewton(VKTestSimPD(sim), PETSC_DEFAULT, 1e-12));
   PetscCall(VKSimRun(sim));
   PetscCall(VecDuplicate(x, &rest));
   PetscCall(VKMeshGetRestPositions(m, rest));
-  PetscCall(MaxNodeDistance(sim->x, rest, &disp));
-  PetscCall(MaxNodeDistance(sim->x, x, &err));
+  PetscCall(MaxNodeDistance(VKTestSimX(sim), rest, &disp));
+  PetscCall(MaxNodeDistance(VKTestSimX(sim), x, &err));
   PetscCall(VKTestCheck((PetscBool)(err <= 5e-3 * disp), NULL, "g_v/g_s = %g: the default solver ends %.3f %% of the displacement %.2e m from Newton-polished steps (<= 0.5 %%)", (double)ratio, (double)(100 * err / disp), (double)disp));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(HangSim(mat, s, 0.1, "pd", 0, &sim));
   PetscCall(VKSimRun(sim));
   PetscCall(VKSimGetStatus(sim, &status));
-  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  PetscCall(VKTSPDGetStats(VKTestSimTS(sim), &st));
   PetscCall(VKTestCheck((PetscBool)(!strcmp(status, "completed") == (st.unconverged_steps == 0) && (st.unconverged_steps == 0) == (st.residual_over_tol_max <= 1)), NULL, "g_v/g_s = %g, plain PD: status %s with %d of %d steps unconverged, worst residual %.3g x the tolerance", (double)ratio, status, (int)st.unconverged_steps, (int)st.steps, (double)st.residual_over_tol_max));
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&rest));
@@ -236,7 +237,7 @@ static PetscErrorCode TestNewtonStatus(void)
   PetscCall(HangScene(m, &s));
   PetscCall(HangSim(mat, s, 5.0 / 150, "pd", 10, &sim));
   PetscCall(VKSimRun(sim));
-  PetscCall(VKTSPDGetStats(sim->ts, &st));
+  PetscCall(VKTSPDGetStats(VKTestSimTS(sim), &st));
   PetscCall(VKSimGetStatus(sim, &status));
   PetscCall(VKTestCheck((PetscBool)((st.unconverged_steps == 0) == (st.residual_over_tol_max <= 1) && (st.unconverged_steps == 0) == !strcmp(status, "completed")), NULL, "g_s = 1, g_v = 1e11, Newton polish: status %s, %d of %d steps unconverged, worst residual %.3g x its tolerance, %d Newton iterations", status, (int)st.unconverged_steps, (int)st.steps, (double)st.residual_over_tol_max, (int)st.newton_its));
   PetscCall(VKSimDestroy(&sim));

@@ -16,6 +16,7 @@
 #include <vksim.h>
 #include <vkio.h>
 #include "vktest.h"
+#include "simtest.h"
 #include "meshcompare.h"
 
 PETSC_UNUSED static PetscErrorCode (*unused_compare)(VKMesh, VKMesh, const char[], PetscBool) = VKTestCompareMeshes;
@@ -156,29 +157,29 @@ static PetscErrorCode Run(MPI_Comm comm, Scene which, PetscReal **xk, PetscInt *
   PetscCall(Build(comm, &p));
   PetscCall(Setup(&p, which, -9.81, &s, &dt, &T));
   PetscCall(VKSimCreate(p.mat, s, &sim));
-  sim->quiet         = PETSC_TRUE;
-  PetscCall(VKPDSetType(sim->pd, VK_PD_TYPE_PD));
-  PetscCall(VKPDSetTolerances(sim->pd, 0, PETSC_DEFAULT, 1e-6, 3000));
-  PetscCall(VKPDSetChebyshev(sim->pd, 0.99, 10));
-  PetscCall(TSSetTimeStep(sim->ts, dt));
-  PetscCall(TSSetMaxTime(sim->ts, T));
+  PetscCall(VKSimSetQuiet(sim, PETSC_TRUE));
+  PetscCall(VKPDSetType(VKTestSimPD(sim), VK_PD_TYPE_PD));
+  PetscCall(VKPDSetTolerances(VKTestSimPD(sim), 0, PETSC_DEFAULT, 1e-6, 3000));
+  PetscCall(VKPDSetChebyshev(VKTestSimPD(sim), 0.99, 10));
+  PetscCall(TSSetTimeStep(VKTestSimTS(sim), dt));
+  PetscCall(TSSetMaxTime(VKTestSimTS(sim), T));
   *inverted0 = 0;
   if (which == CRUMPLE) {
     Vec       x, b;
     PetscReal E;
     PetscCall(VKSimSetUp(sim));
-    PetscCall(VecDuplicate(sim->x, &x));
-    PetscCall(VecDuplicate(sim->x, &b));
+    PetscCall(VecDuplicate(VKTestSimX(sim), &x));
+    PetscCall(VecDuplicate(VKTestSimX(sim), &b));
     PetscCall(Crumpled(p.m, x));
-    PetscCall(VKPDLocalStep(sim->pd, x, b, &E, inverted0));
+    PetscCall(VKPDLocalStep(VKTestSimPD(sim), x, b, &E, inverted0));
     PetscCall(VKSimSetInitialState(sim, x, NULL));
     PetscCall(VecDestroy(&b));
     PetscCall(VecDestroy(&x));
   }
   PetscCall(VKSimRun(sim));
-  PetscCall(VKTSPDGetStats(sim->ts, st));
-  for (int k = 0; k < 3; k++) e[k] = sim->energy[k];
-  PetscCall(VKTestGatherByKey(p.m, sim->x, xk));
+  PetscCall(VKTSPDGetStats(VKTestSimTS(sim), st));
+  PetscCall(VKSimGetFrameEnergies(sim, e));
+  PetscCall(VKTestGatherByKey(p.m, VKTestSimX(sim), xk));
   *nv = p.m->nv;
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&s));
@@ -201,9 +202,9 @@ static PetscErrorCode TestNaN(const char dir[])
   PetscCall(Build(PETSC_COMM_WORLD, &p));
   PetscCall(Setup(&p, DT30, -1e300, &s, &dt, &T));
   PetscCall(VKSimCreate(p.mat, s, &sim));
-  sim->quiet = PETSC_TRUE;
-  PetscCall(TSSetTimeStep(sim->ts, dt));
-  PetscCall(TSSetMaxTime(sim->ts, T));
+  PetscCall(VKSimSetQuiet(sim, PETSC_TRUE));
+  PetscCall(TSSetTimeStep(VKTestSimTS(sim), dt));
+  PetscCall(TSSetMaxTime(VKTestSimTS(sim), T));
   PetscCall(VKSimSetOutputDirectory(sim, dir));
   PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
   ierr = VKSimRun(sim);
@@ -244,9 +245,9 @@ static PetscErrorCode TestFields(const char base[])
   PetscCall(Build(PETSC_COMM_WORLD, &p));
   PetscCall(Setup(&p, DT30, -9.81, &s, &dt, &T));
   PetscCall(VKSimCreate(p.mat, s, &sim));
-  sim->quiet = PETSC_TRUE;
-  PetscCall(TSSetTimeStep(sim->ts, dt));
-  PetscCall(TSSetMaxTime(sim->ts, T));
+  PetscCall(VKSimSetQuiet(sim, PETSC_TRUE));
+  PetscCall(TSSetTimeStep(VKTestSimTS(sim), dt));
+  PetscCall(TSSetMaxTime(VKTestSimTS(sim), T));
   PetscCall(VKSimSetOutputDirectory(sim, dir));
   PetscCall(VKSimRun(sim));
   PetscCall(VKPathJoin(dir, "sim.h5", path, sizeof(path)));

@@ -192,9 +192,12 @@ static PetscErrorCode SimView(void *s, PetscViewer v)
 
 PetscErrorCode VKAppSimStage(VKAppSimParts *p)
 {
+  MPI_Comm comm;
+
   PetscFunctionBegin;
   PetscCall(VKSimSetUp(p->sim));
-  PetscCall(VKAppViewFromOptions(p->sim->comm, "-sim_view", SimView, p->sim));
+  PetscCall(VKSimGetComm(p->sim, &comm));
+  PetscCall(VKAppViewFromOptions(comm, "-sim_view", SimView, p->sim));
   PetscCall(VKSimRun(p->sim));
   PetscFunctionReturn(0);
 }

@@ -189,6 +189,55 @@ PetscErrorCode VKSimSetInitialState(VKSim sim, Vec x, Vec v)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKSimGetPD(VKSim sim, VKPD *pd)
+{
+  PetscFunctionBegin;
+  *pd = sim->pd;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimGetTS(VKSim sim, TS *ts)
+{
+  PetscFunctionBegin;
+  *ts = sim->ts;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimGetSolution(VKSim sim, Vec *x)
+{
+  PetscFunctionBegin;
+  *x = sim->x;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimGetComm(VKSim sim, MPI_Comm *comm)
+{
+  PetscFunctionBegin;
+  *comm = sim->comm;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimSetQuiet(VKSim sim, PetscBool quiet)
+{
+  PetscFunctionBegin;
+  sim->quiet = quiet;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimGetRunTime(VKSim sim, PetscLogDouble *t)
+{
+  PetscFunctionBegin;
+  *t = sim->time_run;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSimGetFrameEnergies(VKSim sim, PetscReal e[3])
+{
+  PetscFunctionBegin;
+  for (int k = 0; k < 3; k++) e[k] = sim->energy[k];
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKSimGetStatus(VKSim sim, const char **status)
 {
   VKTSPDStats st;

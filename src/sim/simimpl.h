@@ -1,8 +1,27 @@
-/* simimpl.h: internals of the homogenized simulation shared by sim.c and
- * sim_output.c (the frame writer). */
+/* simimpl.h: the homogenized simulation's private struct and the
+ * internals shared by sim.c, sim_output.c (the frame writer) and
+ * sim_fields.c; everything else goes through include/vksim.h. */
 #pragma once
 #include <vksim.h>
 #include "pdimpl.h"
+
+struct _n_VKSim {
+  MPI_Comm   comm;
+  VKMesh     mesh;
+  VKMaterial mat;
+  VKScene    scene;
+  VKPD       pd;
+  TS         ts;
+  Vec        x, x0, v0; /* state; initial state (NULL: rest, at rest) */
+  char       dir[PETSC_MAX_PATH_LEN]; /* output directory, "" for none */
+  PetscBool  quiet, setup, strict;
+  void      *out;                     /* frame writer (sim_output.c) */
+  PetscReal  next_output, last_frame_time;
+  PetscInt   frames;
+  PetscReal  energy[3]; /* last frame: elastic, kinetic, gravitational potential */
+  PetscLogDouble time_run;
+};
+
 
 /* Begin DIR/sim.h5 (nothing without an output directory). */
 PETSC_INTERN PetscErrorCode VKSimOutputOpen(VKSim);

@@ -21,10 +21,10 @@ static const char help[] = "Benchmark of the homogenized PD simulator (issue 3):
 /* The PD set-up's time after n material changes confined to domain 0
  * (every g of its tets scaled by 1.1, then back), then after n changes of
  * every tet, averaged; one table row. */
-static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble tfirst)
+static PetscErrorCode TimeMaterialChanges(VKMaterial mat, VKSim sim, PetscInt n, PetscLogDouble tfirst)
 {
-  VKPD           pd   = sim->pd;
-  VKMesh         mesh = sim->mesh;
+  VKMesh         mesh = mat->mesh;
+  VKPD           pd;
   KSP            ksp;
   const VKLayout *L   = &mesh->layout;
   Vec            g;
@@ -37,22 +37,23 @@ static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble 
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscCall(VKSimGetPD(sim, &pd));
   PetscCall(VKPDGetKSP(pd, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCGetType(pc, &pctype));
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &cms));
-  PetscCall(VKMaterialCreateGammaVec(sim->mat, &g));
+  PetscCall(VKMaterialCreateGammaVec(mat, &g));
   for (int all = 0; all < 2; all++)
     for (PetscInt r = 0; r < n; r++) {
       PetscScalar   *a;
       PetscReal      f = r % 2 ? 1 / 1.1 : 1.1;
       PetscLogDouble t0;
-      PetscCall(VKMaterialGetGamma(sim->mat, g));
+      PetscCall(VKMaterialGetGamma(mat, g));
       PetscCall(VecGetArray(g, &a));
       for (PetscInt e = 0; e < L->eEnd - L->eStart; e++)
         if (all || mesh->tet_domain[L->eStart + e] == 0) a[2 * e] *= f, a[2 * e + 1] *= f;
       PetscCall(VecRestoreArray(g, &a));
-      PetscCall(VKMaterialSetGamma(sim->mat, g));
+      PetscCall(VKMaterialSetGamma(mat, g));
       PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
       t0 = VKWallTime();
       PetscCall(VKPDSetUp(pd));
@@ -71,9 +72,11 @@ static PetscErrorCode TimeMaterialChanges(VKSim sim, PetscInt n, PetscLogDouble 
 }
 
 /* Run the scene; one row of the PD table. */
-static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, PetscLogDouble tsetup)
+static PetscErrorCode TimeSteps(VKMesh mesh, VKSim sim, PetscInt wales, PetscInt courses, PetscLogDouble tsetup)
 {
-  VKMesh      mesh = sim->mesh;
+  VKPD           pd;
+  TS             ts;
+  PetscLogDouble trun;
   KSP         ksp;
   VKPDType    type;
   PetscBool   fixed;
@@ -86,10 +89,13 @@ static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, Pet
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscCall(VKSimRun(sim));
-  PetscCall(VKTSPDGetStats(sim->ts, &st));
-  PetscCall(VKPDGetKSP(sim->pd, &ksp));
-  PetscCall(VKPDGetType(sim->pd, &type));
-  PetscCall(VKPDGetFixedIterations(sim->pd, &fixed));
+  PetscCall(VKSimGetRunTime(sim, &trun));
+  PetscCall(VKSimGetTS(sim, &ts));
+  PetscCall(VKSimGetPD(sim, &pd));
+  PetscCall(VKTSPDGetStats(ts, &st));
+  PetscCall(VKPDGetKSP(pd, &ksp));
+  PetscCall(VKPDGetType(pd, &type));
+  PetscCall(VKPDGetFixedIterations(pd, &fixed));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCGetType(pc, &pctype));
   {
@@ -121,7 +127,7 @@ static PetscErrorCode TimeSteps(VKSim sim, PetscInt wales, PetscInt courses, Pet
     PetscLogDouble peak, peak_max;
     PetscCall(VKPeakMemory(&peak));
     PetscCallMPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_DOUBLE, MPI_MAX, PETSC_COMM_WORLD));
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f | %.0f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, res, 1e3 * sim->time_run / n, 1e3 * st.time_local / n,
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f | %.0f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, res, 1e3 * trun / n, 1e3 * st.time_local / n,
                           1e3 * st.time_global / n, 1e9 * st.time_local / n / nlocal * size, (double)tsetup, peak_max / 1048576.0));
   }
   PetscFunctionReturn(0);
@@ -172,13 +178,13 @@ int main(int argc, char **argv)
   scene->handle[0].axis[1]   = 1;
   scene->handle[0].window[1] = PETSC_MAX_REAL;
   PetscCall(VKSimCreate(mat, scene, &sim));
-  sim->quiet = PETSC_TRUE;
+  PetscCall(VKSimSetQuiet(sim, PETSC_TRUE));
   PetscCall(VKSimSetFromOptions(sim));
   t0 = VKWallTime();
   PetscCall(VKSimSetUp(sim));
   tsetup = VKWallTime() - t0;
-  if (changes) PetscCall(TimeMaterialChanges(sim, changes, tsetup));
-  else PetscCall(TimeSteps(sim, wales, courses, tsetup));
+  if (changes) PetscCall(TimeMaterialChanges(mat, sim, changes, tsetup));
+  else PetscCall(TimeSteps(mesh, sim, wales, courses, tsetup));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&scene));
   PetscCall(VKMaterialDestroy(&mat));
