@@ -49,6 +49,8 @@ JOINT=${FID_JOINT:-0}
 JOINT_OPTS=${FID_JOINT_OPTS:--fit_harmonic 1,10 -fit_gn_its 15}
 JOINT_SCENES=${FID_JOINT_SCENES:-$SCENES}
 top=out/fidelity
+YLS_MODEL=$(sed -n 's/^#define VK_YLS_MODEL "\(.*\)"$/\1/p' include/vkyls.h) # the model bin/volknit was built with
+[ -n "$YLS_MODEL" ] || { echo "run_fidelity.sh: VK_YLS_MODEL not found in include/vkyls.h"; exit 1; }
 mkdir -p "$top"
 cmds="$top/commands"
 : > "$cmds"
@@ -77,7 +79,8 @@ for pat in $PATTERNS; do
   for s in $SCENES; do
     ref="$(sdir "$s")/yls"; mkdir -p "$ref"
     want="yls -yarn_h5 $d/yarn.h5 -options_file options/$s.opts -scene_duration $(dur "$s")"
-    if [ ! -s "$ref/yls.h5" ] || [ "$(cat "$ref/stamp" 2>/dev/null)" != "$want" ]; then
+    # remade when its options changed or another yarn-level model made it (yls.json's rod_model)
+    if [ ! -s "$ref/yls.h5" ] || [ "$(cat "$ref/stamp" 2>/dev/null)" != "$want" ] || ! grep -qF "\"rod_model\": \"$YLS_MODEL\"" "$ref/yls.json" 2>/dev/null; then
       t0=$(date +%s)
       run $MPIEXEC -n "$NP" bin/volknit yls -o "$ref" -yarn_h5 "$d/yarn.h5" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" > "$ref/yls.log" 2>&1 \
         && echo "$want" > "$ref/stamp" || echo "    (yarn-level run failed: see $ref/yls.log)" >> "$cmds"
