@@ -77,11 +77,12 @@ $(LIB): $(LIB_OBJ)
 	@mkdir -p $(@D)
 	ar rcs $@ $^
 
-# The PD local step's 3x3 kernels work on VK_SVD3_BATCH tets in SIMD lanes;
+# The PD local step's 3x3 kernels (SVD, volume projection) work on
+# VK_SVD3_BATCH tets in SIMD lanes;
 # GCC vectorizes their square roots and selects only without errno and
 # floating-point trap semantics (neither is used by volknit).
 VEC_FLAGS := -fno-math-errno -fno-trapping-math -fopenmp-simd
-build/material/svd3.o: CFLAGS += $(VEC_FLAGS)
+build/material/svd3.o build/material/projection.o: CFLAGS += $(VEC_FLAGS)
 # The bending Hessian is a complex-step derivative: without this GCC calls
 # __divdc3 (C99 Annex G Inf/NaN recovery) for every complex division, a
 # seventh of a yarn-level run.  Fortran rules keep the range reduction.

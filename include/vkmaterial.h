@@ -44,6 +44,10 @@ typedef struct {
 PETSC_EXTERN PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *);
 /* The same without J (the PD local step). */
 PETSC_EXTERN PetscErrorCode VKProjectVolumeValue(const PetscReal s[], VKVolumeProjection *);
+/* n <= VK_SVD3_BATCH of them at once (s: 3 n entries), the common case in
+ * SIMD lanes; each lane's result is VKProjectVolumeValue's to the bit.
+ * Lanes whose s is not finite are left untouched. */
+PETSC_EXTERN PetscErrorCode VKProjectVolumeValueBatch(PetscInt n, const PetscReal s[], VKVolumeProjection[]);
 
 /* The stretch band: 0 < lo <= 1 <= hi.  Kernels take a pointer, NULL for
  * the paper's [1, 1]. */

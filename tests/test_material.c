@@ -270,6 +270,12 @@ static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal
   PetscFunctionReturn(0);
 }
 
+/* Equal bits, NaN equal to NaN. */
+static PetscBool Same(PetscReal a, PetscReal b)
+{
+  return (PetscBool)(a == b || (PetscIsNanReal(a) && PetscIsNanReal(b)));
+}
+
 /* The PD local step's batched kernel (VKPsiProjectBatch: the SVDs of up
  * to VK_SVD3_BATCH tets in SIMD lanes, warm-started, then the projections)
  * against one tet at a time (VKPsiEvaluate, cold), with every kind of F
@@ -278,6 +284,7 @@ static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal
 static PetscErrorCode TestBatch(void)
 {
   PetscReal diff = 0, nan_lanes = 0, nan_expected = 0;
+  PetscInt  lane_differs = 0, proj_differs = 0, lanes = 0;
 
   PetscFunctionBegin;
   for (int t = 0; t < 500; t++) {
@@ -306,6 +313,20 @@ static PetscErrorCode TestBatch(void)
         nan_lanes += PetscIsNanReal(st[l].psi_v) && PetscIsNanReal(st[l].R[0]) && PetscIsNanReal(st[l].V[8]);
         continue;
       }
+      { /* a lane's result is the same bits alone as in any batch (so 1 and 2 ranks agree), and the
+         * batched volume projection is the one-tet projection's to the bit */
+        VKPsiState         alone;
+        VKVolumeProjection p1, pb[VK_SVD3_BATCH];
+        PetscCall(VKPsiProject(F + 9 * l, t % 2 ? W0 + 9 * l : NULL, band, &alone));
+        for (int i = 0; i < 9; i++) lane_differs += !Same(alone.R[i], st[l].R[i]) || !Same(alone.V[i], st[l].V[i]) || !Same(alone.svd.U[i], st[l].svd.U[i]) || !Same(alone.svd.W[i], st[l].svd.W[i]);
+        lane_differs += !Same(alone.psi_s, st[l].psi_s) || !Same(alone.psi_v, st[l].psi_v);
+        lanes++;
+        if (PetscIsInfOrNanReal(st[l].svd.s[0] + st[l].svd.s[1] + st[l].svd.s[2])) continue; /* F near the largest double (PETSC_INFINITY): NaN, as above */
+        PetscCall(VKProjectVolumeValue(st[l].svd.s, &p1));
+        PetscCall(VKProjectVolumeValueBatch(1, st[l].svd.s, pb));
+        for (int i = 0; i < 3; i++) proj_differs += p1.shat[i] != st[l].proj.shat[i] || pb[0].shat[i] != p1.shat[i];
+        proj_differs += p1.lambda != st[l].proj.lambda || p1.nfixed != st[l].proj.nfixed || pb[0].lambda != p1.lambda;
+      }
       PetscCall(VKPsiEvaluate(F + 9 * l, band, &one));
       for (int i = 0; i < 9; i++) scale = PetscMax(scale, PetscAbsReal(F[9 * l + i]));
       for (int i = 0; i < 9; i++) diff = PetscMax(diff, (PetscAbsReal(st[l].R[i] - one.R[i]) + PetscAbsReal(st[l].V[i] - one.V[i])) / scale);
@@ -314,6 +335,7 @@ static PetscErrorCode TestBatch(void)
   }
   PetscCall(VKTestCheck((PetscBool)(diff <= 1e-12), NULL, "batched SVD + projection (warm and cold, 1-4 lanes, mixed kinds) equal one tet at a time%s: %.1e", band ? ", stretch band" : "", (double)diff));
   PetscCall(VKTestCheck((PetscBool)(nan_expected > 0 && nan_lanes == nan_expected), NULL, "batched kernel: a non-finite F gives NaN in its lane only (%d of %d)%s", (int)nan_lanes, (int)nan_expected, band ? ", stretch band" : ""));
+  PetscCall(VKTestCheck((PetscBool)(lanes > 0 && lane_differs == 0 && proj_differs == 0), NULL, "batched kernel: each of %d lanes gives the bits it gives alone (%d values differ), its volume projection the one-tet projection's (%d differ)%s", (int)lanes, (int)lane_differs, (int)proj_differs, band ? ", stretch band" : ""));
   PetscFunctionReturn(0);
 }
 

@@ -380,6 +380,81 @@ PetscErrorCode VKProjectVolumeValue(const PetscReal s[], VKVolumeProjection *pro
   PetscFunctionReturn(0);
 }
 
+/* FastPath's Newton iterations for a batch, one lane per tet: the same
+ * operations in the same order, a lane frozen (lambda and x kept exactly)
+ * once it converges or fails, so its result does not depend on the
+ * others.  Lanes the fast path does not settle take ProjectValue. */
+PetscErrorCode VKProjectVolumeValueBatch(PetscInt n, const PetscReal s[], VKVolumeProjection proj[])
+{
+  PetscReal sl[3][VK_SVD3_BATCH], x[3][VK_SVD3_BATCH], lambda[VK_SVD3_BATCH], cap[VK_SVD3_BATCH];
+  PetscBool run[VK_SVD3_BATCH], fail[VK_SVD3_BATCH];
+
+  PetscFunctionBegin;
+  PetscCheck(n >= 0 && n <= VK_SVD3_BATCH, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "At most %d projections at once, got %d", VK_SVD3_BATCH, (int)n);
+  for (PetscInt l = 0; l < VK_SVD3_BATCH; l++)
+    for (int i = 0; i < 3; i++) sl[i][l] = l < n ? s[3 * l + i] : 1; /* an unused lane converges at once */
+#pragma omp simd
+  for (int l = 0; l < VK_SVD3_BATCH; l++) {
+    PetscReal den = 0, c = PETSC_MAX_REAL;
+    PetscBool bad = PETSC_FALSE;
+    for (int i = 0; i < 3; i++) {
+      bad = bad || !(sl[i][l] > 2 * VK_SHAT_MIN);
+      den += 1 / (sl[i][l] * sl[i][l]);
+      c = PetscMin(c, 0.25 * sl[i][l] * sl[i][l]);
+    }
+    cap[l]    = c;
+    lambda[l] = (1 - 1 / (sl[0][l] * sl[1][l] * sl[2][l])) / den;
+    fail[l]   = bad;
+    run[l]    = !bad;
+    for (int i = 0; i < 3; i++) x[i][l] = 0;
+  }
+  for (int it = 0; it <= 20; it++) {
+    PetscInt running = 0;
+#pragma omp simd reduction(+ : running)
+    for (int l = 0; l < VK_SVD3_BATCH; l++) {
+      PetscReal q[3], xn[3], g, a, b, c, dg;
+      PetscBool inside = lambda[l] < cap[l], conv, step;
+      for (int i = 0; i < 3; i++) {
+        q[i]  = sqrt(sl[i][l] * sl[i][l] - 4 * lambda[l]);
+        xn[i] = 0.5 * (sl[i][l] + q[i]);
+      }
+      g    = xn[0] * xn[1] * xn[2] - 1;
+      conv = fabs(g) <= 1e-15;
+      a    = xn[0] * q[0];
+      b    = xn[1] * q[1];
+      c    = xn[2] * q[2];
+      dg   = -(g + 1) * (b * c + a * c + a * b) / (a * b * c);
+      step = run[l] && inside && !conv && it < 20;
+      for (int i = 0; i < 3; i++) x[i][l] = run[l] && inside ? xn[i] : x[i][l];
+      fail[l]   = fail[l] || (run[l] && (!inside || (!conv && it == 20)));
+      lambda[l] = step ? lambda[l] - g / dg : lambda[l];
+      run[l]    = step;
+      running += step;
+    }
+    if (!running) break;
+  }
+  for (PetscInt l = 0; l < n; l++) {
+    const PetscReal *sv = s + 3 * l;
+    PetscReal        d = 0, dmin = PETSC_MAX_REAL;
+    PetscBool        ok = !fail[l];
+    if (PetscIsInfOrNanReal(sv[0] + sv[1] + sv[2])) continue;
+    for (int i = 0; i < 3 && ok; i++) {
+      if (!(x[i][l] >= VK_SHAT_MIN)) ok = PETSC_FALSE;
+      d += PetscSqr(x[i][l] - sv[i]);
+      dmin = PetscMin(dmin, 0.25 * sv[i] * sv[i]);
+    }
+    if (ok && d <= dmin) {
+      for (int i = 0; i < 3; i++) {
+        proj[l].shat[i]  = x[i][l];
+        proj[l].fixed[i] = PETSC_FALSE;
+      }
+      proj[l].lambda = lambda[l];
+      proj[l].nfixed = 0;
+    } else PetscCall(ProjectValue(sv, proj + l));
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *proj)
 {
   PetscFunctionBegin;

@@ -25,8 +25,9 @@
 #include <vkmaterial.h>
 #include <math.h>
 
-/* Everything after the SVD: shat (and J with jacobian), c, R, V, psi. */
-static PetscErrorCode FromSVD(PetscBool jacobian, const VKStretchBand *band, VKPsiState *st)
+/* Everything after the SVD: shat (and J with jacobian; with projected,
+ * st->proj holds shat already), c, R, V, psi. */
+static PetscErrorCode FromSVD(PetscBool jacobian, PetscBool projected, const VKStretchBand *band, VKPsiState *st)
 {
   const PetscReal *U = st->svd.U, *W = st->svd.W, lo = band ? band->lo : 1, hi = band ? band->hi : 1;
 
@@ -42,7 +43,7 @@ static PetscErrorCode FromSVD(PetscBool jacobian, const VKStretchBand *band, VKP
     PetscFunctionReturn(0);
   }
   if (jacobian) PetscCall(VKProjectVolume(st->svd.s, &st->proj));
-  else PetscCall(VKProjectVolumeValue(st->svd.s, &st->proj));
+  else if (!projected) PetscCall(VKProjectVolumeValue(st->svd.s, &st->proj));
   for (int i = 0; i < 3; i++) {
     st->inband[i] = (PetscBool)(st->svd.s[i] > lo && st->svd.s[i] < hi);
     st->c[i]      = PetscMin(PetscMax(st->svd.s[i], lo), hi);
@@ -64,7 +65,7 @@ PetscErrorCode VKPsiEvaluate(const PetscReal F[], const VKStretchBand *band, VKP
 {
   PetscFunctionBegin;
   VKSVD3Compute(F, &st->svd);
-  PetscCall(FromSVD(PETSC_TRUE, band, st));
+  PetscCall(FromSVD(PETSC_TRUE, PETSC_FALSE, band, st));
   PetscFunctionReturn(0);
 }
 
@@ -77,13 +78,19 @@ PetscErrorCode VKPsiProject(const PetscReal F[], const PetscReal W0[], const VKS
 
 PetscErrorCode VKPsiProjectBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], const VKStretchBand *band, VKPsiState st[])
 {
-  VKSVD3 svd[VK_SVD3_BATCH];
+  VKSVD3             svd[VK_SVD3_BATCH];
+  PetscReal          s[3 * VK_SVD3_BATCH];
+  VKVolumeProjection proj[VK_SVD3_BATCH];
 
   PetscFunctionBegin;
   VKSVD3ComputeBatch(n, F, W0, svd);
+  for (PetscInt l = 0; l < n; l++)
+    for (int i = 0; i < 3; i++) s[3 * l + i] = svd[l].s[i];
+  PetscCall(VKProjectVolumeValueBatch(n, s, proj));
   for (PetscInt l = 0; l < n; l++) {
-    st[l].svd = svd[l];
-    PetscCall(FromSVD(PETSC_FALSE, band, st + l));
+    st[l].svd  = svd[l];
+    st[l].proj = proj[l];
+    PetscCall(FromSVD(PETSC_FALSE, PETSC_TRUE, band, st + l));
   }
   PetscFunctionReturn(0);
 }

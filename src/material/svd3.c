@@ -133,9 +133,73 @@ static void FinishSVD(const PetscReal F[], const PetscReal A[], const PetscReal 
     }
 }
 
+/* Columns p and q of A and W (and their squared norms) trade places in the
+ * lanes where column p is the shorter: one compare-exchange of the sort
+ * by norm, descending, that FinishSVD does with its order array. */
+static void CompareExchange(int p, int q, PetscReal A[9][VK_SVD3_BATCH], PetscReal W[9][VK_SVD3_BATCH], PetscReal norm2[3][VK_SVD3_BATCH])
+{
+#pragma omp simd
+  for (int l = 0; l < VK_SVD3_BATCH; l++) {
+    PetscBool swap = norm2[p][l] < norm2[q][l];
+    PetscReal np = norm2[p][l], nq = norm2[q][l];
+    norm2[p][l] = swap ? nq : np;
+    norm2[q][l] = swap ? np : nq;
+    for (int i = 0; i < 3; i++) {
+      PetscReal ap = A[3 * i + p][l], aq = A[3 * i + q][l], wp = W[3 * i + p][l], wq = W[3 * i + q][l];
+      A[3 * i + p][l] = swap ? aq : ap;
+      A[3 * i + q][l] = swap ? ap : aq;
+      W[3 * i + p][l] = swap ? wq : wp;
+      W[3 * i + q][l] = swap ? wp : wq;
+    }
+  }
+}
+
+/* FinishSVD for every lane at once where s2 is not tiny against s1 (its
+ * first branch, the same operations in the same order, so a lane's result
+ * does not depend on the batch it is in); the other lanes (flagged in
+ * slow) are left to FinishSVD.  The columns are sorted first by the same
+ * compare-exchanges as FinishSVD's bubble sort. */
+static void FinishBatch(const PetscReal Fl[9][VK_SVD3_BATCH], PetscReal A[9][VK_SVD3_BATCH], PetscReal W[9][VK_SVD3_BATCH], PetscReal U[9][VK_SVD3_BATCH], PetscReal s[3][VK_SVD3_BATCH], PetscBool slow[VK_SVD3_BATCH])
+{
+  PetscReal norm2[3][VK_SVD3_BATCH];
+
+  for (int j = 0; j < 3; j++)
+#pragma omp simd
+    for (int l = 0; l < VK_SVD3_BATCH; l++) norm2[j][l] = A[j][l] * A[j][l] + A[3 + j][l] * A[3 + j][l] + A[6 + j][l] * A[6 + j][l];
+  CompareExchange(0, 1, A, W, norm2);
+  CompareExchange(1, 2, A, W, norm2);
+  CompareExchange(0, 1, A, W, norm2);
+#pragma omp simd
+  for (int l = 0; l < VK_SVD3_BATCH; l++) {
+    PetscReal inv0 = 1 / sqrt(norm2[0][l]), inv1 = 1 / sqrt(norm2[1][l]), u[3][3], w[3][3], det;
+    slow[l] = !(norm2[1][l] > 1e-16 * norm2[0][l]);
+    for (int i = 0; i < 3; i++) {
+      u[0][i] = A[3 * i][l] * inv0;
+      u[1][i] = A[3 * i + 1][l] * inv1;
+      for (int k = 0; k < 3; k++) w[k][i] = W[3 * i + k][l];
+    }
+    u[2][0] = u[0][1] * u[1][2] - u[0][2] * u[1][1];
+    u[2][1] = u[0][2] * u[1][0] - u[0][0] * u[1][2];
+    u[2][2] = u[0][0] * u[1][1] - u[0][1] * u[1][0];
+    det     = w[0][0] * (w[1][1] * w[2][2] - w[1][2] * w[2][1]) - w[0][1] * (w[1][0] * w[2][2] - w[1][2] * w[2][0]) + w[0][2] * (w[1][0] * w[2][1] - w[1][1] * w[2][0]);
+    for (int i = 0; i < 3; i++) w[2][i] = det < 0 ? -w[2][i] : w[2][i];
+    for (int k = 0; k < 3; k++) {
+      PetscReal Fw[3];
+      for (int i = 0; i < 3; i++) Fw[i] = Fl[3 * i][l] * w[k][0] + Fl[3 * i + 1][l] * w[k][1] + Fl[3 * i + 2][l] * w[k][2];
+      s[k][l] = u[k][0] * Fw[0] + u[k][1] * Fw[1] + u[k][2] * Fw[2];
+    }
+    for (int i = 0; i < 3; i++)
+      for (int k = 0; k < 3; k++) {
+        U[3 * i + k][l] = u[k][i];
+        W[3 * i + k][l] = w[k][i];
+      }
+  }
+}
+
 void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], VKSVD3 svd[])
 {
-  PetscReal A[9][VK_SVD3_BATCH], W[9][VK_SVD3_BATCH];
+  PetscReal A[9][VK_SVD3_BATCH], W[9][VK_SVD3_BATCH], Fl[9][VK_SVD3_BATCH], U[9][VK_SVD3_BATCH], s[3][VK_SVD3_BATCH];
+  PetscBool slow[VK_SVD3_BATCH];
 
   for (PetscInt l = 0; l < VK_SVD3_BATCH; l++) {
     const PetscReal *f = F + 9 * l, *w0 = W0 ? W0 + 9 * l : NULL;
@@ -154,6 +218,9 @@ void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], V
       }
   }
   OrthogonalizeColumns(A, W);
+  for (PetscInt l = 0; l < VK_SVD3_BATCH; l++)
+    for (int i = 0; i < 9; i++) Fl[i][l] = l < n ? F[9 * l + i] : (i % 4 == 0);
+  FinishBatch(Fl, A, W, U, s, slow);
   for (PetscInt l = 0; l < n; l++) {
     PetscReal z = 0, a[9], w[9];
     for (int i = 0; i < 9; i++) z += 0 * F[9 * l + i]; /* NaN exactly when an entry is Inf or NaN */
@@ -161,7 +228,15 @@ void VKSVD3ComputeBatch(PetscInt n, const PetscReal F[], const PetscReal W0[], V
       for (int i = 0; i < 9; i++) svd[l].U[i] = svd[l].W[i] = svd[l].s[i % 3] = z;
       continue;
     }
-    for (int i = 0; i < 9; i++) {
+    if (!slow[l]) {
+      for (int i = 0; i < 9; i++) {
+        svd[l].U[i] = U[i][l];
+        svd[l].W[i] = W[i][l];
+      }
+      for (int k = 0; k < 3; k++) svd[l].s[k] = s[k][l];
+      continue;
+    }
+    for (int i = 0; i < 9; i++) { /* columns sorted already: FinishSVD keeps their order */
       a[i] = A[i][l];
       w[i] = W[i][l];
     }
