@@ -24,6 +24,7 @@
 #include <petscsys.h>
 
 #define VK_SCENE_MAX 8 /* handles, colliders */
+#define VK_SCENE_MAX_FRAMES 1e7 /* output frames a scene may ask for (-scene_duration / -scene_output_interval) */
 
 typedef struct {
   PetscReal box[6];         /* lo x,y,z, hi x,y,z (rest coordinates, m after set-up) */

@@ -153,9 +153,11 @@ PetscErrorCode VKSceneSetFromOptions(VKScene s)
   PetscCall(PetscOptionsReal("-scene_damping", "Mass-proportional viscous damping c, 1/s: a drag -c m v on every yarn vertex (volknit yls) and mesh node (volknit sim)", "VKSceneSetFromOptions", s->damping, &s->damping, NULL));
   PetscCheck(s->damping >= 0 && s->damping < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_damping must be >= 0 and finite (1/s), got %g", (double)s->damping);
   PetscCall(PetscOptionsReal("-scene_duration", "Simulated time, s", "VKSceneSetFromOptions", s->duration, &s->duration, NULL));
-  PetscCheck(s->duration > 0 && s->duration < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration must be positive and finite, got %g", (double)s->duration);
+  PetscCheck(s->duration > 0 && isfinite(s->duration), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration takes a positive time in s, got %g", (double)s->duration);
   PetscCall(PetscOptionsReal("-scene_output_interval", "Time between output frames, s", "VKSceneSetFromOptions", s->output_interval, &s->output_interval, NULL));
-  PetscCheck(s->output_interval > 0 && s->output_interval < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_output_interval must be positive and finite, got %g", (double)s->output_interval);
+  PetscCheck(s->output_interval > 0 && isfinite(s->output_interval), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_output_interval takes a positive time in s, got %g", (double)s->output_interval);
+  /* a run that could never finish (and would overflow the step count) is refused up front */
+  PetscCheck(s->duration <= VK_SCENE_MAX_FRAMES * s->output_interval, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration %g s is more than %g output intervals of %g s (-scene_output_interval): at most %g s at this interval", (double)s->duration, (double)VK_SCENE_MAX_FRAMES, (double)s->output_interval, (double)(VK_SCENE_MAX_FRAMES * s->output_interval));
   PetscCall(VKOptionsRangeInt("-scene_handles", "Number of handles (then -scene_handle<i>_box ... for i = 0, 1, ...)", "VKSceneSetFromOptions", s->nhandles, &s->nhandles, NULL, 0, VK_SCENE_MAX));
   PetscCheck(s->nhandles >= 0 && s->nhandles <= VK_SCENE_MAX, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_handles must be 0..%d, got %d", VK_SCENE_MAX, (int)s->nhandles);
   for (PetscInt i = 0; i < s->nhandles; i++) PetscCall(HandleOptions(PetscOptionsObject, s, i));
