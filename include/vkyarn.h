@@ -158,3 +158,27 @@ PETSC_EXTERN PetscErrorCode VKPreviewCreate(const VKCurves *, PetscInt expected_
 PETSC_EXTERN PetscErrorCode VKPreviewKeep(VKPreview *, PetscInt frame, PetscReal t, const PetscReal x[]);
 PETSC_EXTERN PetscErrorCode VKPreviewDraw(VKPreview *, const char who[], const char dir[], const char name[], const char title[]);
 PETSC_EXTERN PetscErrorCode VKPreviewDestroy(VKPreview *);
+
+/* The rank-0 writer of a run's frames, shared by volknit sim and volknit
+ * yls (src/yarn/runfile.c): DIR/<stem>.h5 under a temporary name with the
+ * yarn model and the root attributes format, units and scene; per frame
+ * the datasets /frames/NNNNNN/<name> and the attribute time; at the end
+ * the file renamed, DIR/<stem>.xdmf by the caller's writer and the preview
+ * DIR/<stem>_preview.png of the yarn positions kept.  Destroyed while
+ * open (an error path), the file is removed, never left half-written. */
+typedef struct {
+  char      dir[PETSC_MAX_PATH_LEN], stem[16];
+  VKOutput  h5out;
+  VKH5      h5;
+  PetscBool open;
+  PetscInt  n;            /* frames ended */
+  VKPreview preview;
+  PetscBool has_preview; /* after VKRunFileClose: the picture was drawn */
+} VKRunFile;
+PETSC_EXTERN PetscErrorCode VKRunFileOpen(VKRunFile *, const char dir[], const char stem[], const char format[], VKYarn, const char scene[], PetscInt expected_frames);
+PETSC_EXTERN PetscErrorCode VKRunFileWriteReal(VKRunFile *, const char name[], PetscInt rows, PetscInt cols, const PetscReal[]);
+PETSC_EXTERN PetscErrorCode VKRunFileWriteInt(VKRunFile *, const char name[], PetscInt rows, PetscInt cols, const PetscInt[]);
+/* The frame's time; yarn: the yarn positions, kept for the preview. */
+PETSC_EXTERN PetscErrorCode VKRunFileEndFrame(VKRunFile *, PetscReal t, const PetscReal yarn[]);
+PETSC_EXTERN PetscErrorCode VKRunFileClose(VKRunFile *, PetscErrorCode (*xdmf)(void *ctx, VKOutput *out), void *ctx, const char who[], const char title[]);
+PETSC_EXTERN PetscErrorCode VKRunFileDestroy(VKRunFile *);

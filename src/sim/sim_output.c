@@ -21,7 +21,6 @@
  * a temporary name and renamed when the run ends (also after a failure,
  * with every good frame up to it). */
 #include "simimpl.h"
-#include <unistd.h>
 #include <vkio.h>
 #include <vkutil.h>
 #include <vklog.h>
@@ -29,14 +28,10 @@
 #define SIM_FORMAT "volknit-sim 1"
 
 typedef struct {
-  VKOutput   h5out;
-  VKH5       h5;
-  PetscBool  open;
+  VKRunFile  rf; /* rank 0: sim.h5, its frames, sim.xdmf, the preview */
   VecScatter scatter, tscatter;
   Vec        xseq, vseq, tf, tfseq; /* node and tet fields, and their copies on rank 0 */
   PetscReal *col;                   /* one tet field column */
-  VKPreview  preview;               /* rank 0 */
-  PetscBool  has_preview;
   PetscReal *xy;
   PetscInt   n, cap;
   PetscReal *time, *energy;
@@ -47,21 +42,17 @@ static PetscErrorCode WriteStatic(VKSim sim, SimOutput *o)
   VKMesh m = sim->mesh;
 
   PetscFunctionBegin;
-  PetscCall(VKH5Create(o->h5out.tmp, &o->h5));
-  o->open = PETSC_TRUE;
-  PetscCall(VKH5WriteInt(&o->h5, "/mesh/tets", m->ne, 4, m->tet));
-  PetscCall(VKH5WriteReal(&o->h5, "/mesh/node_mass", m->nv, 1, m->mass));
-  PetscCall(VKH5WriteReal(&o->h5, "/mesh/x_rest", m->nv, 3, m->x));
-  PetscCall(VKYarnWriteToH5(m->yarn, &o->h5));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/", "format", SIM_FORMAT));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/", "units", "m, kg, s, J"));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/", "scene", sim->scene->name));
+  PetscCall(VKRunFileOpen(&o->rf, sim->dir, "sim", SIM_FORMAT, m->yarn, sim->scene->name, VKSceneFrameCount(sim->scene)));
+  PetscCall(VKH5WriteInt(&o->rf.h5, "/mesh/tets", m->ne, 4, m->tet));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/node_mass", m->nv, 1, m->mass));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/x_rest", m->nv, 3, m->x));
   PetscFunctionReturn(0);
 }
 
 /* Each column k of a rank-0 array of `per` values per tet as the dataset
- * names[k] (integers where isint[k]). */
-static PetscErrorCode WriteTetColumns(SimOutput *o, Vec seq, PetscInt per, const char *const names[], const PetscBool isint[], PetscInt ne)
+ * names[k] (integers where isint[k]): of the current frame, or with
+ * static, absolute names. */
+static PetscErrorCode WriteTetColumns(SimOutput *o, PetscBool stat, Vec seq, PetscInt per, const char *const names[], const PetscBool isint[], PetscInt ne)
 {
   const PetscScalar *a;
   PetscErrorCode     ierr = 0;
@@ -74,9 +65,9 @@ static PetscErrorCode WriteTetColumns(SimOutput *o, Vec seq, PetscInt per, const
       PetscInt *ic;
       PetscCall(PetscMalloc1(ne + 1, &ic));
       for (PetscInt e = 0; e < ne; e++) ic[e] = (PetscInt)o->col[e];
-      ierr = VKH5WriteInt(&o->h5, names[k], ne, 1, ic);
+      ierr = stat ? VKH5WriteInt(&o->rf.h5, names[k], ne, 1, ic) : VKRunFileWriteInt(&o->rf, names[k], ne, 1, ic);
       PetscCall(PetscFree(ic));
-    } else ierr = VKH5WriteReal(&o->h5, names[k], ne, 1, o->col);
+    } else ierr = stat ? VKH5WriteReal(&o->rf.h5, names[k], ne, 1, o->col) : VKRunFileWriteReal(&o->rf, names[k], ne, 1, o->col);
   }
   PetscCall(VecRestoreArrayRead(seq, &a));
   PetscFunctionReturn(ierr);
@@ -85,7 +76,6 @@ static PetscErrorCode WriteTetColumns(SimOutput *o, Vec seq, PetscInt per, const
 PetscErrorCode VKSimOutputOpen(VKSim sim)
 {
   SimOutput     *o;
-  char           path[PETSC_MAX_PATH_LEN];
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
 
@@ -95,13 +85,10 @@ PetscErrorCode VKSimOutputOpen(VKSim sim)
   PetscCall(PetscNew(&o));
   sim->out = o;
   PetscCall(VKMakeDirectory(sim->comm, sim->dir));
-  PetscCall(VKPathJoin(sim->dir, "sim.h5", path, sizeof(path)));
   PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
   if (rank == 0) {
-    ierr = VKOutputBegin(path, PETSC_FALSE, &o->h5out);
-    if (!ierr) ierr = WriteStatic(sim, o);
+    ierr = WriteStatic(sim, o);
     if (!ierr) ierr = PetscMalloc1(3 * sim->mesh->ny + 1, &o->xy);
-    if (!ierr) ierr = VKPreviewCreate(&sim->mesh->yarn->curves, VKSceneFrameCount(sim->scene), &o->preview);
   }
   PetscCall(VKCollective(sim->comm, ierr, "Creating sim.h5"));
   PetscCall(VecScatterCreateToZero(sim->x, &o->scatter, &o->xseq));
@@ -116,7 +103,7 @@ PetscErrorCode VKSimOutputOpen(VKSim sim)
     PetscCall(VecScatterEnd(ms, mf, mfseq, INSERT_VALUES, SCATTER_FORWARD));
     if (rank == 0) {
       PetscCall(PetscMalloc1(sim->mesh->ne + 1, &o->col));
-      ierr = WriteTetColumns(o, mfseq, 3, (const char *const[]){"/material/g_s", "/material/g_v", "/mesh/tet_domain"}, (const PetscBool[]){PETSC_FALSE, PETSC_FALSE, PETSC_TRUE}, sim->mesh->ne);
+      ierr = WriteTetColumns(o, PETSC_TRUE, mfseq, 3, (const char *const[]){"/material/g_s", "/material/g_v", "/mesh/tet_domain"}, (const PetscBool[]){PETSC_FALSE, PETSC_FALSE, PETSC_TRUE}, sim->mesh->ne);
     }
     PetscCall(VKCollective(sim->comm, ierr, "Writing the material to sim.h5"));
     PetscCall(VecScatterDestroy(&ms));
@@ -158,35 +145,20 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
   PetscCall(VecScatterEnd(o->tscatter, o->tf, o->tfseq, INSERT_VALUES, SCATTER_FORWARD));
   PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
   if (rank == 0) {
-    const PetscScalar *xa;
-    char               name[64];
+    const PetscScalar *xa, *va;
     PetscCall(VecGetArrayRead(o->xseq, &xa));
+    PetscCall(VecGetArrayRead(o->vseq, &va));
     PetscCall(VKMeshApplyEmbedding(sim->mesh, xa, o->xy));
-    PetscCall(VKPreviewKeep(&o->preview, o->n, t, o->xy));
-    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/x", (int)o->n));
-    ierr = VKH5WriteReal(&o->h5, name, sim->mesh->nv, 3, xa);
-    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/yarn", (int)o->n));
-    if (!ierr) ierr = VKH5WriteReal(&o->h5, name, sim->mesh->ny, 3, o->xy);
+    ierr = VKRunFileWriteReal(&o->rf, "x", sim->mesh->nv, 3, xa);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn", sim->mesh->ny, 3, o->xy);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "velocity", sim->mesh->nv, 3, va);
     if (!ierr) {
-      const PetscScalar *va;
-      PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/velocity", (int)o->n));
-      PetscCall(VecGetArrayRead(o->vseq, &va));
-      ierr = VKH5WriteReal(&o->h5, name, sim->mesh->nv, 3, va);
-      PetscCall(VecRestoreArrayRead(o->vseq, &va));
+      const PetscBool   isint[VK_SIM_TET_FIELDS] = {PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_TRUE};
+      const char *const field[VK_SIM_TET_FIELDS] = {"J", "psi", "stretch_max", "stretch_min", "inverted"};
+      ierr = WriteTetColumns(o, PETSC_FALSE, o->tfseq, VK_SIM_TET_FIELDS, field, isint, sim->mesh->ne);
     }
-    if (!ierr) {
-      char        n[VK_SIM_TET_FIELDS][64];
-      const char *names[VK_SIM_TET_FIELDS];
-      const PetscBool isint[VK_SIM_TET_FIELDS] = {PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_TRUE};
-      const char     *field[VK_SIM_TET_FIELDS] = {"J", "psi", "stretch_max", "stretch_min", "inverted"};
-      for (int k = 0; k < VK_SIM_TET_FIELDS; k++) {
-        PetscCall(PetscSNPrintf(n[k], sizeof(n[k]), "/frames/%06d/%s", (int)o->n, field[k]));
-        names[k] = n[k];
-      }
-      ierr = WriteTetColumns(o, o->tfseq, VK_SIM_TET_FIELDS, names, isint, sim->mesh->ne);
-    }
-    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
-    if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", t);
+    if (!ierr) ierr = VKRunFileEndFrame(&o->rf, t, o->xy);
+    PetscCall(VecRestoreArrayRead(o->vseq, &va));
     PetscCall(VecRestoreArrayRead(o->xseq, &xa));
   }
   PetscCall(VKCollective(sim->comm, ierr, "Writing a frame to sim.h5"));
@@ -288,7 +260,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONString(&j, "status", c->failure ? "failed" : status));
   }
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
-  if (((SimOutput *)sim->out)->has_preview) PetscCall(VKJSONString(&j, "preview", "sim_preview.png"));
+  if (((SimOutput *)sim->out)->rf.has_preview) PetscCall(VKJSONString(&j, "preview", "sim_preview.png"));
   PetscCall(VKJSONInt(&j, "ranks", size));
   PetscCall(VKJSONInt(&j, "nodes", sim->mesh->nv));
   PetscCall(VKJSONInt(&j, "tets", sim->mesh->ne));
@@ -343,33 +315,26 @@ static PetscErrorCode CloseRank0(VKSim sim, const char failure[])
   JSONCtx    ctx = {sim, failure};
 
   PetscFunctionBegin;
-  PetscCall(VKH5WriteReal(&o->h5, "/sim/time", o->n, 1, o->time));
-  PetscCall(VKH5WriteReal(&o->h5, "/sim/energy", o->n, 3, o->energy));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/sim/time", o->n, 1, o->time));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/sim/energy", o->n, 3, o->energy));
   {
     const char *status;
     PetscCall(VKSimGetStatus(sim, &status));
-    PetscCall(VKH5WriteAttrString(&o->h5, "/sim", "status", failure ? failure : status));
+    PetscCall(VKH5WriteAttrString(&o->rf.h5, "/sim", "status", failure ? failure : status));
   }
-  PetscCall(VKH5WriteAttrInt(&o->h5, "/sim", "frames", o->n));
+  PetscCall(VKH5WriteAttrInt(&o->rf.h5, "/sim", "frames", o->n));
   { /* the cost, for volknit report */
     VKTSPDStats st;
     PetscCall(VKTSPDGetStats(sim->ts, &st));
-    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "wall_time", sim->time_run));
-    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "time_local", st.time_local));
-    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "time_global", st.time_global));
-    PetscCall(VKH5WriteAttrReal(&o->h5, "/sim", "time_other", st.time_other));
+    PetscCall(VKH5WriteAttrReal(&o->rf.h5, "/sim", "wall_time", sim->time_run));
+    PetscCall(VKH5WriteAttrReal(&o->rf.h5, "/sim", "time_local", st.time_local));
+    PetscCall(VKH5WriteAttrReal(&o->rf.h5, "/sim", "time_global", st.time_global));
+    PetscCall(VKH5WriteAttrReal(&o->rf.h5, "/sim", "time_other", st.time_other));
   }
-  o->open = PETSC_FALSE;
-  PetscCall(VKH5Close(&o->h5));
-  PetscCall(VKOutputCommit(&o->h5out));
-  PetscCall(VKPathJoin(sim->dir, "sim.xdmf", path, sizeof(path)));
-  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteXdmf, sim));
   {
     char title[128];
     PetscCall(PetscSNPrintf(title, sizeof(title), "volknit sim: scene %s, embedded yarns", sim->scene->name));
-    PetscCall(VKPreviewDraw(&o->preview, "volknit sim", sim->dir, "sim_preview.png", title));
-    PetscCall(VKPathJoin(sim->dir, "sim_preview.png", path, sizeof(path)));
-    o->has_preview = (PetscBool)(access(path, F_OK) == 0);
+    PetscCall(VKRunFileClose(&o->rf, WriteXdmf, sim, "volknit sim", title));
   }
   PetscCall(VKPathJoin(sim->dir, "sim.json", path, sizeof(path)));
   PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteJSON, &ctx));
@@ -396,10 +361,7 @@ PetscErrorCode VKSimOutputDestroy(VKSim sim)
 
   PetscFunctionBegin;
   if (!o) PetscFunctionReturn(0);
-  if (o->open) { /* an error path: never leave a half-written sim.h5 */
-    (void)VKH5Close(&o->h5);
-    (void)VKOutputAbandon(&o->h5out);
-  }
+  PetscCall(VKRunFileDestroy(&o->rf)); /* an error path: removes a half-written sim.h5 */
   PetscCall(VecScatterDestroy(&o->scatter));
   PetscCall(VecScatterDestroy(&o->tscatter));
   PetscCall(VecDestroy(&o->xseq));
@@ -407,7 +369,6 @@ PetscErrorCode VKSimOutputDestroy(VKSim sim)
   PetscCall(VecDestroy(&o->tf));
   PetscCall(VecDestroy(&o->tfseq));
   PetscCall(PetscFree(o->col));
-  PetscCall(VKPreviewDestroy(&o->preview));
   PetscCall(PetscFree(o->xy));
   PetscCall(PetscFree(o->time));
   PetscCall(PetscFree(o->energy));

@@ -21,20 +21,15 @@
  * writes; files are written under temporary names and renamed at the end,
  * also after a failure, with every good frame up to it. */
 #include "ylsimpl.h"
-#include <unistd.h>
 #include <vkio.h>
 
 #define YLS_FORMAT "volknit-yls 1"
 #define NCOL       12
 
 typedef struct {
-  VKOutput   h5out;
-  VKH5       h5;
-  PetscBool  open;
+  VKRunFile  rf; /* rank 0: yls.h5, its frames, yls.xdmf, the preview */
   PetscInt   n, cap, its_last;
   PetscReal *row; /* NCOL per frame */
-  VKPreview  preview; /* rank 0 */
-  PetscBool  has_preview;
 } YLSOutput;
 
 static const char *const columns[NCOL] = {"time", "stretch", "bending", "contact", "glue", "kinetic", "gravity", "contact_pairs", "min_distance_over_2r", "newton_its", "wall_time", "twist"};
@@ -42,7 +37,6 @@ static const char *const columns[NCOL] = {"time", "stretch", "bending", "contact
 PetscErrorCode VKYLSOutputOpen(VKYLS y)
 {
   YLSOutput     *o;
-  char           path[PETSC_MAX_PATH_LEN];
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
 
@@ -52,20 +46,8 @@ PetscErrorCode VKYLSOutputOpen(VKYLS y)
   y->out = o;
   if (!y->dir[0]) PetscFunctionReturn(0);
   PetscCall(VKMakeDirectory(y->comm, y->dir));
-  PetscCall(VKPathJoin(y->dir, "yls.h5", path, sizeof(path)));
   PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
-  if (rank == 0) {
-    ierr = VKOutputBegin(path, PETSC_FALSE, &o->h5out);
-    if (!ierr) ierr = VKH5Create(o->h5out.tmp, &o->h5);
-    if (!ierr) {
-      o->open = PETSC_TRUE;
-      ierr    = VKYarnWriteToH5(y->yarn, &o->h5);
-    }
-    if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "format", YLS_FORMAT);
-    if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "units", "m, kg, s, J");
-    if (!ierr) ierr = VKH5WriteAttrString(&o->h5, "/", "scene", y->scene->name);
-    if (!ierr) ierr = VKPreviewCreate(&y->yarn->curves, VKSceneFrameCount(y->scene), &o->preview);
-  }
+  if (rank == 0) ierr = VKRunFileOpen(&o->rf, y->dir, "yls", YLS_FORMAT, y->yarn, y->scene->name, VKSceneFrameCount(y->scene));
   PetscCall(VKCollective(y->comm, ierr, "Creating yls.h5"));
   PetscFunctionReturn(0);
 }
@@ -104,17 +86,11 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   r[11]  = e[6];
   o->its_last = y->stats.newton_its;
   PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
-  if (rank == 0 && o->open) {
-    char name[64];
-    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/x", (int)o->n));
-    ierr = VKH5WriteReal(&o->h5, name, y->model.nv, 3, y->xall);
-    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/normal", (int)o->n));
-    if (!ierr) ierr = VKH5WriteReal(&o->h5, name, y->model.nseg, 3, y->normal);
-    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d/twist", (int)o->n));
-    if (!ierr) ierr = VKH5WriteReal(&o->h5, name, y->model.nseg, 1, y->theta);
-    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)o->n));
-    if (!ierr) ierr = VKH5WriteAttrReal(&o->h5, name, "time", y->t);
-    if (!ierr) ierr = VKPreviewKeep(&o->preview, o->n, y->t, y->xall);
+  if (rank == 0 && o->rf.open) {
+    ierr = VKRunFileWriteReal(&o->rf, "x", y->model.nv, 3, y->xall);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "normal", y->model.nseg, 3, y->normal);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "twist", y->model.nseg, 1, y->theta);
+    if (!ierr) ierr = VKRunFileEndFrame(&o->rf, y->t, y->xall);
   }
   PetscCall(VKCollective(y->comm, ierr, "Writing a frame to yls.h5"));
   o->n++;
@@ -209,7 +185,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONString(&j, "format", "volknit-yls-summary 1"));
   PetscCall(VKJSONString(&j, "scene", y->scene->name));
   PetscCall(VKJSONString(&j, "status", VKYLSStatus(y, c->failure)));
-  if (((YLSOutput *)y->out)->has_preview) PetscCall(VKJSONString(&j, "preview", "yls_preview.png"));
+  if (((YLSOutput *)y->out)->rf.has_preview) PetscCall(VKJSONString(&j, "preview", "yls_preview.png"));
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
   PetscCall(VKJSONInt(&j, "unconverged_steps", y->stats.unconverged_steps));
   if (y->stats.unconverged_steps) PetscCall(VKJSONInt(&j, "first_unconverged_step", y->stats.first_unconverged_step));
@@ -288,27 +264,20 @@ static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
     for (int k = 0; k < 6; k++) e[6 * f + k] = o->row[NCOL * f + 1 + k];
     e[6 * f + 1] += o->row[NCOL * f + 11]; /* bending with twist */
   }
-  PetscCall(VKH5WriteReal(&o->h5, "/yls/time", o->n, 1, t));
-  PetscCall(VKH5WriteReal(&o->h5, "/yls/energy", o->n, 6, e));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/yls/time", o->n, 1, t));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/yls/energy", o->n, 6, e));
   PetscCall(PetscFree2(t, e));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/yls/energy", "columns", "stretch bending+twist contact glue kinetic gravity"));
-  PetscCall(VKH5WriteAttrString(&o->h5, "/yls", "status", failure ? failure : VKYLSStatus(y, NULL)));
-  PetscCall(VKH5WriteAttrInt(&o->h5, "/yls", "frames", o->n));
-  PetscCall(VKH5WriteAttrReal(&o->h5, "/yls", "wall_time_stepping", y->time_run - y->relax_time)); /* for volknit report */
-  o->open = PETSC_FALSE;
-  PetscCall(VKH5Close(&o->h5));
-  PetscCall(VKOutputCommit(&o->h5out));
-  PetscCall(VKPathJoin(y->dir, "yls.xdmf", path, sizeof(path)));
-  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteXdmf, y));
-  PetscCall(VKPathJoin(y->dir, "yls.csv", path, sizeof(path)));
-  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteCSV, y));
+  PetscCall(VKH5WriteAttrString(&o->rf.h5, "/yls/energy", "columns", "stretch bending+twist contact glue kinetic gravity"));
+  PetscCall(VKH5WriteAttrString(&o->rf.h5, "/yls", "status", failure ? failure : VKYLSStatus(y, NULL)));
+  PetscCall(VKH5WriteAttrInt(&o->rf.h5, "/yls", "frames", o->n));
+  PetscCall(VKH5WriteAttrReal(&o->rf.h5, "/yls", "wall_time_stepping", y->time_run - y->relax_time)); /* for volknit report */
   {
     char title[128];
     PetscCall(PetscSNPrintf(title, sizeof(title), "volknit yls: scene %s, yarns", y->scene->name));
-    PetscCall(VKPreviewDraw(&o->preview, "volknit yls", y->dir, "yls_preview.png", title));
-    PetscCall(VKPathJoin(y->dir, "yls_preview.png", path, sizeof(path)));
-    o->has_preview = (PetscBool)(access(path, F_OK) == 0);
+    PetscCall(VKRunFileClose(&o->rf, WriteXdmf, y, "volknit yls", title));
   }
+  PetscCall(VKPathJoin(y->dir, "yls.csv", path, sizeof(path)));
+  PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteCSV, y));
   PetscCall(VKPathJoin(y->dir, "yls.json", path, sizeof(path)));
   PetscCall(VKOutputWrite(path, PETSC_TRUE, WriteJSON, &ctx));
   PetscFunctionReturn(0);
@@ -335,12 +304,8 @@ PetscErrorCode VKYLSOutputDestroy(VKYLS y)
 
   PetscFunctionBegin;
   if (!o) PetscFunctionReturn(0);
-  if (o->open) { /* an error path: never leave a half-written yls.h5 */
-    (void)VKH5Close(&o->h5);
-    (void)VKOutputAbandon(&o->h5out);
-  }
+  PetscCall(VKRunFileDestroy(&o->rf)); /* an error path: removes a half-written yls.h5 */
   PetscCall(PetscFree(o->row));
-  PetscCall(VKPreviewDestroy(&o->preview));
   PetscCall(PetscFree(y->out));
   PetscFunctionReturn(0);
 }
