@@ -223,27 +223,14 @@ static PetscErrorCode RenewKKTSolver(VKFit fit)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
+/* The blocks at the frame's equilibrium: H, J (handle rows and frozen
+ * columns zeroed), G once per fit, J^T, and with reduced J J^T. */
+static PetscErrorCode KKTBlocks(VKFit fit, VKFitFrame *f, const PetscBool frozen[], PetscBool reduced)
 {
-  const VKLayout    *L  = &fit->mesh->layout;
-  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart), nloc, *d_nnz, *o_nnz;
-  KKTLayout          K;
-  Mat                JT, kkt;
-  Vec                rhs, sol, scale;
-  PetscReal         *kdiag;
-  PetscScalar       *ra;
-  const PetscScalar *ga, *sa;
-  PetscMPIInt        rank;
-  PetscBool          fresh, reduced;
-  KSPConvergedReason reason;
-  PetscLogDouble     t0 = VKWallTime();
+  const VKLayout *L  = &fit->mesh->layout;
+  PetscInt        ng = 2 * (L->eEnd - L->eStart);
 
   PetscFunctionBegin;
-  PetscCheck(kappa >= 0 && kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The Levenberg-Marquardt damping -fit_kappa must be >= 0 and finite, got %g", (double)kappa);
-  PetscCall(VKFitSetUp(fit));
-  PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
-  PetscCall(PetscLogEventBegin(VK_EVENT_FitKKT, 0, 0, 0, 0));
-  /* the blocks at the frame's equilibrium */
   PetscCall(VKPDHessian(fit->pd, f->x, fit->H));
   PetscCall(VKMaterialGammaJacobian(fit->mat, f->x, fit->J));
   {
@@ -267,14 +254,26 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(MatScale(fit->G, 2));
   }
   PetscCall(MatTranspose(fit->J, fit->JT ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, &fit->JT));
-  JT      = fit->JT;
-  reduced = fit->kkt_reduced && kappa > 0 ? PETSC_TRUE : PETSC_FALSE;
-  if (reduced) PetscCall(MatMatMult(fit->J, JT, fit->JJT ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, PETSC_DEFAULT, &fit->JJT));
-  PetscCall(KKTLayoutCreate(fit, reduced, &K));
+  if (reduced) PetscCall(MatMatMult(fit->J, fit->JT, fit->JJT ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, PETSC_DEFAULT, &fit->JJT));
+  PetscFunctionReturn(0);
+}
+
+/* fit->kkt filled from the blocks in the layout K: preallocated and
+ * created on the first call (*fresh), refilled in its pattern after. */
+static PetscErrorCode KKTAssemble(VKFit fit, KKTLayout *K, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], PetscBool *fresh)
+{
+  const VKLayout *L  = &fit->mesh->layout;
+  PetscInt        nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart), nloc, *d_nnz, *o_nnz;
+  PetscReal      *kdiag;
+  PetscMPIInt     rank;
+  Mat             kkt;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
   if (fit->kkt) { /* kept from a call in the other form (another size): another matrix, another factorization */
     PetscInt N;
     PetscCall(MatGetSize(fit->kkt, &N, NULL));
-    if (N != K.start[K.size]) {
+    if (N != K->start[K->size]) {
       PetscCall(MatDestroy(&fit->kkt));
       PetscCall(RenewKKTSolver(fit));
     }
@@ -283,20 +282,20 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(PetscCalloc2(nloc + 1, &d_nnz, nloc + 1, &o_nnz));
   PetscCall(PetscMalloc1(ng + 1, &kdiag));
   for (PetscInt i = 0; i < ng; i++) kdiag[i] = kappa;
-  fresh = fit->kkt ? PETSC_FALSE : PETSC_TRUE;
-  if (!fresh) PetscCall(MatZeroEntries(fit->kkt)); /* the same pattern: refilled below */
+  *fresh = fit->kkt ? PETSC_FALSE : PETSC_TRUE;
+  if (!*fresh) PetscCall(MatZeroEntries(fit->kkt)); /* the same pattern: refilled below */
   else {
     PetscCall(MatCreate(fit->comm, &fit->kkt));
     PetscCall(MatSetSizes(fit->kkt, nloc, nloc, PETSC_DETERMINE, PETSC_DETERMINE));
     PetscCall(MatSetType(fit->kkt, MATAIJ));
   }
   kkt = fit->kkt;
-  for (int pass = fresh ? 0 : 1; pass < 2; pass++) {
-    KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}}, r2 = {{JT, NULL}, {1, 0}, {1, 0}};
+  for (int pass = *fresh ? 0 : 1; pass < 2; pass++) {
+    KKTRow r0 = {{fit->G, fit->H}, {0, 1}, {1, -1}}, r2 = {{fit->JT, NULL}, {1, 0}, {1, 0}};
     KKTRow r1 = reduced ? (KKTRow){{fit->H, fit->JJT}, {0, 1}, {-1, -1 / kappa}} : (KKTRow){{fit->H, fit->J}, {0, 2}, {-1, 1}};
-    PetscCall(KKTBlockRow(&K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
-    PetscCall(KKTBlockRow(&K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
-    if (!reduced) PetscCall(KKTBlockRow(&K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
+    PetscCall(KKTBlockRow(K, kkt, rank, 0, &r0, nn, NULL, NULL, pass, d_nnz, o_nnz));
+    PetscCall(KKTBlockRow(K, kkt, rank, 1, &r1, nn, NULL, NULL, pass, d_nnz, o_nnz));
+    if (!reduced) PetscCall(KKTBlockRow(K, kkt, rank, 2, &r2, ng, kdiag, frozen, pass, d_nnz, o_nnz));
     if (pass == 0) {
       PetscCall(MatSeqAIJSetPreallocation(kkt, 0, d_nnz));
       PetscCall(MatMPIAIJSetPreallocation(kkt, 0, d_nnz, 0, o_nnz));
@@ -306,8 +305,21 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscCall(MatAssemblyEnd(kkt, MAT_FINAL_ASSEMBLY));
   PetscCall(MatSetOption(kkt, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(kkt, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE)); /* a pattern change would redo the analysis: make it loud */
-  /* right-hand side: full [0; 0; -grad] (0 for frozen parameters), reduced [0; J grad / kappa] */
-  PetscCall(MatCreateVecs(kkt, &sol, &rhs));
+  PetscCall(PetscFree(kdiag));
+  PetscCall(PetscFree2(d_nnz, o_nnz));
+  PetscFunctionReturn(0);
+}
+
+/* The right-hand side: full [0; 0; -grad] (0 for frozen parameters),
+ * reduced [0; J grad / kappa]. */
+static PetscErrorCode KKTRightHandSide(VKFit fit, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec rhs)
+{
+  const VKLayout    *L  = &fit->mesh->layout;
+  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart);
+  PetscScalar       *ra;
+  const PetscScalar *ga;
+
+  PetscFunctionBegin;
   PetscCall(VecSet(rhs, 0));
   PetscCall(VecGetArray(rhs, &ra));
   if (reduced) {
@@ -322,34 +334,53 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(VecRestoreArrayRead(grad, &ga));
   }
   PetscCall(VecRestoreArray(rhs, &ra));
-  PetscCall(Equilibrate(kkt, rhs, &scale));
-  PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
+  PetscFunctionReturn(0);
+}
+
+/* KSP solve of the KKT system with the two remedies for a failed MUMPS
+ * factorization: a new analysis (when the old one was made for other
+ * values), then more workspace. */
+static PetscErrorCode KKTSolve(VKFit fit, PetscBool fresh, Vec rhs, Vec sol, KSPConvergedReason *reason)
+{
+  PetscFunctionBegin;
+  PetscCall(KSPSetOperators(fit->kkkt, fit->kkt, fit->kkt));
   PetscCall(KSPSolve(fit->kkkt, rhs, sol));
-  PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
-  if (reason == KSP_DIVERGED_PC_FAILED && !fresh) {
+  PetscCall(KSPGetConvergedReason(fit->kkkt, reason));
+  if (*reason == KSP_DIVERGED_PC_FAILED && !fresh) {
     /* The analysis of an earlier matrix (its workspace estimate, made with
      * other values) does not fit these values (MUMPS INFOG(1) = -9 when
      * delayed pivots outgrow it): a new solver and a new analysis. */
     PetscCall(PetscInfo(fit->kkkt, "KKT: a new analysis after a failed factorization with the old one\n"));
     PetscCall(RenewKKTSolver(fit));
-    PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
+    PetscCall(KSPSetOperators(fit->kkkt, fit->kkt, fit->kkt));
     PetscCall(KSPSolve(fit->kkkt, rhs, sol));
-    PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
+    PetscCall(KSPGetConvergedReason(fit->kkkt, reason));
   }
-  while (reason == KSP_DIVERGED_PC_FAILED && fit->kkt_workspace < 1600) {
+  while (*reason == KSP_DIVERGED_PC_FAILED && fit->kkt_workspace < 1600) {
     /* Even a fresh analysis underestimates the workspace when the matrix
      * is badly conditioned (a flat loss: a stretch band that hides g_s,
      * measured INFOG(1) = -9 at the default 20 % and solved at 200 %): more
      * workspace for this and every later factorization. */
     PetscCall(RaiseKKTWorkspace(fit));
-    PetscCall(KSPSetOperators(fit->kkkt, kkt, kkt));
+    PetscCall(KSPSetOperators(fit->kkkt, fit->kkt, fit->kkt));
     PetscCall(KSPSolve(fit->kkkt, rhs, sol));
-    PetscCall(KSPGetConvergedReason(fit->kkkt, &reason));
+    PetscCall(KSPGetConvergedReason(fit->kkkt, reason));
   }
-  PetscCall(VecPointwiseMult(sol, sol, scale));
-  PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Gauss-Newton KKT solve of sample frame %d failed (KSP reason %s, MUMPS workspace relaxation ICNTL(14) %s %d %%); raise -fit_kappa or see -fit_kkt_ksp_view", (int)f->index, KSPConvergedReasons[reason], fit->kkt_workspace == PETSC_MAX_INT ? "as given, not" : "at", fit->kkt_workspace == PETSC_MAX_INT ? 0 : (int)fit->kkt_workspace);
+  PetscFunctionReturn(0);
+}
+
+/* d from the solution: full, its d block; reduced, d = -(grad + J^T nu) /
+ * kappa; 0 where frozen. */
+static PetscErrorCode KKTDirection(VKFit fit, Vec sol, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
+{
+  const VKLayout    *L  = &fit->mesh->layout;
+  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart);
+  PetscScalar       *ra;
+  const PetscScalar *ga, *sa;
+
+  PetscFunctionBegin;
   PetscCall(VecGetArrayRead(sol, &sa));
-  if (reduced) { /* d = -(grad + J^T nu) / kappa, 0 where frozen */
+  if (reduced) {
     PetscScalar *nu;
     PetscCall(VecGetArray(fit->work, &nu));
     for (PetscInt i = 0; i < nn; i++) nu[i] = sa[nn + i];
@@ -366,11 +397,35 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
     PetscCall(VecRestoreArray(d, &ra));
   }
   PetscCall(VecRestoreArrayRead(sol, &sa));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
+{
+  KKTLayout          K;
+  Vec                rhs, sol, scale;
+  PetscBool          fresh = PETSC_FALSE, reduced;
+  KSPConvergedReason reason;
+  PetscLogDouble     t0 = VKWallTime();
+
+  PetscFunctionBegin;
+  PetscCheck(kappa >= 0 && kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The Levenberg-Marquardt damping -fit_kappa must be >= 0 and finite, got %g", (double)kappa);
+  PetscCall(VKFitSetUp(fit));
+  PetscCall(PetscLogEventBegin(VK_EVENT_FitKKT, 0, 0, 0, 0));
+  reduced = fit->kkt_reduced && kappa > 0 ? PETSC_TRUE : PETSC_FALSE;
+  PetscCall(KKTBlocks(fit, f, frozen, reduced));
+  PetscCall(KKTLayoutCreate(fit, reduced, &K));
+  PetscCall(KKTAssemble(fit, &K, reduced, kappa, frozen, &fresh));
+  PetscCall(MatCreateVecs(fit->kkt, &sol, &rhs));
+  PetscCall(KKTRightHandSide(fit, reduced, kappa, frozen, grad, rhs));
+  PetscCall(Equilibrate(fit->kkt, rhs, &scale));
+  PetscCall(KKTSolve(fit, fresh, rhs, sol, &reason));
+  PetscCall(VecPointwiseMult(sol, sol, scale));
+  PetscCheck(reason > 0, fit->comm, PETSC_ERR_NOT_CONVERGED, "Gauss-Newton KKT solve of sample frame %d failed (KSP reason %s, MUMPS workspace relaxation ICNTL(14) %s %d %%); raise -fit_kappa or see -fit_kkt_ksp_view", (int)f->index, KSPConvergedReasons[reason], fit->kkt_workspace == PETSC_MAX_INT ? "as given, not" : "at", fit->kkt_workspace == PETSC_MAX_INT ? 0 : (int)fit->kkt_workspace);
+  PetscCall(KKTDirection(fit, sol, reduced, kappa, frozen, grad, d));
   PetscCall(VecDestroy(&rhs));
   PetscCall(VecDestroy(&sol));
   PetscCall(VecDestroy(&scale));
-  PetscCall(PetscFree(kdiag));
-  PetscCall(PetscFree2(d_nnz, o_nnz));
   PetscCall(KKTLayoutDestroy(&K));
   PetscCall(PetscLogEventEnd(VK_EVENT_FitKKT, 0, 0, 0, 0));
   fit->time_kkt += VKWallTime() - t0;
