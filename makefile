@@ -20,7 +20,8 @@ OPT       ?= -O3 -g
 # machine's; `make clean` first).  Empty by default: portable x86-64.
 # docs/BENCHMARKS.md has the local step's ns per tet for both.
 ARCH      ?=
-WARN      := -Wall -Wextra
+# WERROR=1 turns warnings into errors (CI builds so; the build is warning-free).
+WARN      := -Wall -Wextra $(if $(WERROR),-Werror)
 # Evaluated lazily so that `make run` can install the packages first.
 PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS))
 PKG_LIBS   = $(shell pkg-config --libs $(PKGS))
@@ -42,7 +43,7 @@ EX_BIN    := $(EX_SRC:examples/%.c=bin/examples/%)
 FUZZ_SRC  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BIN  := $(FUZZ_SRC:tests/fuzz/%.c=bin/fuzz/%)
 
-.PHONY: all run check bench fidelity fuzz examples clean deps tests
+.PHONY: all run check bench fidelity fuzz examples benchmarks clean deps tests
 .DEFAULT_GOAL := all
 
 all: $(LIB) $(BIN)
@@ -72,6 +73,7 @@ fidelity: deps
 
 tests: $(TEST_BIN)
 examples: $(EX_BIN)
+benchmarks: $(BENCH_BIN)
 
 $(LIB): $(LIB_OBJ)
 	@mkdir -p $(@D)
