@@ -20,6 +20,7 @@ PETSC_EXTERN PetscErrorCode  VKCommandYLS(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandFit(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandRun(MPI_Comm);
 PETSC_EXTERN PetscErrorCode  VKCommandReport(MPI_Comm);
+PETSC_EXTERN PetscErrorCode  VKCommandRender(MPI_Comm);
 /* After a command: names every command-line option (argv) nobody read,
  * with the closest known one; nbad counts them, or is 0 with
  * -options_unused_ok (warnings).  Unread options from options files are

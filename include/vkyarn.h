@@ -158,6 +158,9 @@ PETSC_EXTERN PetscErrorCode VKPreviewCreate(const VKCurves *, PetscInt expected_
 PETSC_EXTERN PetscErrorCode VKPreviewKeep(VKPreview *, PetscInt frame, PetscReal t, const PetscReal x[]);
 PETSC_EXTERN PetscErrorCode VKPreviewDraw(VKPreview *, const char who[], const char dir[], const char name[], const char title[]);
 PETSC_EXTERN PetscErrorCode VKPreviewDestroy(VKPreview *);
+/* The curves at positions x (m) as a gnuplot data block $name in mm, one
+ * polyline per curve (closed ones closed), for the pictures above. */
+PETSC_EXTERN void VKCurvesWriteGnuplotBlock(FILE *, const VKCurves *, const PetscReal x[], const char name[]);
 
 /* The rank-0 writer of a run's frames, shared by volknit sim and volknit
  * yls (src/yarn/runfile.c): DIR/<stem>.h5 under a temporary name with the
@@ -182,3 +185,23 @@ PETSC_EXTERN PetscErrorCode VKRunFileWriteInt(VKRunFile *, const char name[], Pe
 PETSC_EXTERN PetscErrorCode VKRunFileEndFrame(VKRunFile *, PetscReal t, const PetscReal yarn[]);
 PETSC_EXTERN PetscErrorCode VKRunFileClose(VKRunFile *, PetscErrorCode (*xdmf)(void *ctx, VKOutput *out), void *ctx, const char who[], const char title[]);
 PETSC_EXTERN PetscErrorCode VKRunFileDestroy(VKRunFile *);
+
+/* A run's yarns frame by frame (src/yarn/render.c, volknit render): the
+ * run file's frames (sim.h5: the embedded yarns; yls.h5: the yarn-level
+ * ones), every `every`-th, drawn from above and from the side as
+ * DIR/frame_NNNNNN.png, numbered from 0, and with video (when ffmpeg is
+ * installed) DIR/movie.mp4 at fps pictures per second (0: real time,
+ * between 1 and 60).  Rank 0 alone. */
+typedef struct {
+  PetscInt  every, width, height;
+  PetscReal fps;
+  PetscBool video;
+} VKRenderOptions;
+typedef struct {
+  PetscInt  frames, drawn; /* in the file, pictures drawn */
+  PetscReal fps;
+  PetscBool video;         /* movie.mp4 written */
+} VKRenderResult;
+/* An error unless path is a sim.h5 or yls.h5 with frames; *sim tells which. */
+PETSC_EXTERN PetscErrorCode VKRenderCheck(const char path[], PetscBool *sim);
+PETSC_EXTERN PetscErrorCode VKRenderRun(const char path[], const char dir[], const VKRenderOptions *, VKRenderResult *);

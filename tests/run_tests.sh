@@ -442,6 +442,31 @@ for pv in "$rd/s2/yls_preview.png:$rd/s2/yls.json" "$(find "$rd/s2/sweep" -name 
   if [ "$sig" = "89504e470d0a1a0a" ] && awk -v v="$var" 'BEGIN { exit !(v > 100) }' && grep -q '"preview": "[a-z]*_preview.png"' "$js"; then ok
   else not_ok "preview picture $png: signature '$sig', red-channel variance '$var' (> 100 expected), named in $js"; fi
 done
+# volknit render on 1 and 2 ranks: one picture per frame of the 2-rank
+# run's yls.h5 and of a sim.h5 of its sweep (every 2nd with -render_every
+# 2), each a valid PNG, the first not blank, first and last different;
+# with ffmpeg installed, a video with one frame per picture
+sd=$(dirname "$(find "$rd/s2/sweep" -name sim.h5 | head -n 1)")
+for n in 1 2; do
+  for case in "yls:$rd/s2:1" "sim:$sd:1" "sim:$sd:2"; do
+    src=${case%%:*}; rest=${case#*:}; d=${rest%:*}; every=${rest##*:}
+    rm -rf "$d/render_$src"
+    frames=$(json_num "$d/$src.json" frames)
+    want=$(( (frames + every - 1) / every ))
+    if timeout "$TIMEOUT" $MPIEXEC -n "$n" bin/volknit render -o "$d" -render_source "$src" -render_every "$every" > "$d/render_$src.log" 2>&1; then
+      count=$(find "$d/render_$src" -name 'frame_*.png' | wc -l)
+      first="$d/render_$src/frame_000000.png"; last="$d/render_$src/frame_$(printf %06d $((count - 1))).png"
+      sigs=$(for f in "$d/render_$src"/frame_*.png; do head -c 8 "$f" | od -An -tx1 | tr -d ' \n'; echo; done | sort -u)
+      var=$(png_variance "$first")
+      if [ "$count" = "$want" ] && [ "$sigs" = "89504e470d0a1a0a" ] && awk -v v="$var" 'BEGIN { exit !(v > 100) }' && ! cmp -s "$first" "$last"; then ok
+      else not_ok "render -n $n $src every $every: $count pictures for $frames frames (want $want), signatures '$sigs', variance '$var' (> 100), first and last must differ"; fi
+      if command -v ffprobe > /dev/null; then
+        vf=$(ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames -of csv=p=0 "$d/render_$src/movie.mp4" 2>/dev/null)
+        if [ "$vf" = "$want" ]; then ok; else not_ok "render -n $n $src: movie.mp4 has '$vf' frames, want $want"; fi
+      fi
+    else not_ok "volknit render -n $n -render_source $src failed (see $d/render_$src.log)"; fi
+  done
+done
 stamp=$(stat -c %Y "$rd/s1/yls.h5" 2>/dev/null)
 if sweep_run "s1" 1 -run_sweep_material uniform && grep -q 'is up to date' "$rd/s1.log" && ! grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(stat -c %Y "$rd/s1/yls.h5")" = "$stamp" ]; then ok
 else not_ok "run sweep: the same reference options reran the yarn-level reference (see $rd/s1.log)"; fi

@@ -25,6 +25,7 @@ const VKCommand VKCommands[] = {
   {"fit",  "learn two material parameters per tet from the yarn-level frames (reads DIR/yls.h5, DIR/mesh.h5): DIR/material.{h5,xdmf}, DIR/fit.{csv,json,png}", VKCommandFit},
   {"run",  "run the stages the scene needs (yarn, yls with -run_reference, mesh, fit with -run_fit, sim)", VKCommandRun},
   {"report", "measure homogenized runs against a yarn-level run of the same scene (-report_yls DIR -report_runs DIR,...): DIR/report.{md,csv,json,png}", VKCommandReport},
+  {"render", "draw a run's yarns frame by frame (reads DIR/sim.h5 or DIR/yls.h5): DIR/render_<source>/frame_NNNNNN.png, movie.mp4 with ffmpeg", VKCommandRender},
   {NULL,   NULL, NULL}
 };
 

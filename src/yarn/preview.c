@@ -35,6 +35,20 @@ typedef struct {
   const char      *title;
 } Ctx;
 
+void VKCurvesWriteGnuplotBlock(FILE *fp, const VKCurves *cv, const PetscReal x[], const char name[])
+{
+  fprintf(fp, "$%s << EOD\n", name);
+  for (PetscInt i = 0; i < cv->n; i++) { /* a blank line between curves; closed curves closed */
+    PetscInt m = VKCurveSize(cv, i);
+    for (PetscInt j = 0; j <= m - (cv->closed[i] ? 0 : 1); j++) {
+      const PetscReal *xj = x + 3 * (cv->start[i] + j % m);
+      fprintf(fp, "%.6g %.6g %.6g\n", (double)(1e3 * xj[0]), (double)(1e3 * xj[1]), (double)(1e3 * xj[2]));
+    }
+    fputs("\n", fp);
+  }
+  fputs("EOD\n", fp);
+}
+
 static PetscErrorCode Script(void *ctx, FILE *fp, char png[][PETSC_MAX_PATH_LEN])
 {
   const Ctx       *c = (const Ctx *)ctx;
@@ -42,17 +56,10 @@ static PetscErrorCode Script(void *ctx, FILE *fp, char png[][PETSC_MAX_PATH_LEN]
   const VKCurves  *cv = p->curves;
 
   PetscFunctionBegin;
-  for (int k = 0; k < 3; k++) { /* one data block per frame, a blank line between curves */
-    fprintf(fp, "$f%d << EOD\n", k);
-    for (PetscInt i = 0; i < cv->n; i++) {
-      PetscInt m = VKCurveSize(cv, i);
-      for (PetscInt j = 0; j <= m - (cv->closed[i] ? 0 : 1); j++) {
-        const PetscReal *x = p->x[k] + 3 * (cv->start[i] + j % m);
-        fprintf(fp, "%.6g %.6g %.6g\n", (double)(1e3 * x[0]), (double)(1e3 * x[1]), (double)(1e3 * x[2]));
-      }
-      fputs("\n", fp);
-    }
-    fputs("EOD\n", fp);
+  for (int k = 0; k < 3; k++) { /* one data block per frame */
+    char name[8];
+    PetscCall(PetscSNPrintf(name, sizeof(name), "f%d", k));
+    VKCurvesWriteGnuplotBlock(fp, cv, p->x[k], name);
   }
   {
     PetscReal lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL}, pad;
