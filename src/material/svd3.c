@@ -10,7 +10,9 @@
  * state the singular values nearly coincide, so rotations stay large and
  * two or three sweeps (then a cheap confirming one) are typical; the PD
  * local step therefore runs the sweeps of VK_SVD3_BATCH tets together, one
- * tet per SIMD lane (VKSVD3ComputeBatch), which is what makes it cheap. */
+ * tet per SIMD lane (VKSVD3ComputeBatch), which is what makes it cheap,
+ * and the end of the SVD (sorting, normalizing, signs: FinishBatch) in the
+ * same lanes, each lane doing what it would do alone. */
 #include <vkmaterial.h>
 #include <vkutil.h>
 
