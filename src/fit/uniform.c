@@ -62,6 +62,8 @@ static PetscErrorCode Search(MPI_Comm comm, PetscReal lo, PetscReal hi, UniformL
     *gbest = PetscPowReal(10, PetscMin(PetscLog10Real(lo) + kbest * step, PetscLog10Real(hi)));
     *lbest = lbk;
   }
+  if (*gbest <= 1.01 * lo || *gbest >= hi / 1.01) /* the loss may fall further outside: not a minimum found */
+    PetscCall(PetscPrintf(comm, "volknit fit: WARNING: the best uniform g = %.4g Pa lies at the %s end of the search range [%g, %g] Pa; the loss may fall further %s it (widen -fit_uniform_range)\n", (double)*gbest, *gbest <= 1.01 * lo ? "lower" : "upper", (double)lo, (double)hi, *gbest <= 1.01 * lo ? "below" : "above"));
   PetscFunctionReturn(0);
 }
 
