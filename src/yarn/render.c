@@ -162,6 +162,8 @@ PetscErrorCode VKRenderRun(const char path[], const char dir[], const VKRenderOp
     PetscCall(VKH5ReadAttrReal(&h, name, "time", &t1));
   }
   PetscCall(PetscSNPrintf(title, sizeof(title), "%s, scene %s", strcmp(dataset, "yarn") ? "yarn-level yarns" : "embedded yarns", scene));
+  PetscCall(VKPathJoin(dir, "movie.mp4", file, sizeof(file)));
+  (void)remove(file); /* a video of an earlier render would not match these pictures */
   for (PetscInt first = 0; first < ndraw; first += RENDER_CHUNK) {
     PetscInt    n = PetscMin(RENDER_CHUNK, ndraw - first);
     PetscReal   t[RENDER_CHUNK];
