@@ -144,6 +144,9 @@ PETSC_EXTERN PetscErrorCode VKPDDestroy(VKPD *);
  * relative to f_scale, absolute tolerance (N), tolerance relative to the
  * initial residual, iteration limit. */
 PETSC_EXTERN PetscErrorCode VKPDSetTolerances(VKPD, PetscReal ftol, PetscReal atol, PetscReal rtol, PetscInt max_it);
+/* pd or lbfgs.  Over PC cms, L-BFGS takes one two-level cycle (KSP
+ * preonly) as K^-1; plain PD needs K^-1 itself, so its preonly KSP becomes
+ * CG (to -pd_global_ksp_rtol). */
 PETSC_EXTERN PetscErrorCode VKPDSetType(VKPD, VKPDType);
 PETSC_EXTERN PetscErrorCode VKPDGetType(VKPD, VKPDType *);
 /* The global step's KSP (prefix <prefix>pd_global_), to inspect or set. */
