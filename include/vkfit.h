@@ -248,6 +248,9 @@ PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v
 /* The uniform material g_s = g_v = g in [lo, hi] Pa minimizing the sum of
  * the frames' losses at equilibrium (uniform.c). */
 PETSC_EXTERN PetscErrorCode VKFitBestUniform(VKFit, PetscInt nf, VKFitFrame f[], PetscReal lo, PetscReal hi, PetscReal *g, PetscReal *loss);
+/* Where g lies in the search range [lo, hi]: "lower" or "upper" within
+ * 1 % of an end (the loss may fall further outside it), else NULL. */
+PETSC_EXTERN const char *VKFitUniformRangeEnd(PetscReal lo, PetscReal hi, PetscReal g);
 PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma);
 /* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
  * g_v in gamma, and the ceiling (VKFitSetGammaCeiling). */

@@ -261,8 +261,9 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   else not_ok "volknit fit -fit_best_uniform: expected the search's line and best_uniform in fit.json (see $fd/uniform.log)"; fi
   # a best uniform at an end of the search range is flagged: the loss may fall further outside it
   fit_dir "uniform_edge"
-  if fit_run "uniform_edge" 1 -fit_best_uniform -fit_uniform_range 1,3 && grep -q 'WARNING: the best uniform g = 1 Pa lies at the lower end of the search range \[1., 3.\] Pa' "$fd/uniform_edge.log"; then ok
-  else not_ok "volknit fit -fit_uniform_range 1,3: expected a warning that the best uniform lies at the lower end (see $fd/uniform_edge.log)"; fi
+  if fit_run "uniform_edge" 1 -fit_best_uniform -fit_uniform_range 1,3 && grep -q 'WARNING: the best uniform g = 1 Pa lies at the lower end of the search range \[1., 3.\] Pa' "$fd/uniform_edge.log" \
+     && grep -q '"at_end_of_search_range": "lower"' "$fd/uniform_edge/fit.json"; then ok
+  else not_ok "volknit fit -fit_uniform_range 1,3: expected a warning and at_end_of_search_range lower in fit.json (see $fd/uniform_edge.log)"; fi
   # the fit's PD reads its own options (prefix fit_): a global solver that
   # cannot converge given as -pd_global_ leaves the fit alone, as
   # -fit_pd_global_ it stops the fit with the option's name

@@ -105,6 +105,10 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONObjectBegin(&j, "best_uniform"));
     PetscCall(VKJSONReal(&j, "gamma_Pa", fit->uniform_g));
     PetscCall(VKJSONReal(&j, fit->loss == VK_FIT_LOSS_TRAJECTORY ? "trajectory_loss" : "loss_summed_over_samples", fit->uniform_loss));
+    {
+      const char *end = VKFitUniformRangeEnd(fit->uniform_range[0], fit->uniform_range[1], fit->uniform_g);
+      PetscCall(VKJSONString(&j, "at_end_of_search_range", end ? end : "no"));
+    }
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONReal(&j, "alpha", fit->sf->alpha));

@@ -17,6 +17,11 @@
 
 typedef PetscErrorCode (*UniformLoss)(void *ctx, PetscReal g, PetscReal *loss);
 
+const char *VKFitUniformRangeEnd(PetscReal lo, PetscReal hi, PetscReal g)
+{
+  return g <= 1.01 * lo ? "lower" : g >= hi / 1.01 ? "upper" : NULL;
+}
+
 static PetscErrorCode Search(MPI_Comm comm, PetscReal lo, PetscReal hi, UniformLoss loss_at, void *ctx, PetscReal *gbest, PetscReal *lbest)
 {
   const PetscReal step = 0.5, phi = 0.5 * (PetscSqrtReal(5.0) - 1);
@@ -62,8 +67,10 @@ static PetscErrorCode Search(MPI_Comm comm, PetscReal lo, PetscReal hi, UniformL
     *gbest = PetscPowReal(10, PetscMin(PetscLog10Real(lo) + kbest * step, PetscLog10Real(hi)));
     *lbest = lbk;
   }
-  if (*gbest <= 1.01 * lo || *gbest >= hi / 1.01) /* the loss may fall further outside: not a minimum found */
-    PetscCall(PetscPrintf(comm, "volknit fit: WARNING: the best uniform g = %.4g Pa lies at the %s end of the search range [%g, %g] Pa; the loss may fall further %s it (widen -fit_uniform_range)\n", (double)*gbest, *gbest <= 1.01 * lo ? "lower" : "upper", (double)lo, (double)hi, *gbest <= 1.01 * lo ? "below" : "above"));
+  { /* the loss may fall further outside: not a minimum found */
+    const char *end = VKFitUniformRangeEnd(lo, hi, *gbest);
+    if (end) PetscCall(PetscPrintf(comm, "volknit fit: WARNING: the best uniform g = %.4g Pa lies at the %s end of the search range [%g, %g] Pa; the loss may fall further %s it (widen -fit_uniform_range)\n", (double)*gbest, end, (double)lo, (double)hi, end[0] == 'l' ? "below" : "above"));
+  }
   PetscFunctionReturn(0);
 }
 
