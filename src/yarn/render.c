@@ -147,7 +147,7 @@ PetscErrorCode VKRenderRun(const char path[], const char dir[], const VKRenderOp
   nv = y->curves.nv;
   ndraw = (nf - 1) / o->every + 1;
   PetscCall(PetscMalloc1(3 * nv * PetscMin(ndraw, RENDER_CHUNK), &x));
-  for (PetscInt f = 0; f < nf; f += o->every) { /* the axes over the whole run */
+  for (PetscInt f = 0; f < nf; f += o->every) { /* the axes over the whole run (frames are read again to draw: only a chunk is held) */
     PetscCall(ReadFrame(&h, dataset, f, nv, x));
     for (PetscInt i = 0; i < nv; i++)
       for (int a = 0; a < 3; a++) {
