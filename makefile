@@ -98,34 +98,46 @@ build/known_options.inc: $(LIB_SRC) src/volknit.c
 build/app/options_check.o: build/known_options.inc
 build/app/options_check.o: CFLAGS += -Ibuild
 
-build/%.o: src/%.c $(wildcard include/*.h src/*/*.h)
+# Header dependencies come from the compiler (-MMD): a changed header
+# rebuilds only the objects and programs that include it.
+DEPFLAGS = -MMD -MP
+build/%.o: src/%.c
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) -Isrc -c $< -o $@
+	$(CC) $(CFLAGS) $(DEPFLAGS) -Isrc -c $< -o $@
 
 $(BIN): src/volknit.c $(LIB)
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $< -o $@ $(LIB) $(LDLIBS)
+	$(CC) $(CFLAGS) $(DEPFLAGS) $< -o $@ $(LIB) $(LDLIBS)
 
-bin/tests/%: tests/%.c $(wildcard tests/*.h) $(LIB)
+bin/tests/%: tests/%.c $(LIB)
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) -Itests $< -o $@ $(LIB) $(LDLIBS)
+	$(CC) $(CFLAGS) $(DEPFLAGS) -Itests $< -o $@ $(LIB) $(LDLIBS)
 
 bin/bench/%: tests/bench/%.c $(LIB)
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $< -o $@ $(LIB) $(LDLIBS)
+	$(CC) $(CFLAGS) $(DEPFLAGS) $< -o $@ $(LIB) $(LDLIBS)
 
 bin/examples/%: examples/%.c $(LIB)
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $< -o $@ $(LIB) $(LDLIBS)
+	$(CC) $(CFLAGS) $(DEPFLAGS) $< -o $@ $(LIB) $(LDLIBS)
 
-# libFuzzer targets: the library sources again, built with clang and
-# sanitizers, one binary per reader.
-FUZZ_CFLAGS = $(CSTD) -O1 -g -fsanitize=fuzzer,address,undefined -Iinclude -Isrc $(PKG_CFLAGS) \
-              $(shell mpicc --showme:compile)
+# libFuzzer targets: the library sources again, built once with clang and
+# sanitizers into their own archive, then one binary per reader.
+FUZZ_SAN    = address,undefined
+FUZZ_CFLAGS = $(CSTD) -O1 -g -Iinclude -Isrc -Ibuild $(PKG_CFLAGS) $(shell mpicc --showme:compile)
 FUZZ_LIBS   = $(PKG_LIBS) $(shell mpicc --showme:link) -lmetis -lm
-bin/fuzz/%: tests/fuzz/%.c $(LIB_SRC)
+FUZZ_OBJ   := $(LIB_SRC:src/%.c=build/fuzz/%.o)
+FUZZ_LIB   := lib/libvolknit_fuzz.a
+build/fuzz/%.o: src/%.c
 	@mkdir -p $(@D)
-	clang $(FUZZ_CFLAGS) $< $(LIB_SRC) -o $@ $(FUZZ_LIBS)
+	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link,$(FUZZ_SAN) $(DEPFLAGS) -c $< -o $@
+build/fuzz/app/options_check.o: build/known_options.inc
+$(FUZZ_LIB): $(FUZZ_OBJ)
+	@mkdir -p $(@D)
+	ar rcs $@ $^
+bin/fuzz/%: tests/fuzz/%.c $(FUZZ_LIB)
+	@mkdir -p $(@D)
+	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer,$(FUZZ_SAN) $(DEPFLAGS) $< -o $@ $(FUZZ_LIB) $(FUZZ_LIBS)
 
 fuzz: deps
 	@command -v clang >/dev/null || { echo "make fuzz needs clang: apt-get install -y clang" >&2; exit 1; }
@@ -134,3 +146,5 @@ fuzz: deps
 
 clean:
 	rm -rf build lib bin tests/out
+
+-include $(wildcard build/*/*.d build/fuzz/*/*.d bin/*.d bin/*/*.d)
