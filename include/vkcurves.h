@@ -46,6 +46,11 @@ PETSC_EXTERN PetscErrorCode VKCurvesGetPolylines(const VKCurves *, PetscInt *len
 PETSC_EXTERN PetscInt       VKCurvesPolylineLength(const VKCurves *); /* len of the above */
 /* segment -> curve index (PetscMalloc'ed) */
 PETSC_EXTERN PetscErrorCode VKCurvesGetSegmentCurves(const VKCurves *, PetscInt **curve);
+/* Per vertex of the deformed positions x (3 nv, the rest curves' vertex
+ * order): stretch (Voronoi length over its rest value) and curvature (1/m,
+ * |kb| over the Voronoi length; 0 at open ends, infinite where the curve
+ * folds back); either output may be NULL (curve_fields.c). */
+PETSC_EXTERN PetscErrorCode VKCurvesVertexFields(const VKCurves *rest, const PetscReal x[], PetscReal stretch[], PetscReal curvature[]);
 PETSC_EXTERN PetscErrorCode VKCurvesLength(const VKCurves *, PetscReal *);
 PETSC_EXTERN PetscErrorCode VKCurvesBoundingBox(const VKCurves *, PetscReal lo[], PetscReal hi[]);
 PETSC_EXTERN PetscErrorCode VKCurvesScale(VKCurves *, PetscReal);

@@ -112,4 +112,7 @@ PETSC_EXTERN void VKRodModelStencil(const VKRodModel *, const VKRodFrames *, Pet
  * gradients (3 nv and nseg, optional). */
 PETSC_EXTERN PetscErrorCode VKRodModelEnergy(const VKRodModel *, const VKRodFrames *, const PetscReal x[], const PetscReal theta[], PetscInt npairs, const PetscInt pairs[], PetscReal E[4], PetscReal g[], PetscReal gtheta[]);
 /* The reference twist of every stencil at x, continued from f->mref. */
+/* The contact forces on the vertices (3 nv, N): minus the gradient of the
+ * contact energy of the given pairs at positions x. */
+PETSC_EXTERN PetscErrorCode VKRodModelContactForces(const VKRodModel *, const PetscReal x[], PetscInt npairs, const PetscInt pairs[], PetscReal f[]);
 PETSC_EXTERN PetscErrorCode VKRodModelReferenceTwist(const VKRodModel *, const VKRodFrames *, const PetscReal x[], PetscReal mref[]);

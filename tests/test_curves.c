@@ -4,8 +4,10 @@
  * from duplicate points), Catmull-Rom interpolation of the control points,
  * parallel-transport frames against an independent Rodrigues rotation,
  * the radius estimate on yarns at a known contact distance, projected
- * crossings, the radix sort and the spatial hash against brute force, and
- * the one-polyline-per-curve layout of the XDMF outputs. */
+ * crossings, the radix sort and the spatial hash against brute force, the
+ * one-polyline-per-curve layout of the XDMF outputs, and the per-vertex
+ * stretch and curvature of the yarn time series on a stretched circle and
+ * a bent line. */
 #include <vkcurves.h>
 #include <vkyarn.h>
 #include <vkutil.h>
@@ -323,6 +325,50 @@ static PetscErrorCode TestSortAndHash(void)
   PetscFunctionReturn(0);
 }
 
+/* A closed regular N-gon of circumradius R stretched by s: every vertex has
+ * stretch s and curvature 1/(s R cos(pi/N)); an open line with one vertex
+ * bent by a right angle has 2 tan(pi/4)/l there, 0 elsewhere and at its ends. */
+static PetscErrorCode TestVertexFields(void)
+{
+  const PetscInt N = 48;
+  const PetscReal R = 0.01, s = 1.25, l = 0.002;
+  VKCurves  c;
+  PetscReal x[3 * 48], xs[3 * 48], st[48], k[48], es = 0, ek = 0;
+  PetscReal line[15] = {0, 0, 0, l, 0, 0, 2 * l, 0, 0, 2 * l, l, 0, 2 * l, 2 * l, 0}, bent[15], lst[5], lk[5];
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < N; i++) {
+    PetscReal a = 2 * PETSC_PI * i / N;
+    x[3 * i]      = R * PetscCosReal(a);
+    x[3 * i + 1]  = R * PetscSinReal(a);
+    x[3 * i + 2]  = 0.003;
+    for (int d = 0; d < 3; d++) xs[3 * i + d] = s * x[3 * i + d];
+  }
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(VKCurvesAdd(&c, N, x, PETSC_TRUE));
+  PetscCall(VKCurvesVertexFields(&c, xs, st, k));
+  for (PetscInt i = 0; i < N; i++) {
+    es = PetscMax(es, PetscAbsReal(st[i] - s));
+    ek = PetscMax(ek, PetscAbsReal(k[i] * s * R * PetscCosReal(PETSC_PI / N) - 1));
+  }
+  PetscCall(VKTestCheck((PetscBool)(es < 1e-12 && ek < 1e-12), NULL, "vertex fields of a closed %d-gon stretched by %g: stretch off by %.1e, curvature off by %.1e of 1/(s R cos(pi/N))", (int)N, (double)s, (double)es, (double)ek));
+  PetscCall(VKCurvesFree(&c));
+  /* rest: straight; deformed: the same lengths, bent by 90 degrees at vertex 2 */
+  for (int i = 0; i < 5; i++) {
+    line[3 * i] = l * i;
+    line[3 * i + 1] = 0;
+  }
+  PetscCall(PetscArraycpy(bent, line, 15));
+  bent[9] = 2 * l;  bent[10] = l;
+  bent[12] = 2 * l; bent[13] = 2 * l;
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(VKCurvesAdd(&c, 5, line, PETSC_FALSE));
+  PetscCall(VKCurvesVertexFields(&c, bent, lst, lk));
+  PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(lk[2] * l / 2 - 1) < 1e-12 && lk[0] == 0 && lk[4] == 0 && PetscAbsReal(lk[1]) < 1e-9 && PetscAbsReal(lk[3]) < 1e-9 && PetscAbsReal(lst[0] - 1) + PetscAbsReal(lst[2] - 1) + PetscAbsReal(lst[4] - 1) < 1e-12), NULL, "vertex fields of a line bent by 90 degrees: curvature %g, %g, %g, %g, %g 1/m (2/l = %g at the bend), stretch %g at the ends and the bend", (double)lk[0], (double)lk[1], (double)lk[2], (double)lk[3], (double)lk[4], (double)(2 / l), (double)lst[2]));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
@@ -334,6 +380,7 @@ int main(int argc, char **argv)
   PetscCall(TestRadius());
   PetscCall(TestCrossings());
   PetscCall(TestSortAndHash());
+  PetscCall(TestVertexFields());
   {
     int rc = VKTestFinish();
     PetscCall(PetscFinalize());

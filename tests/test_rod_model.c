@@ -148,6 +148,19 @@ int main(int argc, char **argv)
       PetscCall(PetscFree2(xh, thh));
     }
     order = VKTestTaylorOrder(8, e, 1e-14 * E0, &pe);
+    { /* the contact forces written to yls.h5: minus the contact part of the gradient */
+      PetscReal *f, *g0, Enp[4], err = 0, fmax = 0, sum[3] = {0, 0, 0};
+      PetscCall(PetscMalloc2(3 * m.nv, &f, 3 * m.nv, &g0));
+      PetscCall(VKRodModelContactForces(&m, x, np, pairs, f));
+      PetscCall(VKRodModelEnergy(&m, &rest, x, th, 0, NULL, Enp, g0, NULL));
+      for (PetscInt i = 0; i < 3 * m.nv; i++) {
+        err  = PetscMax(err, PetscAbsReal(f[i] + (g[i] - g0[i])));
+        fmax = PetscMax(fmax, PetscAbsReal(f[i]));
+        sum[i % 3] += f[i];
+      }
+      PetscCall(VKTestCheck((PetscBool)(fmax > 0 && err <= 1e-10 * fmax && PetscAbsReal(sum[0]) + PetscAbsReal(sum[1]) + PetscAbsReal(sum[2]) <= 1e-10 * fmax), NULL, "contact forces = -(gradient with pairs - without) to %.1e of the largest %.2e N; they sum to (%.1e, %.1e, %.1e) N", (double)(err / fmax), (double)fmax, (double)sum[0], (double)sum[1], (double)sum[2]));
+      PetscCall(PetscFree2(f, g0));
+    }
     PetscCall(VKTestCheck((PetscBool)(pe >= 3 && order > 1.8 && E[2] > 0 && E[3] > 0), NULL, "whole patch (stretch %.2e, bending %.2e, twist %.2e, contact %.2e J over %d pairs): Taylor energy -> gradient, order %.2f (%d pairs)", (double)E[0], (double)E[1], (double)E[2], (double)E[3], (int)np, (double)order, pe));
     PetscCall(PetscFree(pairs));
   }

@@ -263,6 +263,24 @@ static void GatherStencil(const VKRodModel *m, PetscInt k, const PetscReal x[], 
   for (int j = 0; j < 2; j++) te[j] = theta ? theta[m->bseg[2 * k + j]] : 0;
 }
 
+/* The contact energy of the given pairs added to *energy, its gradient to
+ * g (3 nv, optional). */
+static void ContactPairs(const VKRodModel *m, const PetscReal x[], PetscInt npairs, const PetscInt pairs[], VKSum *energy, PetscReal g[])
+{
+  const VKRodParams *p = &m->par;
+
+  for (PetscInt k = 0; k < npairs; k++) {
+    PetscInt  sa = pairs[2 * k], sb = pairs[2 * k + 1], v[4] = {m->seg[2 * sa], m->seg[2 * sa + 1], m->seg[2 * sb], m->seg[2 * sb + 1]};
+    PetscReal xe[12], ge[12];
+    for (int a = 0; a < 4; a++)
+      for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
+    VKSumAdd(energy, VKRodContact(xe, m->L[sa], m->L[sb], p->kc, p->radius, p->nq, PETSC_FALSE, g ? ge : NULL, NULL, NULL));
+    if (g)
+      for (int a = 0; a < 4; a++)
+        for (int i = 0; i < 3; i++) g[3 * v[a] + i] += ge[3 * a + i];
+  }
+}
+
 PetscErrorCode VKRodModelEnergy(const VKRodModel *m, const VKRodFrames *f, const PetscReal x[], const PetscReal theta[], PetscInt npairs, const PetscInt pairs[], PetscReal E[4], PetscReal g[], PetscReal gtheta[])
 {
   const VKRodParams *p = &m->par;
@@ -303,17 +321,19 @@ PetscErrorCode VKRodModelEnergy(const VKRodModel *m, const VKRodFrames *f, const
     if (gtheta)
       for (int j = 0; j < 2; j++) gtheta[m->bseg[2 * k + j]] += ge[9 + j];
   }
-  for (PetscInt k = 0; k < npairs; k++) {
-    PetscInt  sa = pairs[2 * k], sb = pairs[2 * k + 1], v[4] = {m->seg[2 * sa], m->seg[2 * sa + 1], m->seg[2 * sb], m->seg[2 * sb + 1]};
-    PetscReal xe[12], ge[12];
-    for (int a = 0; a < 4; a++)
-      for (int i = 0; i < 3; i++) xe[3 * a + i] = x[3 * v[a] + i];
-    VKSumAdd(&sum[3], VKRodContact(xe, m->L[sa], m->L[sb], p->kc, p->radius, p->nq, PETSC_FALSE, g ? ge : NULL, NULL, NULL));
-    if (g)
-      for (int a = 0; a < 4; a++)
-        for (int i = 0; i < 3; i++) g[3 * v[a] + i] += ge[3 * a + i];
-  }
+  ContactPairs(m, x, npairs, pairs, &sum[3], g);
   for (int k = 0; k < 4; k++) E[k] = VKSumValue(&sum[k]);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKRodModelContactForces(const VKRodModel *m, const PetscReal x[], PetscInt npairs, const PetscInt pairs[], PetscReal f[])
+{
+  VKSum energy = {0, 0};
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < 3 * m->nv; i++) f[i] = 0;
+  ContactPairs(m, x, npairs, pairs, &energy, f);
+  for (PetscInt i = 0; i < 3 * m->nv; i++) f[i] = -f[i];
   PetscFunctionReturn(0);
 }
 

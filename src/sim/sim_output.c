@@ -2,7 +2,9 @@
  *   DIR/sim.h5    /mesh/tets, /mesh/node_mass, /yarn/... (the yarn model),
  *                 /frames/NNNNNN/x (n_V x 3 node positions),
  *                 /frames/NNNNNN/yarn (n_Y x 3, x^Y = N x^V, Eq. 4),
- *                 /frames/NNNNNN/velocity (n_V x 3), and per tet J (volume
+ *                 /frames/NNNNNN/velocity (n_V x 3), yarn_velocity,
+ *                 yarn_stretch, yarn_curvature (per yarn vertex, 1/m:
+ *                 VKCurvesVertexFields), and per tet J (volume
  *                 ratio), psi (energy density, J/m^3), stretch_max,
  *                 stretch_min (singular values of F), inverted (J <= 0);
  *                 /material/g_s, /material/g_v, /mesh/tet_domain per tet,
@@ -32,7 +34,7 @@ typedef struct {
   VecScatter scatter, tscatter;
   Vec        xseq, vseq, tf, tfseq; /* node and tet fields, and their copies on rank 0 */
   PetscReal *col;                   /* one tet field column */
-  PetscReal *xy;
+  PetscReal *xy, *vy, *ystretch, *ycurv; /* rank 0: the embedded yarns' positions and fields */
   PetscInt   n, cap;
   PetscReal *time, *energy;
 } SimOutput;
@@ -88,7 +90,7 @@ PetscErrorCode VKSimOutputOpen(VKSim sim)
   PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
   if (rank == 0) {
     ierr = WriteStatic(sim, o);
-    if (!ierr) ierr = PetscMalloc1(3 * sim->mesh->ny + 1, &o->xy);
+    if (!ierr) ierr = PetscMalloc4(3 * sim->mesh->ny + 1, &o->xy, 3 * sim->mesh->ny + 1, &o->vy, sim->mesh->ny + 1, &o->ystretch, sim->mesh->ny + 1, &o->ycurv);
   }
   PetscCall(VKCollective(sim->comm, ierr, "Creating sim.h5"));
   PetscCall(VecScatterCreateToZero(sim->x, &o->scatter, &o->xseq));
@@ -149,9 +151,14 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
     PetscCall(VecGetArrayRead(o->xseq, &xa));
     PetscCall(VecGetArrayRead(o->vseq, &va));
     PetscCall(VKMeshApplyEmbedding(sim->mesh, xa, o->xy));
+    PetscCall(VKMeshApplyEmbedding(sim->mesh, va, o->vy)); /* the embedding is linear: v^Y = N v^V */
+    PetscCall(VKCurvesVertexFields(&sim->mesh->yarn->curves, o->xy, o->ystretch, o->ycurv));
     ierr = VKRunFileWriteReal(&o->rf, "x", sim->mesh->nv, 3, xa);
     if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn", sim->mesh->ny, 3, o->xy);
     if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "velocity", sim->mesh->nv, 3, va);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_velocity", sim->mesh->ny, 3, o->vy);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_stretch", sim->mesh->ny, 1, o->ystretch);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_curvature", sim->mesh->ny, 1, o->ycurv);
     if (!ierr) {
       const PetscBool   isint[VK_SIM_TET_FIELDS] = {PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_TRUE};
       const char *const field[VK_SIM_TET_FIELDS] = {"J", "psi", "stretch_max", "stretch_min", "inverted"};
@@ -216,6 +223,7 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
       PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, part ? "yarn" : "x"));
       PetscCall(VKXdmfGeometry(fp, part ? sim->mesh->ny : sim->mesh->nv, "sim.h5", ds));
       if (!part) PetscCall(MeshAttributes(fp, sim->mesh, f));
+      else PetscCall(VKRunFileYarnAttributes(fp, "sim.h5", f, sim->mesh->ny, "yarn_", PETSC_FALSE));
       PetscCall(VKXdmfGridEnd(fp));
     }
     PetscCall(VKXdmfCollectionEnd(fp));
@@ -265,6 +273,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "nodes", sim->mesh->nv));
   PetscCall(VKJSONInt(&j, "tets", sim->mesh->ne));
   PetscCall(VKJSONInt(&j, "yarn_vertices", sim->mesh->ny));
+  PetscCall(VKJSONReal(&j, "yarn_radius_m", sim->mesh->yarn->radius));
   PetscCall(VKJSONReal(&j, "dt", dt));
   PetscCall(VKJSONReal(&j, "time_reached", t));
   PetscCall(VKJSONInt(&j, "steps", st.steps));
@@ -369,7 +378,7 @@ PetscErrorCode VKSimOutputDestroy(VKSim sim)
   PetscCall(VecDestroy(&o->tf));
   PetscCall(VecDestroy(&o->tfseq));
   PetscCall(PetscFree(o->col));
-  PetscCall(PetscFree(o->xy));
+  PetscCall(PetscFree4(o->xy, o->vy, o->ystretch, o->ycurv));
   PetscCall(PetscFree(o->time));
   PetscCall(PetscFree(o->energy));
   PetscCall(PetscFree(sim->out));

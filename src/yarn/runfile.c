@@ -102,3 +102,25 @@ PetscErrorCode VKRunFileDestroy(VKRunFile *f)
   PetscCall(VKPreviewDestroy(&f->preview));
   PetscFunctionReturn(0);
 }
+
+PetscErrorCode VKRunFileYarnAttributes(FILE *fp, const char h5name[], PetscInt frame, PetscInt nv, const char prefix[], PetscBool contact)
+{
+  static const struct {
+    const char *name, *dataset;
+    PetscInt    ncomp;
+  } a[] = {
+    {"velocity [m/s]",    "velocity",      3},
+    {"stretch",           "stretch",       1},
+    {"curvature [1/m]",   "curvature",     1},
+    {"contact force [N]", "contact_force", 3}
+  };
+  char ds[96];
+
+  PetscFunctionBegin;
+  for (size_t k = 0; k < sizeof(a) / sizeof(a[0]); k++) {
+    if (k == 3 && !contact) continue;
+    PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s%s", (int)frame, prefix, a[k].dataset));
+    PetscCall(VKXdmfAttribute(fp, a[k].name, "Node", nv, a[k].ncomp, PETSC_FALSE, h5name, ds));
+  }
+  PetscFunctionReturn(0);
+}

@@ -4,10 +4,13 @@
  *                 reference director by time-parallel transport),
  *                 /frames/NNNNNN/twist (per segment, the angle of the
  *                 material frame from it; absent in files from before the
- *                 rods had twist), /yls/time, /yls/energy (bending with
+ *                 rods had twist), per vertex velocity, stretch, curvature
+ *                 (1/m) and contact_force (N; VKCurvesVertexFields,
+ *                 VKRodModelContactForces), /yls/time, /yls/energy (bending with
  *                 twist, so its first four columns stay the elastic energy)
  *   DIR/yls.xdmf  temporal collections for ParaView: the yarns as one
- *                 polyline per curve, and their segments with the normals
+ *                 polyline per curve with the per-vertex fields named with
+ *                 their units, and their segments with the normals
  *                 as a cell attribute
  *   DIR/yls_preview.png  the yarns at the first, middle and last frame from
  *                 above and from the side (gnuplot)
@@ -30,6 +33,7 @@ typedef struct {
   VKRunFile  rf; /* rank 0: yls.h5, its frames, yls.xdmf, the preview */
   PetscInt   n, cap, its_last;
   PetscReal *row; /* NCOL per frame */
+  PetscReal *vel, *stretch, *curvature, *contact; /* the frame's per-vertex fields, on every rank */
 } YLSOutput;
 
 static const char *const columns[NCOL] = {"time", "stretch", "bending", "contact", "glue", "kinetic", "gravity", "contact_pairs", "min_distance_over_2r", "newton_its", "wall_time", "twist"};
@@ -49,6 +53,7 @@ PetscErrorCode VKYLSOutputOpen(VKYLS y)
   PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
   if (rank == 0) ierr = VKRunFileOpen(&o->rf, y->dir, "yls", YLS_FORMAT, y->yarn, y->scene->name, VKSceneFrameCount(y->scene));
   PetscCall(VKCollective(y->comm, ierr, "Creating yls.h5"));
+  PetscCall(PetscMalloc4(3 * y->model.nv, &o->vel, y->model.nv, &o->stretch, y->model.nv, &o->curvature, 3 * y->model.nv, &o->contact));
   PetscFunctionReturn(0);
 }
 
@@ -63,7 +68,11 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   PetscFunctionBegin;
   PetscCheck(o, y->comm, PETSC_ERR_ORDER, "VKYLSOutputOpen() first");
   PetscCall(PetscLogEventBegin(VK_EVENT_Write, 0, 0, 0, 0));
-  PetscCall(VKYLSMeasure(y, e, NULL, &dmin, &np)); /* leaves the positions in y->xall */
+  PetscCall(VKYLSMeasure(y, e, NULL, &dmin, &np, o->contact)); /* leaves the positions in y->xall */
+  if (o->vel) {
+    PetscCall(VKYLSGather(y, y->v, o->vel));
+    PetscCall(VKCurvesVertexFields(&y->yarn->curves, y->xall, o->stretch, o->curvature));
+  }
   PetscCall(PetscArraycpy(y->energy, e, 7));
   y->stats.pairs_max    = PetscMax(y->stats.pairs_max, np);
   y->stats.dmin_over_2r = PetscMin(y->stats.dmin_over_2r, dmin);
@@ -90,6 +99,10 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
     ierr = VKRunFileWriteReal(&o->rf, "x", y->model.nv, 3, y->xall);
     if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "normal", y->model.nseg, 3, y->normal);
     if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "twist", y->model.nseg, 1, y->theta);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "velocity", y->model.nv, 3, o->vel);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "stretch", y->model.nv, 1, o->stretch);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "curvature", y->model.nv, 1, o->curvature);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "contact_force", y->model.nv, 3, o->contact);
     if (!ierr) ierr = VKRunFileEndFrame(&o->rf, y->t, y->xall);
   }
   PetscCall(VKCollective(y->comm, ierr, "Writing a frame to yls.h5"));
@@ -115,6 +128,7 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
     PetscCall(VKXdmfTopologyMixed(fp, y->yarn->curves.n, VKCurvesPolylineLength(&y->yarn->curves), "yls.h5", "/yarn/polylines")); /* one polyline per curve */
     PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/x", (int)f));
     PetscCall(VKXdmfGeometry(fp, y->model.nv, "yls.h5", ds));
+    PetscCall(VKRunFileYarnAttributes(fp, "yls.h5", f, y->model.nv, "", PETSC_TRUE));
     PetscCall(VKXdmfGridEnd(fp));
   }
   PetscCall(VKXdmfCollectionEnd(fp));
@@ -306,6 +320,7 @@ PetscErrorCode VKYLSOutputDestroy(VKYLS y)
   if (!o) PetscFunctionReturn(0);
   PetscCall(VKRunFileDestroy(&o->rf)); /* an error path: removes a half-written yls.h5 */
   PetscCall(PetscFree(o->row));
+  PetscCall(PetscFree4(o->vel, o->stretch, o->curvature, o->contact));
   PetscCall(PetscFree(y->out));
   PetscFunctionReturn(0);
 }

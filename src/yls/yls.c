@@ -521,7 +521,7 @@ PetscErrorCode VKYLSStep(VKYLS y)
 
 /* Energies, momentum, closest approach and pairs within 2r of the current
  * state, from one search of the contact pairs (each output optional). */
-PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscReal *dmin, PetscInt *npairs)
+PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscReal *dmin, PetscInt *npairs, PetscReal contact_force[])
 {
   const VKRodModel  *m = &y->model;
   const PetscScalar *va;
@@ -540,6 +540,7 @@ PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscR
     *dmin = d / (2 * m->par.radius);
   }
   if (npairs) *npairs = np;
+  if (contact_force) PetscCall(VKRodModelContactForces(m, y->xall, np, pairs, contact_force));
   if (e || momentum) {
     const VKRodFrames chart = {y->tn, y->normal, y->mref};
     PetscCall(VKRodModelEnergy(m, &chart, y->xall, y->theta, np, pairs, E, NULL, NULL));
@@ -574,14 +575,14 @@ PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscR
 PetscErrorCode VKYLSEnergies(VKYLS y, PetscReal e[7], PetscReal momentum[3])
 {
   PetscFunctionBegin;
-  PetscCall(VKYLSMeasure(y, e, momentum, NULL, NULL));
+  PetscCall(VKYLSMeasure(y, e, momentum, NULL, NULL, NULL));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKYLSMinDistance(VKYLS y, PetscReal *dmin, PetscInt *npairs)
 {
   PetscFunctionBegin;
-  PetscCall(VKYLSMeasure(y, NULL, NULL, dmin, npairs));
+  PetscCall(VKYLSMeasure(y, NULL, NULL, dmin, npairs, NULL));
   PetscFunctionReturn(0);
 }
 

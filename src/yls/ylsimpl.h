@@ -27,11 +27,12 @@ PETSC_INTERN PetscErrorCode VKYLSPotential(VKYLS, const PetscReal x[], const Pet
 PETSC_INTERN PetscErrorCode VKYLSGradient(VKYLS, const PetscReal x[], const PetscReal theta[], Vec G);
 PETSC_INTERN PetscErrorCode VKYLSHessian(VKYLS, const PetscReal x[], const PetscReal theta[], Mat H);
 PETSC_INTERN PetscErrorCode VKYLSCreateHessian(VKYLS, Mat *H);
-/* Energies (as VKYLSEnergies), momentum, closest approach / 2r and pairs
- * within 2r of the current state from one pair search; outputs optional.
+/* Energies (as VKYLSEnergies), momentum, closest approach / 2r, pairs
+ * within 2r and the contact force on each vertex (3 nv, N) of the current
+ * state from one pair search; outputs optional.
  * It leaves the positions in y->xall and makes the current tangents the
  * chart's (y->tn), as between steps. */
-PETSC_INTERN PetscErrorCode VKYLSMeasure(VKYLS, PetscReal e[], PetscReal momentum[], PetscReal *dmin, PetscInt *npairs);
+PETSC_INTERN PetscErrorCode VKYLSMeasure(VKYLS, PetscReal e[], PetscReal momentum[], PetscReal *dmin, PetscInt *npairs, PetscReal contact_force[]);
 /* The SNES of a step (newton.c). */
 PETSC_INTERN PetscErrorCode VKYLSCreateSNES(VKYLS);
 PETSC_INTERN PetscErrorCode VKYLSFindPairs(VKYLS, const PetscReal x[]);
