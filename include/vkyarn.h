@@ -158,6 +158,11 @@ PETSC_EXTERN PetscErrorCode VKPreviewCreate(const VKCurves *, PetscInt expected_
 PETSC_EXTERN PetscErrorCode VKPreviewKeep(VKPreview *, PetscInt frame, PetscReal t, const PetscReal x[]);
 PETSC_EXTERN PetscErrorCode VKPreviewDraw(VKPreview *, const char who[], const char dir[], const char name[], const char title[]);
 PETSC_EXTERN PetscErrorCode VKPreviewDestroy(VKPreview *);
+/* DIR/<name>: the first, middle and last frame of a yarn-level run
+ * (yls_path, its yarns wide and grey) with a homogenized run's embedded
+ * yarns (sim_path, blue) over them; *drawn is false, and nothing is
+ * written, when the two runs' frame times or scenes differ. */
+PETSC_EXTERN PetscErrorCode VKPreviewCompare(const char yls_path[], const char sim_path[], const char dir[], const char name[], PetscBool *drawn);
 /* The curves at positions x (m) as a gnuplot data block $name in mm, one
  * polyline per curve (closed ones closed), for the pictures above. */
 PETSC_EXTERN void VKCurvesWriteGnuplotBlock(FILE *, const VKCurves *, const PetscReal x[], const char name[]);
@@ -185,6 +190,10 @@ PETSC_EXTERN PetscErrorCode VKRunFileWriteInt(VKRunFile *, const char name[], Pe
 PETSC_EXTERN PetscErrorCode VKRunFileEndFrame(VKRunFile *, PetscReal t, const PetscReal yarn[]);
 PETSC_EXTERN PetscErrorCode VKRunFileClose(VKRunFile *, PetscErrorCode (*xdmf)(void *ctx, VKOutput *out), void *ctx, const char who[], const char title[]);
 PETSC_EXTERN PetscErrorCode VKRunFileDestroy(VKRunFile *);
+/* The per-vertex yarn fields of frame `frame` as XDMF attributes named
+ * with their units: /frames/N/<prefix>velocity, stretch, curvature, and
+ * with contact, contact_force (VKCurvesVertexFields, VKRodModelContactForces). */
+PETSC_EXTERN PetscErrorCode VKRunFileYarnAttributes(FILE *, const char h5name[], PetscInt frame, PetscInt nv, const char prefix[], PetscBool contact);
 
 /* A run's yarns frame by frame (src/yarn/render.c, volknit render): the
  * run file's frames (sim.h5: the embedded yarns; yls.h5: the yarn-level
@@ -202,6 +211,12 @@ typedef struct {
   PetscReal fps;
   PetscBool video;         /* movie.mp4 written */
 } VKRenderResult;
+/* A run file's frames (render.c): *dataset the frame's yarn positions,
+ * "yarn" in sim.h5 or "x" in yls.h5, with the scene name and the frame
+ * count; an error for any other file or one with no frame. */
+PETSC_EXTERN PetscErrorCode VKRunFileInspect(VKH5 *, const char path[], const char **dataset, char scene[], size_t len, PetscInt *nf);
+/* Frame f's positions (nv x 3, checked finite) and time (optional). */
+PETSC_EXTERN PetscErrorCode VKRunFileReadFrame(VKH5 *, const char dataset[], PetscInt f, PetscInt nv, PetscReal x[], PetscReal *t);
 /* An error unless path is a sim.h5 or yls.h5 with frames; *sim tells which. */
 PETSC_EXTERN PetscErrorCode VKRenderCheck(const char path[], PetscBool *sim);
 PETSC_EXTERN PetscErrorCode VKRenderRun(const char path[], const char dir[], const VKRenderOptions *, VKRenderResult *);

@@ -447,6 +447,12 @@ for pv in "$rd/s2/yls_preview.png:$rd/s2/yls.json" "$(find "$rd/s2/sweep" -name 
   if [ "$sig" = "89504e470d0a1a0a" ] && awk -v v="$var" 'BEGIN { exit !(v > 100) }' && grep -q '"preview": "[a-z]*_preview.png"' "$js"; then ok
   else not_ok "preview picture $png: signature '$sig', red-channel variance '$var' (> 100 expected), named in $js"; fi
 done
+# the sweep with the yarn-level reference draws each point's embedded
+# yarns over the yarn-level ones: a valid, non-blank PNG named in run.json
+cp="$rd/s2/sweep/uniform/compare_preview.png"
+sig=$(head -c 8 "$cp" 2>/dev/null | od -An -tx1 | tr -d ' \n')
+if [ "$sig" = "89504e470d0a1a0a" ] && awk -v v="$(png_variance "$cp")" 'BEGIN { exit !(v > 100) }' && grep -q '"compare_preview": "compare_preview.png"' "$rd/s2/run.json"; then ok
+else not_ok "compare preview $cp: signature '$sig', not blank, named in $rd/s2/run.json"; fi
 # volknit render on 1 and 2 ranks: one picture per frame of the 2-rank
 # run's yls.h5 and of a sim.h5 of its sweep (every 2nd with -render_every
 # 2), each a valid PNG, the first not blank, first and last different;
@@ -472,6 +478,29 @@ for n in 1 2; do
     else not_ok "volknit render -n $n -render_source $src failed (see $d/render_$src.log)"; fi
   done
 done
+# tools/paraview/volknit_view.py where ParaView's pvpython is installed
+# (under xvfb-run without a display): a ParaView state and a valid,
+# non-blank picture of the yarn-level run and of a homogenized run; exit 2
+# with a message for a directory without a run and for an unknown field
+pv=""
+if command -v pvpython > /dev/null; then
+  if [ -n "${DISPLAY:-}" ]; then pv="pvpython"; elif command -v xvfb-run > /dev/null; then pv="xvfb-run -a pvpython"; fi
+fi
+if [ -n "$pv" ]; then
+  for d in "$rd/s2" "$sd"; do
+    rm -f "$d/volknit.pvsm" "$d/paraview.png"
+    if timeout "$TIMEOUT" $pv tools/paraview/volknit_view.py "$d" --screenshot "$d/paraview.png" --size 800,400 > "$d/paraview.log" 2>&1 && [ -s "$d/volknit.pvsm" ] \
+       && [ "$(head -c 8 "$d/paraview.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ] && awk -v v="$(png_variance "$d/paraview.png")" 'BEGIN { exit !(v > 100) }'; then ok
+    else not_ok "volknit_view.py $d: no state or no valid, non-blank picture (see $d/paraview.log)"; fi
+  done
+  mkdir -p "$rd/norun"
+  for case in "$rd/norun::neither sim.xdmf nor yls.xdmf" "$sd:--field nosuch:no field 'nosuch'; the fields are"; do
+    d=${case%%:*}; rest=${case#*:}; opt=${rest%%:*}; msg=${rest#*:}
+    timeout "$TIMEOUT" $pv tools/paraview/volknit_view.py "$d" $opt --state none > "$rd/norun/pv.log" 2>&1; rc=$?
+    if [ "$rc" = 2 ] && grep -q "$msg" "$rd/norun/pv.log"; then ok
+    else not_ok "volknit_view.py $d $opt: exit $rc (want 2) and '$msg' (see $rd/norun/pv.log)"; fi
+  done
+fi
 stamp=$(stat -c %Y "$rd/s1/yls.h5" 2>/dev/null)
 if sweep_run "s1" 1 -run_sweep_material uniform && grep -q 'is up to date' "$rd/s1.log" && ! grep -q '^volknit yls: [0-9]* vertices' "$rd/s1.log" && [ "$(stat -c %Y "$rd/s1/yls.h5")" = "$stamp" ]; then ok
 else not_ok "run sweep: the same reference options reran the yarn-level reference (see $rd/s1.log)"; fi

@@ -14,7 +14,10 @@
  * sim directory DIR/sweep/<label>; the yarn-level reference in DIR is
  * rerun only when its inputs change (run_reference.c); volknit report
  * measures every point against it in DIR/report, and DIR/run.json lists
- * the points with their settings and materials.  A setting reaches a
+ * the points with their settings and materials (also for a single run
+ * with the reference).  With the reference, each point's directory gets
+ * compare_preview.png: its embedded yarns drawn over the yarn-level ones
+ * at the first, middle and last frame, named in run.json.  A setting reaches a
  * point's objects through the options database, set for the point's
  * creation and restored after. */
 #include "appimpl.h"
@@ -46,6 +49,7 @@ typedef struct {
   RunMaterial material;
   char        label[128], dir[PETSC_MAX_PATH_LEN];
   const char *status;
+  PetscBool   compared; /* dir/compare_preview.png drawn */
 } Point;
 
 typedef struct {
@@ -143,7 +147,7 @@ static PetscErrorCode ReadOptions(Run *R)
   PetscCall(PetscOptionsRealArray("-run_sweep_mesh_h", "Sweep: voxel sizes of the meshes (-mesh_h), m", "volknit run", R->h, &nh, &set));
   if (set) {
     PetscCheck(nh >= 1 && nh <= MAX_LIST - 1, R->comm, PETSC_ERR_ARG_WRONG, "-run_sweep_mesh_h needs a list of 1 to %d voxel sizes", MAX_LIST - 1);
-    for (PetscInt i = 0; i < nh; i++) PetscCheck(R->h[i] > 0 && R->h[i] < PETSC_INFINITY, R->comm, PETSC_ERR_ARG_OUTOFRANGE, "-run_sweep_mesh_h: voxel sizes must be positive and finite, got %g", (double)R->h[i]);
+    for (PetscInt i = 0; i < nh; i++) PetscCheck(R->h[i] > 0 && isfinite(R->h[i]), R->comm, PETSC_ERR_ARG_OUTOFRANGE, "-run_sweep_mesh_h: voxel sizes must be positive and finite, got %g", (double)R->h[i]);
     R->nh = nh;
     any   = PETSC_TRUE;
   }
@@ -157,7 +161,7 @@ static PetscErrorCode ReadOptions(Run *R)
     } else PetscCall(PetscOptionsRealArray(L->list_option, L->help, "volknit run", L->value, &n, &set));
     if (!set) continue;
     PetscCheck(n >= 1 && n <= MAX_LIST - 1, R->comm, PETSC_ERR_ARG_WRONG, "%s needs a list of 1 to %d values", L->list_option, MAX_LIST - 1);
-    for (PetscInt i = 0; i < n; i++) PetscCheck(L->value[i] > 0 && L->value[i] < PETSC_INFINITY, R->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: values must be positive and finite, got %g", L->list_option, (double)L->value[i]);
+    for (PetscInt i = 0; i < n; i++) PetscCheck(L->value[i] > 0 && isfinite(L->value[i]), R->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: values must be positive and finite, got %g", L->list_option, (double)L->value[i]);
     L->n = n;
     any  = PETSC_TRUE;
   }
@@ -364,6 +368,27 @@ static PetscErrorCode Report(Run *R)
   PetscFunctionReturn(0);
 }
 
+/* With the yarn-level reference: each homogenized run's embedded yarns
+ * drawn over the yarn-level ones, <point dir>/compare_preview.png. */
+static PetscErrorCode ComparePreviews(Run *R)
+{
+  char           yls[PETSC_MAX_PATH_LEN], sim[PETSC_MAX_PATH_LEN];
+  PetscMPIInt    rank;
+  PetscErrorCode ierr = 0;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(R->comm, &rank));
+  PetscCall(VKPathJoin(R->dir, "yls.h5", yls, sizeof(yls)));
+  for (PetscInt i = 0; i < R->npoints; i++) {
+    Point *pt = &R->pt[i];
+    PetscCall(VKPathJoin(pt->dir, "sim.h5", sim, sizeof(sim)));
+    if (rank == 0) ierr = VKPreviewCompare(yls, sim, pt->dir, "compare_preview.png", &pt->compared);
+    PetscCall(VKCollective(R->comm, ierr, "Drawing compare_preview.png"));
+    PetscCallMPI(MPI_Bcast(&pt->compared, 1, MPIU_BOOL, 0, R->comm));
+  }
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
 {
   Run   *R = (Run *)ctx;
@@ -398,6 +423,7 @@ static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
     for (PetscInt k = 0; k < NSWEEP; k++)
       if (p->setting[k] >= 0) PetscCall(VKJSONReal(&j, R->list[k].list_option + 11, R->list[k].value[p->setting[k]]));
     PetscCall(VKJSONString(&j, "sim_status", p->status));
+    if (p->compared) PetscCall(VKJSONString(&j, "compare_preview", "compare_preview.png"));
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONArrayEnd(&j));
@@ -531,7 +557,8 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
     if (!stopped) {
       for (PetscInt i = 0; i < R.npoints; i++) PetscCall(RunPoint(&R, &R.pt[i]));
       if (R.report) PetscCall(Report(&R));
-      if (R.sweep) {
+      if (R.reference) PetscCall(ComparePreviews(&R));
+      if (R.sweep || R.reference) {
         char           path[PETSC_MAX_PATH_LEN];
         PetscMPIInt    rank;
         PetscErrorCode ierr = 0;
@@ -540,7 +567,7 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
         if (rank == 0) ierr = VKOutputWrite(path, PETSC_TRUE, WriteRunJSON, &R);
         PetscCall(VKCollective(comm, ierr, path));
       }
-      if (R.npoints == 1) PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim%s done in %.2f s (sim status: %s); outputs in %s/\n", R.reference ? (R.cached ? "yls (up to date), " : "yls, ") : "", R.fitting ? "fit, " : "", R.report ? ", report" : "", VKWallTime() - t0, R.pt[0].status, R.dir));
+      if (R.npoints == 1) PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim%s done in %.2f s (sim status: %s); outputs in %s/%s\n", R.reference ? (R.cached ? "yls (up to date), " : "yls, ") : "", R.fitting ? "fit, " : "", R.report ? ", report" : "", VKWallTime() - t0, R.pt[0].status, R.dir, R.pt[0].compared ? " (compare_preview.png: the homogenized yarns over the yarn-level ones)" : ""));
       else {
         PetscInt bad = 0;
         for (PetscInt i = 0; i < R.npoints; i++) bad += strcmp(R.pt[i].status, "completed") != 0;

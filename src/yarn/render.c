@@ -14,8 +14,7 @@
 
 #define RENDER_CHUNK 32 /* frames per gnuplot call */
 
-/* The positions of frame f (nv x 3). */
-static PetscErrorCode ReadFrame(VKH5 *h, const char dataset[], PetscInt f, PetscInt nv, PetscReal x[])
+PetscErrorCode VKRunFileReadFrame(VKH5 *h, const char dataset[], PetscInt f, PetscInt nv, PetscReal x[], PetscReal *t)
 {
   char       name[64];
   PetscInt   rows = 0;
@@ -29,6 +28,10 @@ static PetscErrorCode ReadFrame(VKH5 *h, const char dataset[], PetscInt f, Petsc
   for (PetscInt i = 0; i < 3 * nv; i++) PetscCheck(isfinite(a[i]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: %s holds a non-finite position", h->path, name);
   PetscCall(PetscArraycpy(x, a, 3 * nv));
   PetscCall(PetscFree(a));
+  if (t) {
+    PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)f));
+    PetscCall(VKH5ReadAttrReal(h, name, "time", t));
+  }
   PetscFunctionReturn(0);
 }
 
@@ -92,7 +95,7 @@ static PetscErrorCode Encode(const char dir[], PetscReal fps, PetscBool *encoded
 }
 
 /* The run file's kind (its frames' yarn dataset), scene and frame count. */
-static PetscErrorCode Inspect(VKH5 *h, const char path[], const char **dataset, char scene[], size_t len, PetscInt *nf)
+PetscErrorCode VKRunFileInspect(VKH5 *h, const char path[], const char **dataset, char scene[], size_t len, PetscInt *nf)
 {
   char format[64] = "", name[64];
 
@@ -121,7 +124,7 @@ PetscErrorCode VKRenderCheck(const char path[], PetscBool *sim)
 
   PetscFunctionBegin;
   PetscCall(VKH5Open(path, &h));
-  PetscCall(Inspect(&h, path, &dataset, scene, sizeof(scene), &nf));
+  PetscCall(VKRunFileInspect(&h, path, &dataset, scene, sizeof(scene), &nf));
   PetscCall(VKH5Close(&h));
   *sim = (PetscBool)!strcmp(dataset, "yarn");
   PetscFunctionReturn(0);
@@ -141,14 +144,14 @@ PetscErrorCode VKRenderRun(const char path[], const char dir[], const VKRenderOp
   PetscCall(PetscMemzero(res, sizeof(*res)));
   PetscCheck(!system("command -v gnuplot > /dev/null 2>&1"), PETSC_COMM_SELF, PETSC_ERR_SUP, "volknit render draws with gnuplot, which is not installed (apt-get install gnuplot-nox)");
   PetscCall(VKH5Open(path, &h));
-  PetscCall(Inspect(&h, path, &dataset, scene, sizeof(scene), &nf));
+  PetscCall(VKRunFileInspect(&h, path, &dataset, scene, sizeof(scene), &nf));
   PetscCall(VKYarnCreate(PETSC_COMM_SELF, &y));
   PetscCall(VKYarnLoadFromH5(y, &h));
   nv = y->curves.nv;
   ndraw = (nf - 1) / o->every + 1;
   PetscCall(PetscMalloc1(3 * nv * PetscMin(ndraw, RENDER_CHUNK), &x));
   for (PetscInt f = 0; f < nf; f += o->every) { /* the axes over the whole run (frames are read again to draw: only a chunk is held) */
-    PetscCall(ReadFrame(&h, dataset, f, nv, x));
+    PetscCall(VKRunFileReadFrame(&h, dataset, f, nv, x, NULL));
     for (PetscInt i = 0; i < nv; i++)
       for (int a = 0; a < 3; a++) {
         lo[a] = PetscMin(lo[a], 1e3 * x[3 * i + a]);
@@ -172,9 +175,7 @@ PetscErrorCode VKRenderRun(const char path[], const char dir[], const VKRenderOp
     Chunk       c = {&y->curves, n, x, t, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, title, o->width, o->height};
     for (PetscInt k = 0; k < n; k++) {
       PetscInt f = (first + k) * o->every;
-      PetscCall(ReadFrame(&h, dataset, f, nv, x + 3 * nv * k));
-      PetscCall(PetscSNPrintf(name, sizeof(name), "/frames/%06d", (int)f));
-      PetscCall(VKH5ReadAttrReal(&h, name, "time", &t[k]));
+      PetscCall(VKRunFileReadFrame(&h, dataset, f, nv, x + 3 * nv * k, &t[k]));
       PetscCall(PetscSNPrintf(names[k], sizeof(names[k]), "frame_%06d.png", (int)(first + k)));
       pnames[k] = names[k];
     }
