@@ -13,6 +13,9 @@
 #include <vkmesh.h>
 
 #define VK_SHAT_MIN 0.01 /* clamp of the volume-preserving projection */
+/* The largest g_s, g_v accepted (Pa): 24 orders above a knit's, far below
+ * where PD's global matrix would overflow double precision. */
+#define VK_GAMMA_MAX 1e30
 
 /* ---- point kernels ------------------------------------------------------ */
 typedef struct {

@@ -32,7 +32,7 @@ PetscErrorCode VKFitFrameCreateSpaced(VKFit fit, PetscInt index, PetscReal t, Pe
   PetscScalar    *ya;
 
   PetscFunctionBegin;
-  PetscCheck(h > 0 && hprev > 0 && h < PETSC_INFINITY && hprev < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Sample frame %d: frame spacings %g s and %g s must be positive", (int)index, (double)h, (double)hprev);
+  PetscCheck(h > 0 && hprev > 0 && isfinite(h) && isfinite(hprev), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Sample frame %d: frame spacings %g s and %g s must be positive", (int)index, (double)h, (double)hprev);
   PetscCall(PetscMemzero(f, sizeof(*f)));
   f->index   = index;
   f->t       = t;

@@ -96,7 +96,7 @@ PetscErrorCode VKFitDestroy(VKFit *p)
 PetscErrorCode VKFitSetTimeStep(VKFit fit, PetscReal dt)
 {
   PetscFunctionBegin;
-  PetscCheck(dt > 0 && dt < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The time between yarn frames must be positive and finite, got %g", (double)dt);
+  PetscCheck(dt > 0 && isfinite(dt), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The time between yarn frames must be positive and finite, got %g", (double)dt);
   fit->dt = dt;
   PetscCall(VKPDSetTimeStep(fit->pd, dt));
   PetscFunctionReturn(0);
@@ -166,17 +166,17 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->eq_newton_its >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_newton_its must be >= 1, got %d", (int)fit->eq_newton_its);
   PetscCheck(fit->gd_its >= 0 && fit->gn_its >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_its and -fit_gn_its must be >= 0, got %d and %d", (int)fit->gd_its, (int)fit->gn_its);
   PetscCheck(fit->gd_step > 0 && fit->gd_step < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_step must be in (0, 1), got %g", (double)fit->gd_step);
-  PetscCheck(fit->kappa >= 0 && fit->kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_kappa must be >= 0 and finite, got %g", (double)fit->kappa);
+  PetscCheck(fit->kappa >= 0 && isfinite(fit->kappa), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_kappa must be >= 0 and finite, got %g", (double)fit->kappa);
   PetscCheck(fit->rtol >= 0 && fit->rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_rtol must be in [0, 1), got %g", (double)fit->rtol);
   PetscCheck(fit->max_halvings >= 0 && fit->max_pivots >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_max_halvings and -fit_max_pivots must be >= 0");
   PetscCheck(fit->checkpoint_every >= 0 && fit->max_iterations >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_checkpoint_every and -fit_max_iterations must be >= 0, got %d and %d", (int)fit->checkpoint_every, (int)fit->max_iterations);
-  PetscCheck(fit->uniform_range[0] > 0 && fit->uniform_range[1] > fit->uniform_range[0] && fit->uniform_range[1] < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_uniform_range must be lo,hi with 0 < lo < hi, got %g,%g", (double)fit->uniform_range[0], (double)fit->uniform_range[1]);
-  PetscCheck(fit->traj_dt >= 0 && fit->traj_dt < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_dt must be positive and finite (or 0 for volknit sim's default), got %g", (double)fit->traj_dt);
-  PetscCheck(fit->traj_prior >= 0 && fit->traj_prior < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_prior must be >= 0 and finite, got %g", (double)fit->traj_prior);
-  PetscCheck(fit->traj_max_factor > 1 && fit->traj_max_factor < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_max_factor must be > 1 and finite, got %g", (double)fit->traj_max_factor);
+  PetscCheck(fit->uniform_range[0] > 0 && fit->uniform_range[1] > fit->uniform_range[0] && isfinite(fit->uniform_range[1]), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_uniform_range must be lo,hi with 0 < lo < hi, got %g,%g", (double)fit->uniform_range[0], (double)fit->uniform_range[1]);
+  PetscCheck(fit->traj_dt >= 0 && isfinite(fit->traj_dt), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_dt must be positive and finite (or 0 for volknit sim's default), got %g", (double)fit->traj_dt);
+  PetscCheck(fit->traj_prior >= 0 && isfinite(fit->traj_prior), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_prior must be >= 0 and finite, got %g", (double)fit->traj_prior);
+  PetscCheck(fit->traj_max_factor > 1 && isfinite(fit->traj_max_factor), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_max_factor must be > 1 and finite, got %g", (double)fit->traj_max_factor);
   PetscCheck(fit->loss != VK_FIT_LOSS_TRAJECTORY || fit->inertia == VK_FIT_INERTIA_IMPLICIT, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory rolls the model out as volknit sim does, with implicit inertia; -fit_inertia %s applies to -fit_loss frames only", VKFitInertias[fit->inertia]);
   PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
-  PetscCheck(fit->gamma_max_rel > 1 && fit->gamma_max_rel < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_max must be a finite number above 1, got %g", (double)fit->gamma_max_rel);
+  PetscCheck(fit->gamma_max_rel > 1 && isfinite(fit->gamma_max_rel), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_max must be a finite number above 1, got %g", (double)fit->gamma_max_rel);
   if (set) {
     PetscCheck(nharm >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_harmonic needs a list of basis sizes, e.g. 1,10,30 (or 0 for none)");
     fit->nharm = nharm;

@@ -409,7 +409,7 @@ PetscErrorCode VKFitGaussNewtonDirection(VKFit fit, VKFitFrame *f, PetscReal kap
   PetscLogDouble     t0 = VKWallTime();
 
   PetscFunctionBegin;
-  PetscCheck(kappa >= 0 && kappa < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The Levenberg-Marquardt damping -fit_kappa must be >= 0 and finite, got %g", (double)kappa);
+  PetscCheck(kappa >= 0 && isfinite(kappa), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The Levenberg-Marquardt damping -fit_kappa must be >= 0 and finite, got %g", (double)kappa);
   PetscCall(VKFitSetUp(fit));
   PetscCall(PetscLogEventBegin(VK_EVENT_FitKKT, 0, 0, 0, 0));
   reduced = fit->kkt_reduced && kappa > 0 ? PETSC_TRUE : PETSC_FALSE;

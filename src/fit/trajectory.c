@@ -107,7 +107,7 @@ PetscErrorCode VKFitTrajectoryCreate(VKFit fit, PetscInt nf, const PetscReal t[]
 
   PetscFunctionBegin;
   PetscCheck(nf >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "The trajectory loss needs at least one frame after the rest frame");
-  for (PetscInt k = 0; k < nf; k++) PetscCheck(t[k] > (k ? t[k - 1] : 0) && t[k] < PETSC_INFINITY, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Trajectory frame %d: time %g s does not follow %g s", (int)k, (double)t[k], k ? (double)t[k - 1] : 0.0);
+  for (PetscInt k = 0; k < nf; k++) PetscCheck(t[k] > (k ? t[k - 1] : 0) && isfinite(t[k]), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Trajectory frame %d: time %g s does not follow %g s", (int)k, (double)t[k], k ? (double)t[k - 1] : 0.0);
   PetscCall(VKFitSetUp(fit));
   PetscCall(PetscNew(&T));
   T->fit = fit;

@@ -29,7 +29,7 @@ static PetscErrorCode Search(MPI_Comm comm, PetscReal lo, PetscReal hi, UniformL
   PetscReal       a, b, c, d, lc, ld, lbk = PETSC_INFINITY;
 
   PetscFunctionBegin;
-  PetscCheck(lo > 0 && hi > lo && hi < PETSC_INFINITY, comm, PETSC_ERR_ARG_OUTOFRANGE, "The uniform search needs 0 < lo < hi, got %g and %g Pa", (double)lo, (double)hi);
+  PetscCheck(lo > 0 && hi > lo && isfinite(hi), comm, PETSC_ERR_ARG_OUTOFRANGE, "The uniform search needs 0 < lo < hi, got %g and %g Pa", (double)lo, (double)hi);
   for (PetscInt k = 0; k < n; k++) {
     PetscReal l, e = PetscMin(PetscLog10Real(lo) + k * step, PetscLog10Real(hi));
     PetscCall(loss_at(ctx, PetscPowReal(10, e), &l));

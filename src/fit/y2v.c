@@ -61,7 +61,7 @@ PetscErrorCode VKShapeFitSetFromOptions(VKShapeFit sf)
   PetscOptionsBegin(sf->comm, NULL, "Shape fit Y2V (DESIGN section 8)", "VKShapeFit");
   PetscCall(PetscOptionsReal("-fit_alpha", "Weight of the yarn-position term of the shape fit, dimensionless (alpha_n = alpha sum V_e / (sum m_k h^2))", "VKShapeFitSetUp", sf->alpha, &sf->alpha, NULL));
   PetscOptionsEnd();
-  PetscCheck(sf->alpha > 0 && sf->alpha < PETSC_INFINITY, sf->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_alpha must be positive and finite, got %g", (double)sf->alpha);
+  PetscCheck(sf->alpha > 0 && isfinite(sf->alpha), sf->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_alpha must be positive and finite, got %g", (double)sf->alpha);
   PetscCall(KSPSetFromOptions(sf->ksp));
   PetscFunctionReturn(0);
 }

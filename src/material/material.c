@@ -42,7 +42,7 @@ PetscErrorCode VKMaterialDestroy(VKMaterial *mat)
 PetscErrorCode VKMaterialSetUniform(VKMaterial m, PetscReal gs, PetscReal gv)
 {
   PetscFunctionBegin;
-  PetscCheck(gs >= 0 && gv >= 0 && gs < PETSC_INFINITY && gv < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_gamma_s %g and -mat_gamma_v %g must be finite and non-negative", (double)gs, (double)gv);
+  PetscCheck(gs >= 0 && gv >= 0 && gs <= VK_GAMMA_MAX && gv <= VK_GAMMA_MAX, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_gamma_s %g and -mat_gamma_v %g must be finite and non-negative: each takes values in [0, %g] Pa", (double)gs, (double)gv, (double)VK_GAMMA_MAX);
   m->gamma_s = gs;
   m->gamma_v = gv;
   m->file[0] = 0;
@@ -60,7 +60,7 @@ PetscErrorCode VKMaterialSetFile(VKMaterial m, const char path[])
 PetscErrorCode VKMaterialSetStretchBand(VKMaterial m, PetscReal lo, PetscReal hi)
 {
   PetscFunctionBegin;
-  PetscCheck(lo > 0 && lo <= 1 && hi >= 1 && hi < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_band %g,%g: the stretch band needs 0 < lo <= 1 <= hi < inf (1,1 is the paper's ARAP)", (double)lo, (double)hi);
+  PetscCheck(lo > 0 && lo <= 1 && hi >= 1 && isfinite(hi), m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_band %g,%g: the stretch band needs 0 < lo <= 1 <= hi < inf (1,1 is the paper's ARAP)", (double)lo, (double)hi);
   m->band.lo    = lo;
   m->band.hi    = hi;
   m->band_set   = PETSC_TRUE; /* a material.h5 with another band is then refused */
@@ -140,10 +140,10 @@ PetscErrorCode VKMaterialSetGamma(VKMaterial m, Vec g)
   PetscCall(VKMaterialSetUp(m));
   PetscCall(VecGetArrayRead(g, &a));
   for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart) && bad < 0; i++)
-    if (!(a[i] >= 0 && a[i] < PETSC_INFINITY)) bad = 2 * L->eStart + i;
+    if (!(a[i] >= 0 && a[i] <= VK_GAMMA_MAX)) bad = 2 * L->eStart + i;
   PetscCallMPI(MPI_Allreduce(&bad, &any, 1, MPIU_INT, MPI_MAX, m->comm));
   if (any >= 0) PetscCall(VecRestoreArrayRead(g, &a));
-  PetscCheck(any < 0, m->comm, PETSC_ERR_FP, "Material parameter %d (tet %d, %s) is negative or not finite; the material is left as it was", (int)any, (int)(any / 2), any % 2 ? "g_v" : "g_s");
+  PetscCheck(any < 0, m->comm, PETSC_ERR_FP, "Material parameter %d (tet %d, %s) is negative, not finite or above %g Pa; the material is left as it was", (int)any, (int)(any / 2), any % 2 ? "g_v" : "g_s", (double)VK_GAMMA_MAX);
   for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) {
     if (a[i] != m->gamma[i]) {
       m->domain_state[m->mesh->tet_domain[L->eStart + i / 2]]++;
@@ -301,7 +301,7 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   if (!ierr && hasband) {
     PetscInt nb;
     ierr = VKH5ReadReal(&h, "/material/band", 2, &nb, &band);
-    if (!ierr && !(nb == 1 && band[0] > 0 && band[0] <= 1 && band[1] >= 1 && band[1] < PETSC_INFINITY)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/band must be one pair lo,hi with 0 < lo <= 1 <= hi, got %d rows starting %g,%g", path, (int)nb, nb > 0 ? (double)band[0] : 0.0, nb > 0 ? (double)band[1] : 0.0);
+    if (!ierr && !(nb == 1 && band[0] > 0 && band[0] <= 1 && band[1] >= 1 && isfinite(band[1]))) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/band must be one pair lo,hi with 0 < lo <= 1 <= hi, got %d rows starting %g,%g", path, (int)nb, nb > 0 ? (double)band[0] : 0.0, nb > 0 ? (double)band[1] : 0.0);
   }
   VKH5Close(&h);
   if (!ierr) {
@@ -320,8 +320,8 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
       ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d names voxel (%d,%d,%d), Kuhn tet %d, which this mesh does not have", path, (int)i, (int)voxel[3 * i], (int)voxel[3 * i + 1], (int)voxel[3 * i + 2], (int)kuhn[i]);
       break;
     }
-    if (!(isfinite(gamma[2 * i]) && isfinite(gamma[2 * i + 1]) && gamma[2 * i] >= 0 && gamma[2 * i + 1] >= 0)) {
-      ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d has g_s = %g, g_v = %g; both must be finite and non-negative", path, (int)i, (double)gamma[2 * i], (double)gamma[2 * i + 1]);
+    if (!(gamma[2 * i] >= 0 && gamma[2 * i] <= VK_GAMMA_MAX && gamma[2 * i + 1] >= 0 && gamma[2 * i + 1] <= VK_GAMMA_MAX)) {
+      ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d has g_s = %g, g_v = %g; both must be finite and non-negative, at most %g Pa", path, (int)i, (double)gamma[2 * i], (double)gamma[2 * i + 1], (double)VK_GAMMA_MAX);
       break;
     }
     e = mesh->tet_of_kuhn[6 * vi + kuhn[i]];

@@ -121,8 +121,12 @@ PetscErrorCode VKMeshSetUpGrid(VKMesh m)
 
   PetscFunctionBegin;
   if (!m->h_set) m->grid.h = 3 * r;
-  PetscCheck(m->grid.h > 0 && m->grid.h < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h must be positive and finite, got %g", (double)m->grid.h);
+  PetscCheck(m->grid.h > 0 && isfinite(m->grid.h), m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h must be positive and finite, got %g", (double)m->grid.h);
   PetscCall(VKCurvesBoundingBox(&m->yarn->curves, lo, hi));
+  {
+    PetscReal extent = PetscMax(PetscMax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
+    PetscCheck(m->grid.h <= extent, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h %g m is larger than the yarn (extent %g m): it takes values in (0, %g] m", (double)m->grid.h, (double)extent, (double)extent);
+  }
   for (int a = 0; a < 3; a++) {
     PetscReal n;
     m->grid.origin[a] = lo[a] - 0.5 * m->grid.h;

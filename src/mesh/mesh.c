@@ -61,7 +61,7 @@ PetscErrorCode VKMeshSetYarn(VKMesh m, VKYarn yarn)
 PetscErrorCode VKMeshSetCellSize(VKMesh m, PetscReal h)
 {
   PetscFunctionBegin;
-  PetscCheck(h > 0 && h < PETSC_INFINITY, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h must be positive and finite, got %g", (double)h);
+  PetscCheck(h > 0 && isfinite(h), m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h must be positive and finite, got %g", (double)h);
   m->grid.h = h;
   m->h_set  = PETSC_TRUE;
   PetscFunctionReturn(0);

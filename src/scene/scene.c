@@ -120,12 +120,12 @@ static PetscErrorCode ColliderOptions(PetscOptionItems *PetscOptionsObject, VKSc
   }
   PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_radius", (int)i));
   PetscCall(PetscOptionsReal(opt, "Sphere or cylinder radius (scene units)", "VKSceneSetFromOptions", c->radius, &c->radius, &set));
-  PetscCheck(c->type == VK_COLLIDER_PLANE || (set && c->radius > 0 && c->radius < PETSC_INFINITY), PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "a %s collider needs %s > 0", VKColliderTypes[c->type], opt);
+  PetscCheck(c->type == VK_COLLIDER_PLANE || (set && c->radius > 0 && isfinite(c->radius)), PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "a %s collider needs %s > 0", VKColliderTypes[c->type], opt);
   PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_velocity", (int)i));
   PetscCall(Option3(PetscOptionsObject, opt, "Collider velocity (scene units per s)", c->velocity, 3, NULL));
   PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_friction", (int)i));
   PetscCall(PetscOptionsReal(opt, "Coulomb friction coefficient", "VKSceneSetFromOptions", c->friction, &c->friction, NULL));
-  PetscCheck(c->friction >= 0 && c->friction < PETSC_INFINITY, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be >= 0 and finite, got %g", opt, (double)c->friction);
+  PetscCheck(c->friction >= 0 && isfinite(c->friction), PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be >= 0 and finite, got %g", opt, (double)c->friction);
   PetscFunctionReturn(0);
 }
 
@@ -151,7 +151,7 @@ PetscErrorCode VKSceneSetFromOptions(VKScene s)
   s->relative = absolute ? PETSC_FALSE : PETSC_TRUE;
   PetscCall(Option3(PetscOptionsObject, "-scene_gravity", "Gravity, m/s^2", s->gravity, 3, NULL));
   PetscCall(PetscOptionsReal("-scene_damping", "Mass-proportional viscous damping c, 1/s: a drag -c m v on every yarn vertex (volknit yls) and mesh node (volknit sim)", "VKSceneSetFromOptions", s->damping, &s->damping, NULL));
-  PetscCheck(s->damping >= 0 && s->damping < PETSC_INFINITY, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_damping must be >= 0 and finite (1/s), got %g", (double)s->damping);
+  PetscCheck(s->damping >= 0 && isfinite(s->damping), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_damping must be >= 0 and finite (1/s), got %g", (double)s->damping);
   PetscCall(PetscOptionsReal("-scene_duration", "Simulated time, s", "VKSceneSetFromOptions", s->duration, &s->duration, NULL));
   PetscCheck(s->duration > 0 && isfinite(s->duration), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "-scene_duration takes a positive time in s, got %g", (double)s->duration);
   PetscCall(PetscOptionsReal("-scene_output_interval", "Time between output frames, s", "VKSceneSetFromOptions", s->output_interval, &s->output_interval, NULL));

@@ -101,7 +101,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
 PetscErrorCode VKPDSetTimeStep(VKPD pd, PetscReal dt)
 {
   PetscFunctionBegin;
-  PetscCheck(dt > 0 && dt < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "The time step must be positive and finite, got %g", (double)dt);
+  PetscCheck(dt > 0 && isfinite(dt), pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "The time step must be positive and finite, got %g", (double)dt);
   if (dt != pd->dt) pd->kset = PETSC_FALSE;
   pd->dt = dt;
   PetscFunctionReturn(0);
@@ -347,7 +347,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsEnum("-pd_handle_nodes", "Mesh nodes a scene handle holds: embedded (the nodes in the box and those of every tet that embeds a yarn vertex in it, so the embedded yarns move as in volknit yls) or box (the nodes in the box only)", "VKPDSetUp", VKPDHandleNodesTypes, (PetscEnum)pd->handle_nodes, (PetscEnum *)&pd->handle_nodes, NULL));
   PetscCall(PetscOptionsReal("-pd_contact_weight", "Weight of the collider constraints relative to each node's diagonal of K (penetration ~ force / weight)", "VKPDSolve", pd->contact_weight, &pd->contact_weight, NULL));
   PetscOptionsEnd();
-  PetscCheck(pd->contact_weight > 0 && pd->contact_weight < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_contact_weight must be positive and finite, got %g", (double)pd->contact_weight);
+  PetscCheck(pd->contact_weight > 0 && isfinite(pd->contact_weight), pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-pd_contact_weight must be positive and finite, got %g", (double)pd->contact_weight);
   PetscCheck(pd->rtol >= 0 && pd->rtol < 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_rtol must be in [0, 1), got %g", pd->prefix, (double)pd->rtol);
   PetscCheck(pd->atol >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_atol must be >= 0, got %g", pd->prefix, (double)pd->atol);
   PetscCheck(pd->ftol >= 0 && pd->ftol < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_ftol must be >= 0 and finite, got %g", pd->prefix, (double)pd->ftol);
@@ -567,6 +567,7 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscCall(VecSum(d, &dsum));
     PetscCall(VecGetSize(d, &N));
     kmean = dsum / N;
+    PetscCheck(isfinite(kmean), pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "The PD global matrix overflows double precision (mean diagonal %g): the material's g_s and g_v are too large to represent", (double)kmean);
     /* kept across material changes of moderate size, so that a change in
      * some domains leaves the eliminated rows of the others unchanged
      * (PC cms rebuilds only the changed domains) */

@@ -70,7 +70,7 @@ PetscErrorCode VKSimSetFromOptions(VKSim sim)
     SETERRQ(sim->comm, PETSC_ERR_ARG_WRONG, "volknit sim integrates with the TS type pd; -ts_type %s is not supported", type);
   }
   PetscCall(TSGetTimeStep(sim->ts, &dt));
-  PetscCheck(dt > 0 && dt < PETSC_INFINITY, sim->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_dt must be positive and finite, got %g", (double)dt);
+  PetscCheck(dt > 0 && isfinite(dt), sim->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_dt must be positive and finite, got %g", (double)dt);
   PetscOptionsBegin(sim->comm, NULL, "Homogenized simulation", "VKSim");
   PetscCall(PetscOptionsBool("-sim_quiet", "Do not print the summary line", "VKSimRun", sim->quiet, &sim->quiet, NULL));
   PetscCall(PetscOptionsBool("-sim_strict", "A step that ends above its tolerance stops the run with an error (otherwise it is counted, warned about, and the status is 'unconverged')", "VKSimRun", sim->strict, &sim->strict, NULL));
