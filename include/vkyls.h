@@ -75,7 +75,7 @@ struct _n_VKYLS {
   PetscBool   strict; /* an unconverged step is an error */
   PetscReal   pattern_margin; /* contact pairs in the Hessian's pattern: closer than 2r + this x r */
   PetscBool   relax;                         /* relax the rest state before the run */
-  PetscBool   predict;                       /* Newton starts from x_n + dt v_n (capped) */
+  PetscBool   predict;                       /* Newton starts from x_n + dt v_n (capped), else from x_n */
   PetscReal   relax_tau, relax_radius_start; /* pseudo time step; first contact radius / r */
   PetscInt    relax_stages, relax_max_steps, relax_steps;
   PetscLogDouble relax_time;

@@ -205,6 +205,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   if (y->stats.unconverged_steps) PetscCall(VKJSONInt(&j, "first_unconverged_step", y->stats.first_unconverged_step));
   PetscCall(VKJSONReal(&j, "residual_over_tolerance_max", y->stats.residual_over_tol_max));
   PetscCall(VKJSONInt(&j, "halved_steps", y->stats.halved_steps));
+  PetscCall(VKJSONBool(&j, "predictor", y->predict));
   PetscCall(VKJSONInt(&j, "ranks", size));
   PetscCall(VKJSONInt(&j, "vertices", y->model.nv));
   PetscCall(VKJSONInt(&j, "segments", y->model.nseg));

@@ -46,7 +46,7 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->dt           = 0; /* from the scene unless given */
   y->hessian      = VK_YLS_HESSIAN_PROJECTED; /* bending and twist by Gauss-Newton: fewer iterations than the exact Hessian (8x7 rib hang 6.3 against 9.2 per step) at a quarter of the cost */
   y->relax        = PETSC_TRUE;
-  y->predict      = PETSC_FALSE;
+  y->predict      = PETSC_TRUE; /* 8x7 rib: stretch and twist 1.7-2x faster, hang and drape 4-7 % slower (more line-search halvings); 22K stretch 2x (docs/BENCHMARKS.md) */
   y->relax_tau    = 0.01;
   y->relax_stages = 4;
   y->relax_radius_start = 0.8;
@@ -75,7 +75,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsReal("-yls_pattern_margin", "Contact pairs closer than 2r + this x r are in the Hessian's nonzero pattern (at most 2 cap); wider: fewer rebuilds, more fill", "VKYLSSetFromOptions", y->pattern_margin, &y->pattern_margin, NULL));
   PetscCall(PetscOptionsReal("-yls_dt", "Time step, s (default: 1 ms, less if a handle would move more than the cap per step)", "VKYLSSetFromOptions", y->dt, &y->dt, NULL));
   PetscCall(PetscOptionsEnum("-yls_hessian", "Newton Hessian: element-wise PSD (stretch and contact clamped, bending and twist by Gauss-Newton), exact, or exact with the PSD one as a fallback when it is not a descent direction", "VKYLSSetFromOptions", VKYLSHessianTypes, (PetscEnum)y->hessian, (PetscEnum *)&y->hessian, NULL));
-  PetscCall(PetscOptionsBool("-yls_predict", "Start Newton from x_n + dt v_n (capped) instead of x_n (2.5x fewer iterations on the 2K-vertex rib stretch, none saved at 22K, and Newton failures on a hanging patch full of contacts)", "VKYLSStep", y->predict, &y->predict, NULL));
+  PetscCall(PetscOptionsBool("-yls_predict", "Start Newton from the predictor x_n + dt v_n (capped at -yls_cap), or from x_n with 0", "VKYLSStep", y->predict, &y->predict, NULL));
   PetscCall(PetscOptionsBool("-yls_relax", "Relax the yarns and reset their rest state before the run (unless the yarn model is relaxed already)", "VKYLSRelax", y->relax, &y->relax, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_tau", "Pseudo time step of the relaxation, s", "VKYLSRelax", y->relax_tau, &y->relax_tau, NULL));
   PetscCall(VKOptionsRangeInt("-yls_relax_stages", "Stages of contact-radius growth in the relaxation", "VKYLSRelax", y->relax_stages, &y->relax_stages, NULL, 1, PETSC_MAX_INT));
@@ -342,12 +342,11 @@ static PetscReal HeldAngle(VKYLS y, PetscInt sg, PetscReal t)
   return a + 2 * PETSC_PI * PetscFloorReal((y->thn[sg] - a) / (2 * PETSC_PI) + 0.5);
 }
 
-/* Start of step: x_n, v_n, tangents, lagged friction, handle positions. */
+/* Start of step: x_n, v_n, tangents, lagged friction, held twist angles. */
 static PetscErrorCode BeginStep(VKYLS y)
 {
   const VKRodModel *m = &y->model;
   PetscReal         t1 = y->t + y->dt;
-  PetscScalar      *xa;
 
   PetscFunctionBegin;
   PetscCall(VKYLSGather(y, y->v, y->vn));
@@ -370,29 +369,56 @@ static PetscErrorCode BeginStep(VKYLS y)
     y->friction[i]  = depth > 0 && which >= 0 ? y->scene->collider[which].friction * y->kw * depth : 0;
     y->contact_collider[i] = PetscMax(which, 0);
   }
-  /* Newton's first guess: handles where the scene puts them, free vertices
-   * at x_n or (-yls_predict) moved on by dt v_n, scaled so none moves more
-   * than the cap: no yarn can pass through another between x_n and it */
-  {
-    PetscReal s = 0; /* the fraction of dt v_n taken */
-    if (y->predict) {
-      PetscReal vmax = 0, all;
-      for (PetscInt i = y->vbeg; i < y->vend; i++)
-        if (y->handle[i] < 0) vmax = PetscMax(vmax, PetscSqr(y->vn[3 * i]) + PetscSqr(y->vn[3 * i + 1]) + PetscSqr(y->vn[3 * i + 2]));
-      PetscCall(MPIU_Allreduce(&vmax, &all, 1, MPIU_REAL, MPIU_MAX, y->comm));
-      all = y->dt * PetscSqrtReal(all);
-      s   = all > y->cap * y->par.radius ? y->cap * y->par.radius / all : 1;
-    }
-    PetscCall(VecGetArray(y->x, &xa));
-    for (PetscInt i = y->vbeg; i < y->vend; i++) {
-      PetscScalar *xi = xa + 3 * (i - y->vbeg);
-      if (y->handle[i] >= 0) VKSceneHandlePosition(y->scene, y->handle[i], y->yarn->curves.x + 3 * i, t1, xi);
-      else
-        for (int k = 0; k < 3; k++) xi[k] = y->xn[3 * i + k] + s * y->dt * y->vn[3 * i + k];
-    }
-    PetscCall(VecRestoreArray(y->x, &xa));
+  PetscFunctionReturn(0);
+}
+
+/* The fraction s of dt v_n the predictor takes: 1, or less so that no free
+ * vertex moves more than the cap (no yarn can pass through another between
+ * x_n and the predictor). */
+static PetscErrorCode PredictorFraction(VKYLS y, PetscReal *s)
+{
+  PetscReal vmax = 0, all;
+
+  PetscFunctionBegin;
+  for (PetscInt i = y->vbeg; i < y->vend; i++)
+    if (y->handle[i] < 0) vmax = PetscMax(vmax, PetscSqr(y->vn[3 * i]) + PetscSqr(y->vn[3 * i + 1]) + PetscSqr(y->vn[3 * i + 2]));
+  PetscCall(MPIU_Allreduce(&vmax, &all, 1, MPIU_REAL, MPIU_MAX, y->comm));
+  all = y->dt * PetscSqrtReal(all);
+  *s  = all > y->cap * y->par.radius ? y->cap * y->par.radius / all : 1;
+  PetscFunctionReturn(0);
+}
+
+/* Newton's first guess: handles where the scene puts them at the end of the
+ * step, free vertices at x_n + s dt v_n; into y->x, y->q and y->xall. */
+static PetscErrorCode InitialGuess(VKYLS y, PetscReal s)
+{
+  PetscReal    t1 = y->t + y->dt;
+  PetscScalar *xa;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetArray(y->x, &xa));
+  for (PetscInt i = y->vbeg; i < y->vend; i++) {
+    PetscScalar *xi = xa + 3 * (i - y->vbeg);
+    if (y->handle[i] >= 0) VKSceneHandlePosition(y->scene, y->handle[i], y->yarn->curves.x + 3 * i, t1, xi);
+    else
+      for (int k = 0; k < 3; k++) xi[k] = y->xn[3 * i + k] + s * y->dt * y->vn[3 * i + k];
   }
+  PetscCall(VecRestoreArray(y->x, &xa));
   PetscCall(PackQ(y));
+  PetscCall(VKYLSGatherQ(y, y->q));
+  PetscFunctionReturn(0);
+}
+
+/* Newton's first guess, x_n or the predictor (-yls_predict; not while
+ * relaxing, from rest), and the contact pairs there. */
+static PetscErrorCode StartGuess(VKYLS y)
+{
+  PetscReal s = 0;
+
+  PetscFunctionBegin;
+  if (y->predict && !y->relaxing) PetscCall(PredictorFraction(y, &s));
+  PetscCall(InitialGuess(y, s));
+  PetscCall(VKYLSFindPairs(y, y->xall));
   PetscFunctionReturn(0);
 }
 
@@ -430,8 +456,7 @@ static PetscErrorCode Advance(VKYLS y, PetscReal dt, PetscInt depth)
     PetscCall(PetscArrayzero(y->omn, y->model.nseg));
   }
   PetscCall(BeginStep(y));
-  PetscCall(VKYLSGatherQ(y, y->q));
-  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscCall(StartGuess(y));
   y->phi_valid = PETSC_FALSE; /* a new potential */
   PetscCall(PetscLogEventBegin(VK_EVENT_YLSSolve, 0, 0, 0, 0));
   PetscCall(SNESSolve(y->snes, NULL, y->q));

@@ -126,7 +126,7 @@ yls_row 2 hang 0.1
 yls_row 2 stretch 0.1
 yls_row 2 drape 0.1
 yls_row 2 twist 0.1
-yls_row 2 stretch 0.1 -yls_predict
+yls_row 2 stretch 0.1 -yls_predict 0
 yls_row 1 stretch 0.05
 yls_accuracy() { # label options...: a row of what dt and Newton tolerance cost in accuracy, 2K patch, stretch, 30 ms
   label=$1; shift
@@ -155,7 +155,7 @@ echo "| patch | vertices | DOFs (positions, twists) | scene | ranks | dt s | ste
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 dims="24x25"; yls_relaxed 24 25
 yls_row 2 stretch 0.03
-yls_row 2 stretch 0.03 -yls_predict
+yls_row 2 stretch 0.03 -yls_predict 0
 yls_row 2 hang 0.005
 echo
 echo "Rows produced by:"
