@@ -68,10 +68,11 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   PetscFunctionBegin;
   PetscCheck(o, y->comm, PETSC_ERR_ORDER, "VKYLSOutputOpen() first");
   PetscCall(PetscLogEventBegin(VK_EVENT_Write, 0, 0, 0, 0));
-  PetscCall(VKYLSMeasure(y, e, NULL, &dmin, &np, o->contact)); /* leaves the positions in y->xall */
+  PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
+  PetscCall(VKYLSMeasure(y, e, NULL, &dmin, &np, rank == 0 ? o->contact : NULL)); /* leaves the positions in y->xall */
   if (o->vel) {
-    PetscCall(VKYLSGather(y, y->v, o->vel));
-    PetscCall(VKCurvesVertexFields(&y->yarn->curves, y->xall, o->stretch, o->curvature));
+    PetscCall(VKYLSGather(y, y->v, o->vel)); /* collective */
+    if (rank == 0) PetscCall(VKCurvesVertexFields(&y->yarn->curves, y->xall, o->stretch, o->curvature)); /* rank 0 writes them */
   }
   PetscCall(PetscArraycpy(y->energy, e, 7));
   y->stats.pairs_max    = PetscMax(y->stats.pairs_max, np);
@@ -94,7 +95,6 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   r[10]  = y->stats.time_solve;
   r[11]  = e[6];
   o->its_last = y->stats.newton_its;
-  PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
   if (rank == 0 && o->rf.open) {
     ierr = VKRunFileWriteReal(&o->rf, "x", y->model.nv, 3, y->xall);
     if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "normal", y->model.nseg, 3, y->normal);
