@@ -58,6 +58,7 @@ struct _n_VKPD {
   PetscReal *tetW; /* per owned tet: W of its last SVD (warm start) */
   /* global step */
   Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
+  PetscScalar *kcoo; /* K's values in the order of its coordinate list (CreateK) */
   PetscReal kdiag;  /* diagonal put on eliminated rows: the mean diagonal of K, kept while within 10x of it */
   PetscReal res_floor; /* round-off level of |grad Phi|: 1e-12 kdiag L (N) */
   PetscReal f_gravity, f_unit; /* |M g| over the free nodes; elastic force of a unit strain (N) */
