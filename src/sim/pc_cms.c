@@ -18,9 +18,10 @@
  * boundary rows beside the diagonal of the modes' eigenvalues.
  *
  * A new matrix with the same nonzero pattern (a fit's material change)
- * rebuilds only the domains whose K_II or K_IB changed, found by
- * comparing them with the copies kept from the last set-up; K_r is then
- * recomputed in place and refactored numerically.
+ * rebuilds only the domains whose K_II or K_IB changed: those with an
+ * interior row whose values differ from the copy of this rank's rows kept
+ * from the last set-up.  K_r is then recomputed in place and refactored
+ * numerically, within the set-up.
  *
  * The solve is PETSc's two-level machinery: a PCMG (prefix
  * <pc prefix>cms_) with interpolation Q, the coarse operator K_r = Q^T K Q
@@ -39,8 +40,7 @@
 /* One domain's pieces, kept between set-ups so that a new matrix that
  * changes only some domains rebuilds only theirs. */
 typedef struct {
-  IS        isI, isB;   /* interior and boundary rows (global numbers) */
-  Mat        Kii, Kib;  /* the values its columns of Q were built from */
+  IS         isI, isB;  /* interior and boundary rows (global numbers) */
   Mat        S;         /* K_BI Psi (dense nB x nB, symmetrized): its part of the Schur complement */
   PetscInt   k;         /* interior modes */
   PetscInt   mode0;     /* global reduced column of its first mode */
@@ -56,6 +56,9 @@ typedef struct {
   CMSDomain *dom;
   PetscBool *bnd;   /* per local row: on its domain's boundary */
   PetscInt  *col;   /* per local boundary row: its reduced column */
+  PetscInt  *rowptr;  /* per local row: where its values start in rowvals */
+  PetscScalar *rowvals; /* the values of this rank's rows of K at the last set-up */
+  PetscInt   nghost, *gidx, *ghost; /* rows on other ranks that boundary rows couple to, and their reduced columns (-1: interior) */
   Mat        Q;     /* the subspace: rows of K by reduced columns */
   Mat        Kr;    /* the reduced matrix Q^T K Q */
   PC         mg;    /* the two-level solve */
@@ -277,13 +280,16 @@ static PetscErrorCode DestroyStructure(PC_CMS *cms)
   for (PetscInt d = 0; d < cms->ndom; d++) {
     PetscCall(ISDestroy(&cms->dom[d].isI));
     PetscCall(ISDestroy(&cms->dom[d].isB));
-    PetscCall(MatDestroy(&cms->dom[d].Kii));
-    PetscCall(MatDestroy(&cms->dom[d].Kib));
     PetscCall(MatDestroy(&cms->dom[d].S));
     PetscCall(PetscFree(cms->dom[d].lambda));
   }
   PetscCall(PetscFree(cms->dom));
   PetscCall(PetscFree2(cms->bnd, cms->col));
+  PetscCall(PetscFree(cms->rowptr));
+  PetscCall(PetscFree(cms->rowvals));
+  PetscCall(PetscFree(cms->gidx));
+  PetscCall(PetscFree(cms->ghost));
+  cms->nghost = 0;
   cms->ndom = 0;
   PetscCall(MatDestroy(&cms->Q));
   PetscCall(MatDestroy(&cms->Kr));
@@ -374,7 +380,7 @@ static PetscErrorCode BuildStructure(PC pc, Mat A, PetscInt ndom, const PetscInt
  * Psi = -K_II^-1 K_IB and the interior modes, written into its interior
  * rows (Q must be assembled afterwards); and its part of K_r, the
  * Schur term K_BI Psi and the modes' eigenvalues. */
-static PetscErrorCode BuildDomain(PC pc, PetscInt d)
+static PetscErrorCode BuildDomain(PC pc, PetscInt d, Mat Kii, Mat Kib)
 {
   PC_CMS            *cms = (PC_CMS *)pc->data;
   CMSDomain         *D   = &cms->dom[d];
@@ -391,16 +397,16 @@ static PetscErrorCode BuildDomain(PC pc, PetscInt d)
   if (!nI) PetscFunctionReturn(0); /* all boundary: its rows are the reduced space itself */
   PetscCall(MatGetOwnershipRange(cms->Q, &rs, NULL));
   PetscCall(PetscLogEventBegin(VK_EVENT_CMSFactor, 0, 0, 0, 0));
-  PetscCall(FactorInterior(D->Kii, &F));
+  PetscCall(FactorInterior(Kii, &F));
   if (nB) { /* Psi = -K_II^-1 K_IB, all boundary columns in one solve */
     Mat B;
-    PetscCall(MatConvert(D->Kib, MATSEQDENSE, MAT_INITIAL_MATRIX, &B));
+    PetscCall(MatConvert(Kib, MATSEQDENSE, MAT_INITIAL_MATRIX, &B));
     PetscCall(MatScale(B, -1));
     PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, nI, nB, NULL, &Psi));
     PetscCall(MatMatSolve(F, B, Psi));
     PetscCall(MatDestroy(&B));
     /* S = K_BI Psi = -K_BI K_II^-1 K_IB, symmetric up to the solve's round-off: made exactly so */
-    PetscCall(MatTransposeMatMult(D->Kib, Psi, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &D->S));
+    PetscCall(MatTransposeMatMult(Kib, Psi, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &D->S));
     {
       PetscScalar *sa;
       PetscCall(MatDenseGetArray(D->S, &sa));
@@ -412,7 +418,7 @@ static PetscErrorCode BuildDomain(PC pc, PetscInt d)
   PetscCall(PetscLogEventEnd(VK_EVENT_CMSFactor, 0, 0, 0, 0));
   if (D->k) {
     PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, nI, D->k, NULL, &Phi));
-    PetscCall(InteriorModes(pc, d, D->Kii, F, D->k, Phi, D->lambda));
+    PetscCall(InteriorModes(pc, d, Kii, F, D->k, Phi, D->lambda));
   }
   PetscCall(MatDestroy(&F));
   PetscCall(ISGetIndices(D->isI, &ri));
@@ -437,6 +443,51 @@ static PetscErrorCode BuildDomain(PC pc, PetscInt d)
   PetscFunctionReturn(0);
 }
 
+/* changed[d] for every local domain whose K_II or K_IB differs from the
+ * last set-up's: those with an interior row whose values changed (an
+ * interior row couples inside its domain only, so its row is its part of
+ * K_II and K_IB); every domain when the structure is new.  Values are
+ * compared as numbers, so that -0 equals +0: a first assembly may store
+ * either where contributions cancel.  A's values are then kept for the
+ * next set-up. */
+static PetscErrorCode FindChangedDomains(PC pc, Mat A, const PetscInt dom[], PetscBool changed[])
+{
+  PC_CMS   *cms = (PC_CMS *)pc->data;
+  PetscInt  rs, re;
+  PetscBool first = (PetscBool)!cms->rowvals;
+
+  PetscFunctionBegin;
+  PetscCall(MatGetOwnershipRange(A, &rs, &re));
+  if (first) {
+    PetscCall(PetscMalloc1(re - rs + 1, &cms->rowptr));
+    cms->rowptr[0] = 0;
+    for (PetscInt i = 0; i < re - rs; i++) {
+      PetscInt nc;
+      PetscCall(MatGetRow(A, rs + i, &nc, NULL, NULL));
+      cms->rowptr[i + 1] = cms->rowptr[i] + nc;
+      PetscCall(MatRestoreRow(A, rs + i, &nc, NULL, NULL));
+    }
+    PetscCall(PetscMalloc1(cms->rowptr[re - rs] + 1, &cms->rowvals));
+    for (PetscInt d = 0; d < cms->ndom; d++) changed[d] = PETSC_TRUE;
+  }
+  for (PetscInt i = 0; i < re - rs; i++) {
+    const PetscScalar *v;
+    PetscScalar       *kept = cms->rowvals + cms->rowptr[i];
+    PetscInt           nc;
+    PetscCall(MatGetRow(A, rs + i, &nc, NULL, &v));
+    PetscCheck(nc == cms->rowptr[i + 1] - cms->rowptr[i], PETSC_COMM_SELF, PETSC_ERR_PLIB, "PC cms: row %d has %d entries, %d at the last set-up, under the same nonzero pattern", (int)(rs + i), (int)nc, (int)(cms->rowptr[i + 1] - cms->rowptr[i]));
+    if (!cms->bnd[i] && !changed[dom[i]])
+      for (PetscInt j = 0; j < nc; j++)
+        if (v[j] != kept[j]) {
+          changed[dom[i]] = PETSC_TRUE;
+          break;
+        }
+    PetscCall(PetscArraycpy(kept, v, nc));
+    PetscCall(MatRestoreRow(A, rs + i, &nc, NULL, &v));
+  }
+  PetscFunctionReturn(0);
+}
+
 /* Q for the matrix A: a full build when the structure is new (first
  * set-up, new pattern, new domains, or rows that moved between interior
  * and boundary), else only the domains whose K_II or K_IB changed. */
@@ -445,7 +496,7 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
   PC_CMS   *cms = (PC_CMS *)pc->data;
   MPI_Comm  comm;
   PetscInt  ndom, rs, re, m, *dom, rebuilt = 0;
-  PetscBool *bnd;
+  PetscBool *bnd, *changed;
   IS        *is;
   Mat       *Kii, *Kib;
 
@@ -468,40 +519,28 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
     PetscCall(PetscArraycpy(cms->bnd, bnd, m));
     PetscCall(BuildStructure(pc, A, ndom, dom));
   }
+  PetscCall(PetscCalloc1(ndom + 1, &changed));
+  PetscCall(FindChangedDomains(pc, A, dom, changed));
   {
     IS *isI, *isB;
-    PetscCall(PetscMalloc2(ndom, &isI, ndom, &isB));
-    for (PetscInt d = 0; d < ndom; d++) {
-      isI[d] = cms->dom[d].isI;
-      isB[d] = cms->dom[d].isB;
-    }
-    PetscCall(MatCreateSubMatrices(A, ndom, isI, isI, MAT_INITIAL_MATRIX, &Kii));
-    PetscCall(MatCreateSubMatrices(A, ndom, isI, isB, MAT_INITIAL_MATRIX, &Kib));
+    PetscCall(PetscMalloc2(ndom + 1, &isI, ndom + 1, &isB));
+    for (PetscInt d = 0; d < ndom; d++)
+      if (changed[d]) {
+        isI[rebuilt]   = cms->dom[d].isI;
+        isB[rebuilt++] = cms->dom[d].isB;
+      }
+    PetscCall(MatCreateSubMatrices(A, rebuilt, isI, isI, MAT_INITIAL_MATRIX, &Kii));
+    PetscCall(MatCreateSubMatrices(A, rebuilt, isI, isB, MAT_INITIAL_MATRIX, &Kib));
     PetscCall(PetscFree2(isI, isB));
   }
-  for (PetscInt d = 0; d < ndom; d++) {
-    CMSDomain *D       = &cms->dom[d];
-    PetscBool  changed = PETSC_TRUE, eq;
-    if (D->Kii) {
-      PetscCall(MatEqual(D->Kii, Kii[d], &eq));
-      changed = (PetscBool)!eq;
-      if (eq) {
-        PetscCall(MatEqual(D->Kib, Kib[d], &eq));
-        changed = (PetscBool)!eq;
-      }
+  for (PetscInt d = 0, c = 0; d < ndom; d++)
+    if (changed[d]) {
+      PetscCall(BuildDomain(pc, d, Kii[c], Kib[c]));
+      c++;
     }
-    if (changed) {
-      PetscCall(MatDestroy(&D->Kii));
-      PetscCall(MatDestroy(&D->Kib));
-      /* copies: matrices of MatCreateSubMatrices are destroyed together */
-      PetscCall(MatDuplicate(Kii[d], MAT_COPY_VALUES, &D->Kii));
-      PetscCall(MatDuplicate(Kib[d], MAT_COPY_VALUES, &D->Kib));
-      PetscCall(BuildDomain(pc, d));
-      rebuilt++;
-    }
-  }
-  PetscCall(MatDestroySubMatrices(ndom, &Kii));
-  PetscCall(MatDestroySubMatrices(ndom, &Kib));
+  PetscCall(MatDestroySubMatrices(rebuilt, &Kii));
+  PetscCall(MatDestroySubMatrices(rebuilt, &Kib));
+  PetscCall(PetscFree(changed));
   PetscCall(MatAssemblyBegin(cms->Q, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(cms->Q, MAT_FINAL_ASSEMBLY));
   { /* counts for PCView */
@@ -608,12 +647,19 @@ static PetscInt ReducedColumn(PC_CMS *cms, PetscInt rs, PetscInt re, PetscInt j,
 static PetscErrorCode AssembleReduced(PC pc, Mat A)
 {
   PC_CMS  *cms = (PC_CMS *)pc->data;
-  PetscInt rs, re, nghost = 0, *gidx, *ghost, *cols, cap = 64;
+  PetscInt rs, re, nghost, *gidx, *ghost, *cols, cap = 64;
   PetscScalar *vals;
 
   PetscFunctionBegin;
   PetscCall(MatGetOwnershipRange(A, &rs, &re));
-  PetscCall(GhostColumns(pc, A, &nghost, &gidx, &ghost));
+  if (!cms->Kr) { /* kept with the structure */
+    PetscCall(PetscFree(cms->gidx));
+    PetscCall(PetscFree(cms->ghost));
+    PetscCall(GhostColumns(pc, A, &cms->nghost, &cms->gidx, &cms->ghost));
+  }
+  nghost = cms->nghost;
+  gidx   = cms->gidx;
+  ghost  = cms->ghost;
   if (!cms->Kr) { /* preallocation: a bound per row */
     PetscInt  m = cms->nb_local, *dnnz, *onnz, cs, ce, r = 0;
     for (PetscInt d = 0; d < cms->ndom; d++) m += cms->dom[d].k;
@@ -692,8 +738,6 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A)
   }
   PetscCall(MatAssemblyBegin(cms->Kr, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(cms->Kr, MAT_FINAL_ASSEMBLY));
-  PetscCall(PetscFree(gidx));
-  PetscCall(PetscFree(ghost));
   PetscFunctionReturn(0);
 }
 
@@ -744,6 +788,22 @@ static PetscErrorCode SetUpTwoLevel(PC pc)
   }
   PetscCall(PCSetOperators(cms->mg, pc->mat, pc->pmat));
   PetscCall(PCSetUp(cms->mg));
+  { /* PCMG refactors a changed K_r only at its first solve: do it here, so
+     * that the set-up is complete when it returns (and is timed as such) */
+    KSP coarse;
+    PC  factor;
+    PCFailedReason fail;
+    PetscCall(PCMGGetCoarseSolve(cms->mg, &coarse));
+    PetscCall(KSPGetPC(coarse, &factor));
+    PetscCall(PCSetUp(factor));
+    PetscCall(PCGetFailedReason(factor, &fail));
+    if (fail) {
+      PetscInt nr;
+      PetscCall(MatGetSize(cms->Kr, &nr, NULL));
+      PetscCall(PetscInfo(pc, "PC cms: the factorization of K_r (%d rows) failed (%s)\n", (int)nr, PCFailedReasons[fail]));
+      pc->failedreason = PC_SUBPC_ERROR;
+    }
+  }
   PetscCall(PetscLogEventEnd(VK_EVENT_CMSCoarse, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -761,12 +821,15 @@ static PetscErrorCode PCSetUp_CMS(PC pc)
   PetscFunctionReturn(0);
 }
 
+/* After a failed factorization of K_r the result is infinite, as PETSc's
+ * factor PCs do, so that the solver using it stops and says why. */
 static PetscErrorCode PCApply_CMS(PC pc, Vec x, Vec y)
 {
   PC_CMS *cms = (PC_CMS *)pc->data;
 
   PetscFunctionBegin;
-  PetscCall(PCApply(cms->mg, x, y));
+  if (pc->failedreason) PetscCall(VecSetInf(y));
+  else PetscCall(PCApply(cms->mg, x, y));
   PetscFunctionReturn(0);
 }
 
@@ -778,7 +841,16 @@ static PetscErrorCode PCMatApply_CMS(PC pc, Mat X, Mat Y)
   PC_CMS *cms = (PC_CMS *)pc->data;
 
   PetscFunctionBegin;
-  PetscCall(PCMatApply(cms->mg, X, Y));
+  if (pc->failedreason) {
+    PetscInt N;
+    PetscCall(MatGetSize(Y, NULL, &N));
+    for (PetscInt j = 0; j < N; j++) {
+      Vec y;
+      PetscCall(MatDenseGetColumnVecWrite(Y, j, &y));
+      PetscCall(VecSetInf(y));
+      PetscCall(MatDenseRestoreColumnVecWrite(Y, j, &y));
+    }
+  } else PetscCall(PCMatApply(cms->mg, X, Y));
   PetscFunctionReturn(0);
 }
 
