@@ -29,31 +29,12 @@ PETSC_EXTERN void VKRotationAverage(PetscInt n, const PetscReal w[], const Petsc
 
 /* ---- shape fit (y2v.c) ------------------------------------------------ */
 typedef struct _n_VKShapeFit *VKShapeFit;
-struct _n_VKShapeFit {
-  MPI_Comm  comm;
-  VKMesh    mesh;
-  PetscReal alpha, alpha_n;
-  /* yarn segments (replicated) */
-  PetscInt   nseg, *seg;
-  PetscReal *Dinv;  /* 9 per segment: [xbar1 - xbar0, nbar1, nbar2]^{-1} */
-  PetscReal *ymass; /* lumped yarn mass per vertex */
-  PetscReal *RS;    /* work: 18 per segment, R and S of the current frame */
-  PetscBool *needed; /* segments that cross a voxel of this rank */
-  /* voxels touching an owned tet, with the segment pieces inside (CSR) */
-  PetscInt   nvox, *tet_vox, *vstart, *vseg, *vglobal;
-  PetscReal *vw;
-  /* yarn vertices embedded in owned tets */
-  PetscInt  ny, *yv;
-  /* the normal matrix and its solver (prefix -fit_y2v_) */
-  Mat       A, A3; /* A, and A x I3 on node vectors of block size 3 (MAIJ) */
-  KSP       ksp;
-  Mat       B, X;
-  Vec       b, w;
-  PetscBool setup;
-};
+
 PETSC_EXTERN PetscErrorCode VKShapeFitCreate(VKMesh, VKShapeFit *);
 PETSC_EXTERN PetscErrorCode VKShapeFitSetFromOptions(VKShapeFit);
 PETSC_EXTERN PetscErrorCode VKShapeFitSetUp(VKShapeFit);
+/* The weight alpha of the yarn-position term (-fit_alpha); before set-up. */
+PETSC_EXTERN PetscErrorCode VKShapeFitSetAlpha(VKShapeFit, PetscReal alpha);
 PETSC_EXTERN PetscErrorCode VKShapeFitView(VKShapeFit, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKShapeFitDestroy(VKShapeFit *);
 /* Targets F^{Y2V} (9 per owned tet) of a yarn frame: positions xy (3 per
@@ -117,69 +98,7 @@ typedef struct {
 } VKFitIterate;
 
 typedef struct _n_VKFit *VKFit;
-struct _n_VKFit {
-  MPI_Comm     comm;
-  VKMesh       mesh;
-  VKMaterial   mat;
-  VKScene      scene;
-  VKShapeFit   sf;
-  VKPD         pd;      /* options prefix fit_ */
-  VKPDType     pd_type; /* -fit_pd_type, restored after an equilibrium's L-BFGS fallback */
-  PetscReal    dt;      /* time between yarn frames */
-  PetscReal    eq_rtol; /* |g| <= eq_rtol x force scale */
-  PetscInt     eq_newton_its;
-  VKFitInertia inertia;
-  VKFitLoss    loss;
-  PetscReal    traj_dt; /* the rollout's time step (0: volknit sim's default) */
-  PetscReal    traj_max_factor; /* largest change of a parameter in one trajectory iteration */
-  PetscReal    traj_prior;      /* weight of the log-distance from the start material, x the start's loss */
-  /* adjoint */
-  Mat       H, J;
-  KSP       kadj; /* prefix -fit_adjoint_ */
-  Vec       rhs, lambda, work;
-  /* Gauss-Newton */
-  Mat       G;    /* 2 A x I3 as AIJ, made at the first KKT solve */
-  Mat       kkt, JT; /* the KKT matrix and J^T, kept: their pattern never changes, so the
-                      * factorization's analysis is done once (kkt.c) */
-  Mat       JJT;  /* J J^T, the reduced KKT form's (2,2) block */
-  PetscBool kkt_reduced; /* -fit_kkt_reduced */
-  KSP       kkkt; /* prefix -fit_kkt_ */
-  PetscInt  kkt_workspace; /* MUMPS ICNTL(14) of its factorization, percent (raised after a failure, kkt.c) */
-  char      kkt_workspace_option[256]; /* the option the fit set to raise it ("" if none) */
-  /* schedule (schedule.c) */
-  PetscInt  gd_its, gn_its, max_halvings, max_pivots;
-  PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2], gamma_max_rel, gamma_max[2];
-  PetscBool best_uniform;              /* start from the best uniform material (uniform.c) */
-  PetscReal uniform_range[2];          /* its search interval, Pa */
-  PetscReal uniform_g, uniform_loss;   /* its result (uniform_g 0: not searched in this run) */
-  PetscBool monitor;
-  PetscBool step_memory; /* -fit_step_memory: an iteration's halving begins at the last accepted step */
-  PetscReal step_factor; /* where the next iteration's halving begins, relative to the phase's full step */
-  PetscInt      nhist, maxhist; /* every iteration so far (fit.csv) */
-  VKFitIterate *hist;
-  PetscInt      sample;   /* recorded with each iteration */
-  PetscLogDouble wall0;    /* start of the fit (the wall column) */
-  /* harmonic bases (harmonic.c): the r lowest eigenvectors of the tet
-   * dual-graph Laplacian, owned rows, column-major */
-  PetscInt   nharm, harm_r[8]; /* -fit_harmonic r1,r2,... */
-  PetscInt   rbasis;
-  PetscReal *basis, *basis_eig;
-  PetscLogDouble time_eq, time_adjoint, time_kkt, time_eigen;
-  PetscInt      eq_fallbacks; /* equilibria finished by L-BFGS + projected Newton after PD + Newton stalled */
-  PetscInt      traj_failed_rollouts; /* trial rollouts of the trajectory fit whose equilibria were not reached */
-  /* checkpoints: after every checkpoint_every accepted iterations the
-   * schedule calls checkpoint(fit, phase, iteration, ctx) with the place
-   * a restart goes on from (VK_FIT_PHASE_*, the next iteration); it stops
-   * (stopped) after max_iterations in all (0: no limit).  A restart sets
-   * resume, and the next VKFitOptimize goes on from resume_phase and
-   * resume_iteration instead of starting the stage. */
-  PetscInt  checkpoint_every, max_iterations, nits;
-  PetscBool restart, stopped, resume; /* restart: VKFitRun starts from DIR/fit_checkpoint.h5 */
-  PetscInt  resume_phase, resume_iteration;
-  PetscErrorCode (*checkpoint)(VKFit, PetscInt phase, PetscInt iteration, void *ctx);
-  void     *checkpoint_ctx;
-  PetscBool setup;
-};
+
 /* Phases of a stage, as a checkpoint records where to go on. */
 enum { VK_FIT_PHASE_GD = VK_FIT_GD, VK_FIT_PHASE_GN = VK_FIT_GN, VK_FIT_PHASE_DONE };
 PETSC_EXTERN PetscErrorCode VKFitCreate(VKMaterial, VKScene, VKFit *);
@@ -188,6 +107,14 @@ PETSC_EXTERN PetscErrorCode VKFitSetFromOptions(VKFit);
 PETSC_EXTERN PetscErrorCode VKFitSetUp(VKFit);
 PETSC_EXTERN PetscErrorCode VKFitView(VKFit, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKFitDestroy(VKFit *);
+PETSC_EXTERN PetscErrorCode VKFitGetComm(VKFit, MPI_Comm *);
+PETSC_EXTERN PetscErrorCode VKFitGetMesh(VKFit, VKMesh *);
+PETSC_EXTERN PetscErrorCode VKFitGetLossType(VKFit, VKFitLoss *);
+/* The interval (Pa) of the best-uniform search (-fit_uniform_range). */
+PETSC_EXTERN PetscErrorCode VKFitGetUniformRange(VKFit, PetscReal range[2]);
+/* Whether the last run stopped at -fit_max_iterations, with a checkpoint
+ * to go on from. */
+PETSC_EXTERN PetscErrorCode VKFitGetStopped(VKFit, PetscBool *);
 /* Material parameters as a Vec (2 per owned tet: g_s, g_v), and back into
  * the material (which invalidates PD's factorization). */
 PETSC_EXTERN PetscErrorCode VKFitCreateGammaVec(VKFit, Vec *);
@@ -266,16 +193,13 @@ PETSC_EXTERN PetscErrorCode VKFitGammaAtFloor(VKFit, Vec gamma, PetscReal fracti
 typedef enum { VK_FIT_SAMPLE_BY_ENERGY, VK_FIT_SAMPLE_BY_EVEN } VKFitSampleBy;
 PETSC_EXTERN const char *const VKFitSampleBys[];
 typedef struct _n_VKFitData *VKFitData;
-struct _n_VKFitData {
-  MPI_Comm   comm;
-  char       path[PETSC_MAX_PATH_LEN];
-  char       status[256]; /* the yarn-level run's own status */
-  PetscInt   nframes;
-  PetscReal *time, *energy; /* per frame; 6 energies (stretch bending contact glue kinetic gravity) */
-};
+
 /* DIR/yls.h5 of volknit yls, checked (format, finite increasing times). */
 PETSC_EXTERN PetscErrorCode VKFitDataLoad(MPI_Comm, const char path[], VKFitData *);
 PETSC_EXTERN PetscErrorCode VKFitDataDestroy(VKFitData *);
+/* The frames' count and times (s), and the yarn-level run's own status. */
+PETSC_EXTERN PetscErrorCode VKFitDataGetFrames(VKFitData, PetscInt *nframes, const PetscReal **time);
+PETSC_EXTERN PetscErrorCode VKFitDataGetStatus(VKFitData, const char **status);
 /* Positions (3 per yarn vertex) and normals (3 per segment) of frame k,
  * on every rank; an error when the counts are not ny and nseg. */
 PETSC_EXTERN PetscErrorCode VKFitDataReadFrame(VKFitData, PetscInt k, PetscInt ny, PetscInt nseg, PetscReal xy[], PetscReal n1[]);

@@ -61,70 +61,6 @@ typedef struct {
 } VKYLSStats;
 
 typedef struct _n_VKYLS *VKYLS;
-struct _n_VKYLS {
-  MPI_Comm   comm;
-  VKYarn     yarn;
-  VKScene    scene;
-  VKRodModel model;
-  /* parameters */
-  VKRodParams par;
-  PetscReal   density, cv, cs, kw, friction_eps, cap, dt;
-  PetscInt    ls_max_it;
-  PetscReal   ftol;   /* Newton stops at |grad Phi| <= ftol x the force scale (newton.c) */
-  PetscInt    max_halvings; /* a failed step is redone as two of dt/2, this deep at most */
-  PetscBool   strict; /* an unconverged step is an error */
-  PetscReal   pattern_margin; /* contact pairs in the Hessian's pattern: closer than 2r + this x r */
-  PetscBool   relax;                         /* relax the rest state before the run */
-  PetscBool   predict;                       /* Newton starts from x_n + dt v_n (capped), else from x_n */
-  PetscReal   relax_tau, relax_radius_start; /* pseudo time step; first contact radius / r */
-  PetscInt    relax_stages, relax_max_steps, relax_steps;
-  PetscLogDouble relax_time;
-  PetscInt    nglue;
-  PetscInt   *glue;  /* 2 per glue spring */
-  PetscReal  *Lglue; /* rest lengths */
-  /* layout */
-  PetscInt vbeg, vend, sbeg, send; /* owned vertices and segments */
-  PetscInt *handle;                /* per vertex: scene handle or -1 */
-  PetscInt  nhandle_vertices;
-  /* state */
-  PetscReal t;
-  PetscInt  step;
-  Vec       x, v;                   /* positions and velocities (parallel, 3 per vertex) */
-  PetscReal *xall, *xn, *vn, *tn;   /* replicated: evaluation point, start of step, velocity, start-of-step tangents */
-  PetscReal *normal;                /* per segment n1, the reference director, carried by time-parallel transport */
-  PetscReal *theta, *thn, *omn;     /* replicated, per segment: twist angle at the evaluation point, at the start of the step, its rate */
-  PetscReal *mref;                  /* per bending stencil: reference twist of the frames at the start of the step */
-  PetscReal *thheld;                /* per segment: the angle a handle prescribes for this step, or NaN if free */
-  Vec        q, qseq;               /* Newton's unknowns: 4 per vertex (position, twist_scale x the twist of the segment starting there) */
-  PetscInt   mumps_workspace;       /* MUMPS's ICNTL(14) of Newton's factorization, raised when it runs out (VKMUMPSRaiseWorkspace) */
-  char       mumps_option[256];
-  PetscReal  twist_scale;           /* m: the angles enter Newton as lengths, r theta, so the Hessian's pivots are commensurate */
-  VecScatter qtoall;
-  PetscReal *friction;              /* per vertex: mu x lagged collider normal force, 0 if none */
-  PetscReal *contact_normal;        /* per vertex, 3: lagged collider normal */
-  PetscInt  *contact_collider;      /* per vertex: the collider touched at the start of the step */
-  PetscInt   npairs, *pairs;
-  PetscInt   npattern, *pattern;   /* the pairs the Hessian is preallocated for */
-  VecScatter toall;
-  Vec        xseq;
-  SNES       snes;
-  Mat        J;
-  PetscBool  setup, quiet, relaxing;
-  VKYLSHessianType hessian;
-  PetscBool  psd_now;   /* element Hessians of the current Newton iteration projected */
-  PetscReal  weight;                   /* sqrt(sum m_i^2) max(|g|, g_0) over the free vertices, N */
-  PetscReal  reaction, collider_force; /* at the last gradient: 2-norms of the handle reaction and collider forces, N */
-  PetscReal  tolerance, residual;      /* of the last Newton iteration: ftol x force scale, |grad Phi|, N */
-  PetscReal  phi;       /* Phi at the SNES iterate, when phi_valid (set by the line search) */
-  PetscBool  phi_valid;
-  VKYLSStats stats;
-  PetscReal  energy[7]; /* last frame: stretch, bending, contact, kinetic, gravity, glue, twist */
-  char       dir[PETSC_MAX_PATH_LEN];
-  void      *out;
-  PetscReal  next_output;
-  PetscInt   frames;
-  PetscLogDouble time_run;
-};
 
 PETSC_EXTERN PetscErrorCode VKYLSCreate(VKYarn, VKScene, VKYLS *);
 /* -yls_* options (stiffnesses, damping, cap, -yls_dt) and the SNES/KSP
@@ -147,6 +83,10 @@ PETSC_EXTERN PetscErrorCode VKYLSStep(VKYLS);
 /* Steps over the scene's duration, frames at its output interval. */
 PETSC_EXTERN PetscErrorCode VKYLSRun(VKYLS);
 PETSC_EXTERN PetscErrorCode VKYLSView(VKYLS, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKYLSGetComm(VKYLS, MPI_Comm *);
+/* Counts and times of the run so far (steps, Newton iterations, halved
+ * and unconverged steps, ...). */
+PETSC_EXTERN PetscErrorCode VKYLSGetStats(VKYLS, VKYLSStats *);
 PETSC_EXTERN PetscErrorCode VKYLSDestroy(VKYLS *);
 /* Energies of the current state: stretch, bending, contact, kinetic
  * (translation and spin), gravity (-sum m g . x), glue, twist; and the

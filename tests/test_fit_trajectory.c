@@ -30,7 +30,7 @@
  *    ranks a rollout repeated differs by ~4e-12) and recovers gamma*.
  * ranks: 1 2
  */
-#include <vkfit.h>
+#include "../src/fit/fitimpl.h" /* white-box: the fit's solvers, schedule and state */
 #include <slepcsys.h>
 #include "vktest.h"
 #include "fitproblem.h"

@@ -14,7 +14,7 @@
  *    random x (1e-10 relative), and its gradient passes a Taylor test.
  * ranks: 1 2
  */
-#include <vkfit.h>
+#include "../src/fit/fitimpl.h" /* white-box: the fit's solvers, schedule and state */
 #include <vkutil.h>
 #include "vktest.h"
 

@@ -27,7 +27,8 @@ int main(int argc, char **argv)
 {
   VKFitData  a, b;
   PetscReal  r = 1e-3, *xa, *xb, *na, worst = 0;
-  PetscInt   nv, nseg;
+  PetscInt   nv, nseg, na_frames, nb_frames;
+  const PetscReal *ta, *tb;
   PetscMPIInt size;
 
   PetscCall(PetscInitialize(&argc, &argv, NULL, "Usage: tool_compare_yls A/yls.h5 B/yls.h5 [-r radius_m]\n"));
@@ -38,11 +39,13 @@ int main(int argc, char **argv)
   PetscCheck(r > 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "-r must be positive, got %g", (double)r);
   PetscCall(VKFitDataLoad(PETSC_COMM_SELF, argv[1], &a));
   PetscCall(VKFitDataLoad(PETSC_COMM_SELF, argv[2], &b));
+  PetscCall(VKFitDataGetFrames(a, &na_frames, &ta));
+  PetscCall(VKFitDataGetFrames(b, &nb_frames, &tb));
   PetscCall(FileCounts(argv[1], &nv, &nseg));
   PetscCall(PetscMalloc3(3 * nv, &xa, 3 * nv, &xb, 3 * nseg, &na));
   PetscCall(PetscPrintf(PETSC_COMM_SELF, "frame  time_s  max_distance_r  rms_distance_r\n"));
-  for (PetscInt i = 0, j = 0; i < a->nframes && j < b->nframes;) {
-    PetscReal dt = a->time[i] - b->time[j], tol = 1e-9 * PetscMax(1.0, PetscAbsReal(a->time[i]));
+  for (PetscInt i = 0, j = 0; i < na_frames && j < nb_frames;) {
+    PetscReal dt = ta[i] - tb[j], tol = 1e-9 * PetscMax(1.0, PetscAbsReal(ta[i]));
     if (dt < -tol) { i++; continue; }
     if (dt > tol) { j++; continue; }
     PetscReal dmax = 0, dsum = 0;
@@ -54,7 +57,7 @@ int main(int argc, char **argv)
       dsum += d2;
     }
     PetscCheck(dsum < PETSC_INFINITY, PETSC_COMM_SELF, PETSC_ERR_FP, "frame %d: positions not finite", (int)i);
-    PetscCall(PetscPrintf(PETSC_COMM_SELF, "%5d  %.6f  %.3e  %.3e\n", (int)i, (double)a->time[i], (double)(PetscSqrtReal(dmax) / r), (double)(PetscSqrtReal(dsum / nv) / r)));
+    PetscCall(PetscPrintf(PETSC_COMM_SELF, "%5d  %.6f  %.3e  %.3e\n", (int)i, (double)ta[i], (double)(PetscSqrtReal(dmax) / r), (double)(PetscSqrtReal(dsum / nv) / r)));
     worst = PetscMax(worst, PetscSqrtReal(dmax) / r);
     i++;
     j++;

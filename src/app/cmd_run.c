@@ -289,7 +289,7 @@ static PetscErrorCode BestUniform(Run *R, PetscInt i)
   VKFitData        data;
   VKFitTrajectory  T;
   Vec              gamma;
-  PetscReal        loss, rest;
+  PetscReal        loss, rest, range[2];
   VKFitStageReason why;
   PetscLogDouble   t0 = VKWallTime();
 
@@ -303,7 +303,8 @@ static PetscErrorCode BestUniform(Run *R, PetscInt i)
   PetscCall(VKFitCreateGammaVec(fit, &gamma));
   PetscCall(VKFitGetGamma(fit, gamma));
   PetscCall(VKFitSetGammaFloor(fit, gamma));
-  PetscCall(VKFitTrajectoryBestUniform(1, &T, fit->uniform_range[0], fit->uniform_range[1], PETSC_TRUE, gamma, R->best[i], &loss, &why));
+  PetscCall(VKFitGetUniformRange(fit, range));
+  PetscCall(VKFitTrajectoryBestUniform(1, &T, range[0], range[1], PETSC_TRUE, gamma, R->best[i], &loss, &why));
   PetscCall(VKFitTrajectoryGetRestLoss(T, &rest));
   R->best_rel[i] = rest > 0 ? PetscSqrtReal(loss / rest) : 0;
   R->has_best[i] = PETSC_TRUE;
@@ -509,8 +510,10 @@ static PetscErrorCode ReferenceStage(Run *R, VKYarn y, VKYLS yls)
     if (R->reference) PetscCall(VKAppReferenceStampRemove(R->comm, R->dir));
     PetscCall(VKAppYarnStage(y, R->dir, PETSC_TRUE, R->reference));
     if (R->reference) {
+      VKYLSStats stats;
       PetscCall(VKAppYLSStage(yls));
-      if (!yls->stats.unconverged_steps) PetscCall(VKAppReferenceStampWrite(R->comm, R->dir, stamp));
+      PetscCall(VKYLSGetStats(yls, &stats));
+      if (!stats.unconverged_steps) PetscCall(VKAppReferenceStampWrite(R->comm, R->dir, stamp));
     }
   }
   PetscCall(PetscFree(stamp));
@@ -546,8 +549,8 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
       PetscCall(VKAppMeshStage(R.mesh[i], R.meshdir[i]));
       if (R.fit[i]) {
         PetscCall(VKAppFitStage(R.fit[i], NULL, R.dir, R.meshdir[i]));
-        if (R.fit[i]->stopped) {
-          stopped = PETSC_TRUE;
+        PetscCall(VKFitGetStopped(R.fit[i], &stopped));
+        if (stopped) {
           PetscCall(PetscPrintf(comm, "volknit run: the fit stopped before the end; go on with volknit fit -o %s -fit_restart (it reads yls.h5 there: copy %s/yls.h5 if it is elsewhere), then volknit sim -o %s -mat_file %s/material.h5\n", R.meshdir[i], R.dir, R.meshdir[i], R.meshdir[i]));
         }
       }

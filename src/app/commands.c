@@ -327,10 +327,13 @@ PetscErrorCode VKAppYLSFromOptions(VKYarn y, VKScene scene, const char dir[], VK
 
 PetscErrorCode VKAppYLSStage(VKYLS yls)
 {
+  MPI_Comm comm;
+
   PetscFunctionBegin;
+  PetscCall(VKYLSGetComm(yls, &comm));
   PetscCall(PetscLogStagePush(VK_STAGE_YLS));
   PetscCall(VKYLSSetUp(yls));
-  PetscCall(VKAppViewFromOptions(yls->comm, "-yls_view", YLSView, yls));
+  PetscCall(VKAppViewFromOptions(comm, "-yls_view", YLSView, yls));
   PetscCall(VKYLSRun(yls));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
@@ -385,18 +388,25 @@ PetscErrorCode VKAppFitStage(VKFit fit, const VKAppFitJoint *J, const char ydir[
   char      ypath[PETSC_MAX_PATH_LEN];
   VKFitData data[1 + MAX_JOINT] = {NULL};
   VKFit     fits[1 + MAX_JOINT];
-  PetscInt  nj = J ? J->n : 0;
+  PetscInt  nj = J ? J->n : 0, nframes;
+  MPI_Comm  comm;
+  VKMesh    mesh;
+  const char *status;
 
   PetscFunctionBegin;
+  PetscCall(VKFitGetComm(fit, &comm));
+  PetscCall(VKFitGetMesh(fit, &mesh));
   PetscCall(PetscLogStagePush(VK_STAGE_FIT));
   for (PetscInt i = 0; i <= nj; i++) {
     fits[i] = i ? J->fit[i - 1] : fit;
     PetscCall(VKPathJoin(i ? J->dir[i - 1] : ydir, "yls.h5", ypath, sizeof(ypath)));
-    PetscCall(VKFitDataLoad(fit->comm, ypath, &data[i]));
-    PetscCall(PetscPrintf(fit->comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)fit->mesh->nv, (int)fit->mesh->ne, ypath, (int)data[i]->nframes, data[i]->status));
+    PetscCall(VKFitDataLoad(comm, ypath, &data[i]));
+    PetscCall(VKFitDataGetFrames(data[i], &nframes, NULL));
+    PetscCall(VKFitDataGetStatus(data[i], &status));
+    PetscCall(PetscPrintf(comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)mesh->nv, (int)mesh->ne, ypath, (int)nframes, status));
     PetscCall(VKFitSetUp(fits[i]));
   }
-  PetscCall(VKAppViewFromOptions(fit->comm, "-fit_view", FitView, fit));
+  PetscCall(VKAppViewFromOptions(comm, "-fit_view", FitView, fit));
   if (nj) PetscCall(VKFitTrajectoryRunJoint(1 + nj, fits, data, dir));
   else PetscCall(VKFitRun(fit, data[0], dir));
   for (PetscInt i = 0; i <= nj; i++) PetscCall(VKFitDataDestroy(&data[i]));
@@ -411,6 +421,7 @@ PetscErrorCode VKAppFitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, VK
   char     *dirs[MAX_JOINT + 1]; /* one more, to tell a list too long */
   PetscInt  n = MAX_JOINT + 1;
   PetscBool set;
+  VKFitLoss loss;
 
   PetscFunctionBegin;
   PetscCall(VKFitCreate(mat, scene, fit));
@@ -422,7 +433,8 @@ PetscErrorCode VKAppFitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, VK
   if (!set) n = 0;
   PetscCheck(!n || J, mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint is an option of volknit fit (volknit run fits the scene it runs)");
   PetscCheck(!set || (n > 0 && n <= MAX_JOINT), mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint needs a list of 1 to %d directories DIR1,DIR2,...", MAX_JOINT);
-  PetscCheck(!n || (*fit)->loss == VK_FIT_LOSS_TRAJECTORY, mat->comm, PETSC_ERR_ARG_INCOMP, "-fit_joint fits trajectories of several scenes: give -fit_loss trajectory");
+  PetscCall(VKFitGetLossType(*fit, &loss));
+  PetscCheck(!n || loss == VK_FIT_LOSS_TRAJECTORY, mat->comm, PETSC_ERR_ARG_INCOMP, "-fit_joint fits trajectories of several scenes: give -fit_loss trajectory");
   for (PetscInt i = 0; i < n; i++) {
     char prefix[32];
     J->dir[i] = dirs[i];

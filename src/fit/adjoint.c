@@ -8,7 +8,7 @@
  * there) and J = dg/dgamma (VKMaterialGammaJacobian).  H is symmetric but
  * not necessarily definite; the solver (prefix -fit_adjoint_) is MUMPS LU
  * by default. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
 

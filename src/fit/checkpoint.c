@@ -21,7 +21,7 @@
  * domains, so a restart may use another number of ranks.  The file is
  * written under a temporary name and renamed (VKOutputWrite), so an
  * interrupted write leaves the previous checkpoint intact. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkio.h>
 #include <vkutil.h>
 

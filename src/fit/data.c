@@ -10,7 +10,7 @@
  * together), checked against the mesh's yarn model, and the sample frames
  * picked from it: -fit_frames i,j,... or -fit_nsamples n chosen evenly in
  * time or by largest yarn elastic energy (-fit_sample_by). */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkio.h>
 #include <vkutil.h>
 
@@ -62,6 +62,21 @@ PetscErrorCode VKFitDataLoad(MPI_Comm comm, const char path[], VKFitData *out)
   PetscCall(PetscStrncpy(d->path, path, sizeof(d->path)));
   VKCallCollective(comm, Load(d, path));
   *out = d;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitDataGetFrames(VKFitData d, PetscInt *nframes, const PetscReal **time)
+{
+  PetscFunctionBegin;
+  if (nframes) *nframes = d->nframes;
+  if (time) *time = d->time;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitDataGetStatus(VKFitData d, const char **status)
+{
+  PetscFunctionBegin;
+  *status = d->status;
   PetscFunctionReturn(0);
 }
 

@@ -15,7 +15,7 @@
  * to PD (VKPDSetConstantForce) and its norm in the scale.  The adjoint and
  * Gauss-Newton are only valid at equilibrium, so a solve that does not get
  * there is an error, not a warning. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
 

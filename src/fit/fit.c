@@ -6,7 +6,7 @@
  * Hessian by default), the Gauss-Newton KKT solver (prefix -fit_kkt_,
  * MUMPS LDL^T by default), and the material parameters as a PETSc Vec with
  * two entries per owned tet (g_s, g_v). */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkutil.h>
 
 const char *const VKFitInertias[] = {"implicit", "data", "none", "VKFitInertia", "VK_FIT_INERTIA_", NULL};
@@ -64,6 +64,42 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   PetscCall(VKKSPSetMUMPS(fit->kadj, PCLU));
   PetscCall(VKFitCreateKKTSolver(fit));
   *out = fit;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGetComm(VKFit fit, MPI_Comm *comm)
+{
+  PetscFunctionBegin;
+  *comm = fit->comm;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGetMesh(VKFit fit, VKMesh *mesh)
+{
+  PetscFunctionBegin;
+  *mesh = fit->mesh;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGetLossType(VKFit fit, VKFitLoss *loss)
+{
+  PetscFunctionBegin;
+  *loss = fit->loss;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGetUniformRange(VKFit fit, PetscReal range[2])
+{
+  PetscFunctionBegin;
+  range[0] = fit->uniform_range[0];
+  range[1] = fit->uniform_range[1];
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitGetStopped(VKFit fit, PetscBool *stopped)
+{
+  PetscFunctionBegin;
+  *stopped = fit->stopped;
   PetscFunctionReturn(0);
 }
 

@@ -1,9 +1,108 @@
 /* fitimpl.h: what the fitting's source files share and users of vkfit.h
- * do not need: the shape-fit target of a yarn frame and the writer of a
- * finished fit's outputs (run.c), used by both losses (run.c for the
+ * do not need: the objects' structs (the shape fit, the fit, the
+ * yarn-level data), the shape-fit target of a yarn frame and the writer of
+ * a finished fit's outputs (run.c), used by both losses (run.c for the
  * frames loss, trajectory.c for the trajectory loss). */
 #pragma once
 #include <vkfit.h>
+
+/* The shape fit of the embedded mesh to a yarn frame (y2v.c). */
+struct _n_VKShapeFit {
+  MPI_Comm  comm;
+  VKMesh    mesh;
+  PetscReal alpha, alpha_n;
+  /* yarn segments (replicated) */
+  PetscInt   nseg, *seg;
+  PetscReal *Dinv;  /* 9 per segment: [xbar1 - xbar0, nbar1, nbar2]^{-1} */
+  PetscReal *ymass; /* lumped yarn mass per vertex */
+  PetscReal *RS;    /* work: 18 per segment, R and S of the current frame */
+  PetscBool *needed; /* segments that cross a voxel of this rank */
+  /* voxels touching an owned tet, with the segment pieces inside (CSR) */
+  PetscInt   nvox, *tet_vox, *vstart, *vseg, *vglobal;
+  PetscReal *vw;
+  /* yarn vertices embedded in owned tets */
+  PetscInt  ny, *yv;
+  /* the normal matrix and its solver (prefix -fit_y2v_) */
+  Mat       A, A3; /* A, and A x I3 on node vectors of block size 3 (MAIJ) */
+  KSP       ksp;
+  Mat       B, X;
+  Vec       b, w;
+  PetscBool setup;
+};
+
+/* The material fit (DESIGN §8). */
+struct _n_VKFit {
+  MPI_Comm     comm;
+  VKMesh       mesh;
+  VKMaterial   mat;
+  VKScene      scene;
+  VKShapeFit   sf;
+  VKPD         pd;      /* options prefix fit_ */
+  VKPDType     pd_type; /* -fit_pd_type, restored after an equilibrium's L-BFGS fallback */
+  PetscReal    dt;      /* time between yarn frames */
+  PetscReal    eq_rtol; /* |g| <= eq_rtol x force scale */
+  PetscInt     eq_newton_its;
+  VKFitInertia inertia;
+  VKFitLoss    loss;
+  PetscReal    traj_dt; /* the rollout's time step (0: volknit sim's default) */
+  PetscReal    traj_max_factor; /* largest change of a parameter in one trajectory iteration */
+  PetscReal    traj_prior;      /* weight of the log-distance from the start material, x the start's loss */
+  /* adjoint */
+  Mat       H, J;
+  KSP       kadj; /* prefix -fit_adjoint_ */
+  Vec       rhs, lambda, work;
+  /* Gauss-Newton */
+  Mat       G;    /* 2 A x I3 as AIJ, made at the first KKT solve */
+  Mat       kkt, JT; /* the KKT matrix and J^T, kept: their pattern never changes, so the
+                      * factorization's analysis is done once (kkt.c) */
+  Mat       JJT;  /* J J^T, the reduced KKT form's (2,2) block */
+  PetscBool kkt_reduced; /* -fit_kkt_reduced */
+  KSP       kkkt; /* prefix -fit_kkt_ */
+  PetscInt  kkt_workspace; /* MUMPS ICNTL(14) of its factorization, percent (raised after a failure, kkt.c) */
+  char      kkt_workspace_option[256]; /* the option the fit set to raise it ("" if none) */
+  /* schedule (schedule.c) */
+  PetscInt  gd_its, gn_its, max_halvings, max_pivots;
+  PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2], gamma_max_rel, gamma_max[2];
+  PetscBool best_uniform;              /* start from the best uniform material (uniform.c) */
+  PetscReal uniform_range[2];          /* its search interval, Pa */
+  PetscReal uniform_g, uniform_loss;   /* its result (uniform_g 0: not searched in this run) */
+  PetscBool monitor;
+  PetscBool step_memory; /* -fit_step_memory: an iteration's halving begins at the last accepted step */
+  PetscReal step_factor; /* where the next iteration's halving begins, relative to the phase's full step */
+  PetscInt      nhist, maxhist; /* every iteration so far (fit.csv) */
+  VKFitIterate *hist;
+  PetscInt      sample;   /* recorded with each iteration */
+  PetscLogDouble wall0;    /* start of the fit (the wall column) */
+  /* harmonic bases (harmonic.c): the r lowest eigenvectors of the tet
+   * dual-graph Laplacian, owned rows, column-major */
+  PetscInt   nharm, harm_r[8]; /* -fit_harmonic r1,r2,... */
+  PetscInt   rbasis;
+  PetscReal *basis, *basis_eig;
+  PetscLogDouble time_eq, time_adjoint, time_kkt, time_eigen;
+  PetscInt      eq_fallbacks; /* equilibria finished by L-BFGS + projected Newton after PD + Newton stalled */
+  PetscInt      traj_failed_rollouts; /* trial rollouts of the trajectory fit whose equilibria were not reached */
+  /* checkpoints: after every checkpoint_every accepted iterations the
+   * schedule calls checkpoint(fit, phase, iteration, ctx) with the place
+   * a restart goes on from (VK_FIT_PHASE_*, the next iteration); it stops
+   * (stopped) after max_iterations in all (0: no limit).  A restart sets
+   * resume, and the next VKFitOptimize goes on from resume_phase and
+   * resume_iteration instead of starting the stage. */
+  PetscInt  checkpoint_every, max_iterations, nits;
+  PetscBool restart, stopped, resume; /* restart: VKFitRun starts from DIR/fit_checkpoint.h5 */
+  PetscInt  resume_phase, resume_iteration;
+  PetscErrorCode (*checkpoint)(VKFit, PetscInt phase, PetscInt iteration, void *ctx);
+  void     *checkpoint_ctx;
+  PetscBool setup;
+};
+
+/* A yarn-level run's frames (data.c). */
+struct _n_VKFitData {
+  MPI_Comm   comm;
+  char       path[PETSC_MAX_PATH_LEN];
+  char       status[256]; /* the yarn-level run's own status */
+  PetscInt   nframes;
+  PetscReal *time, *energy; /* per frame; 6 energies (stretch bending contact glue kinetic gravity) */
+};
 
 /* xhat and eps(xhat) of yarn frame k (xy, n1, Fhat: scratch of 3 ny,
  * 3 nseg, 9 owned tets + 1 reals). */

@@ -8,7 +8,7 @@
  * Cholesky; options prefix -fit_harmonic_ (e.g. -fit_harmonic_eps_view).
  * Each vector's sign is fixed by the tet positions, so it does not depend
  * on the rank count. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
 #include <slepceps.h>

@@ -33,7 +33,7 @@
  * wrong solution with ICNTL(13) = 1), although the same matrices factor
  * correctly on one rank (tests/test_fit_gradient.c); -fit_kkt_pc_type
  * cholesky selects the distributed factorization. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
 

@@ -7,7 +7,7 @@
  * Rref the polar factor of sum_j w_j R_j, so that the average does not
  * depend on the absolute rotation (a 900 degree twist puts rotations near
  * pi, where a plain average of rotation vectors would flip). */
-#include <vkfit.h>
+#include "fitimpl.h"
 
 void VKPolar3(const PetscReal F[], PetscReal R[], PetscReal S[])
 {

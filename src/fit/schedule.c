@@ -43,7 +43,7 @@
  * at the -fit_max_iterations stop) the caller's hook records where a
  * restart goes on (phase, next iteration); a restart (fit->resume) skips
  * the stage's start and goes on there from the restored gamma and x. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkutil.h>
 
 typedef struct {

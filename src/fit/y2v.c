@@ -13,7 +13,7 @@
  * and b_r = sum_e V_e G_e^T Fhat_e[r,:]^T + alpha_n sum_k m_k N_k^T x^Y_k,r.
  * A is assembled and factored once (KSP prefix -fit_y2v_); a frame is one
  * three-column solve. */
-#include <vkfit.h>
+#include "fitimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
 
@@ -52,6 +52,15 @@ PetscErrorCode VKShapeFitDestroy(VKShapeFit *p)
   PetscCall(VecDestroy(&sf->w));
   PetscCall(KSPDestroy(&sf->ksp));
   PetscCall(PetscFree(*p));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKShapeFitSetAlpha(VKShapeFit sf, PetscReal alpha)
+{
+  PetscFunctionBegin;
+  PetscCheck(!sf->setup, sf->comm, PETSC_ERR_ORDER, "Set the shape fit's alpha before VKShapeFitSetUp()");
+  PetscCheck(alpha > 0 && isfinite(alpha), sf->comm, PETSC_ERR_ARG_OUTOFRANGE, "The shape fit's alpha must be positive and finite, not %g", (double)alpha);
+  sf->alpha = alpha;
   PetscFunctionReturn(0);
 }
 

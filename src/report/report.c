@@ -147,7 +147,9 @@ static PetscErrorCode LoadReference(VKReport r)
   PetscCall(PetscFree(seg));
   PetscCall(VKFitDataReadFrame(r->data, 0, r->ny, r->nseg, r->x0, r->n1));
   r->radius       = r->yarn->radius;
-  r->time_reached = r->data->time[r->data->nframes - 1];
+  PetscCall(VKFitDataGetFrames(r->data, &r->nframes, &r->time));
+  PetscCall(VKFitDataGetStatus(r->data, &r->status));
+  r->time_reached = r->time[r->nframes - 1];
   PetscCheck(r->time_reached > 0, r->comm, PETSC_ERR_FILE_UNEXPECTED, "%s has frames only at t = 0: nothing to compare", path);
   PetscFunctionReturn(0);
 }
@@ -243,7 +245,7 @@ static PetscErrorCode FloorSetUp(VKReport r, const VKReportRun *run, Floor *fl)
   PetscCall(VKMeshLoadH5(r->comm, path, &fl->mesh, &fl->yarn));
   PetscCheck(fl->mesh->ny == r->ny, r->comm, PETSC_ERR_ARG_INCOMP, "%s embeds %d yarn vertices, the yarn-level run has %d", path, (int)fl->mesh->ny, (int)r->ny);
   PetscCall(VKShapeFitCreate(fl->mesh, &fl->sf));
-  fl->sf->alpha = REPORT_FLOOR_ALPHA;
+  PetscCall(VKShapeFitSetAlpha(fl->sf, REPORT_FLOOR_ALPHA));
   PetscCall(VKShapeFitSetUp(fl->sf));
   PetscCall(VKMeshCreateNodeVec(fl->mesh, 3, &fl->xhat));
   PetscCall(VecScatterCreateToAll(fl->xhat, &fl->toall, &fl->xall));
@@ -268,8 +270,8 @@ static PetscErrorCode FloorDestroy(Floor *fl)
  * the frame interval), or -1. */
 static PetscInt ReferenceFrame(VKReport r, PetscReal t)
 {
-  const PetscReal *T   = r->data->time;
-  PetscInt         n   = r->data->nframes;
+  const PetscReal *T   = r->time;
+  PetscInt         n   = r->nframes;
   PetscReal        tol = 1e-6 * (T[n - 1] - T[0]) / PetscMax(n - 1, 1) + 1e-12;
 
   for (PetscInt k = 0; k < n; k++)
@@ -289,7 +291,7 @@ static PetscErrorCode MeasureRun(VKReport r, VKReportRun *run)
   PetscCall(PetscMalloc1(nf, &ref));
   for (PetscInt f = 0; f < nf; f++) {
     ref[f] = ReferenceFrame(r, t[f]);
-    PetscCheck(ref[f] >= 0 || t[f] > r->time_reached, r->comm, PETSC_ERR_ARG_INCOMP, "%s has a frame at t = %g s, where the yarn-level run %s has none (its frames: %d up to %g s): give both runs the same -scene_output_interval", path, (double)t[f], r->ref, (int)r->data->nframes, (double)r->time_reached);
+    PetscCheck(ref[f] >= 0 || t[f] > r->time_reached, r->comm, PETSC_ERR_ARG_INCOMP, "%s has a frame at t = %g s, where the yarn-level run %s has none (its frames: %d up to %g s): give both runs the same -scene_output_interval", path, (double)t[f], r->ref, (int)r->nframes, (double)r->time_reached);
     if (ref[f] >= 0) nc++;
   }
   PetscCheck(nc >= 2, r->comm, PETSC_ERR_ARG_INCOMP, "%s and the yarn-level run %s have %d frame times in common; at least 2 are needed", path, r->ref, (int)nc);

@@ -40,9 +40,9 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONString(&j, "scene", r->scene));
   PetscCall(VKJSONObjectBegin(&j, "yarn_level"));
   PetscCall(VKJSONString(&j, "dir", r->ref));
-  PetscCall(VKJSONString(&j, "status", r->data->status));
+  PetscCall(VKJSONString(&j, "status", r->status));
   PetscCall(VKJSONInt(&j, "yarn_vertices", r->ny));
-  PetscCall(VKJSONInt(&j, "frames", r->data->nframes));
+  PetscCall(VKJSONInt(&j, "frames", r->nframes));
   PetscCall(VKJSONReal(&j, "time_reached", r->time_reached));
   PetscCall(VKJSONReal(&j, "wall_time", r->wall));
   PetscCall(VKJSONReal(&j, "wall_time_per_simulated_second", r->wall / r->time_reached));
@@ -82,7 +82,7 @@ static PetscErrorCode WriteMarkdown(void *ctx, VKOutput *out)
 
   PetscFunctionBegin;
   fprintf(out->fp, "# volknit report: scene %s\n\n", r->scene);
-  fprintf(out->fp, "Yarn-level run `%s` (%d yarn vertices, r = %g m, %d frames to t = %g s, status %s): %.4g s of wall time per simulated second.\n\n", r->ref, (int)r->ny, (double)r->radius, (int)r->data->nframes, (double)r->time_reached, r->data->status, (double)(r->wall / r->time_reached));
+  fprintf(out->fp, "Yarn-level run `%s` (%d yarn vertices, r = %g m, %d frames to t = %g s, status %s): %.4g s of wall time per simulated second.\n\n", r->ref, (int)r->ny, (double)r->radius, (int)r->nframes, (double)r->time_reached, r->status, (double)(r->wall / r->time_reached));
   fprintf(out->fp, "REL = RMS error of the embedded yarns / RMS displacement of the yarn-level yarns from rest, over the compared frames (1: no better than the patch left at rest). Floor: the best any mesh shape can do on that run's mesh.\n\n");
   fprintf(out->fp, "| run | status | frames | REL | floor REL | RMS error (r) | max error (r) | wall s per simulated s | speed-up |\n|---|---|---|---|---|---|---|---|---|\n");
   for (PetscInt i = 0; i < r->nruns; i++) {

@@ -13,6 +13,9 @@ struct _n_VKReport {
   PetscBool   floor, computed;
   /* the yarn-level run */
   VKFitData data;
+  PetscInt         nframes; /* its frames and their times, and its own status */
+  const PetscReal *time;
+  const char      *status;
   VKYarn    yarn;
   char      scene[256];
   PetscInt  ny, nseg;

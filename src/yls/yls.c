@@ -683,6 +683,20 @@ PetscErrorCode VKYLSView(VKYLS y, PetscViewer viewer)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKYLSGetComm(VKYLS y, MPI_Comm *comm)
+{
+  PetscFunctionBegin;
+  *comm = y->comm;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYLSGetStats(VKYLS y, VKYLSStats *stats)
+{
+  PetscFunctionBegin;
+  *stats = y->stats;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKYLSDestroy(VKYLS *py)
 {
   VKYLS y = *py;
