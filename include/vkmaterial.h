@@ -97,18 +97,7 @@ PETSC_EXTERN PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const 
 
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;
-struct _n_VKMaterial {
-  MPI_Comm  comm;
-  VKMesh    mesh;
-  PetscReal gamma_s, gamma_v;            /* uniform values */
-  VKStretchBand band;                    /* one for the whole mesh (-mat_band) */
-  PetscBool     band_set;                /* set by VKMaterialSetStretchBand (-mat_band): a file's band must agree */
-  char      file[PETSC_MAX_PATH_LEN];    /* per-element values (-mat_file) */
-  PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v (change them by VKMaterialSetGamma) */
-  PetscObjectState state;                /* raised by every change of gamma */
-  PetscObjectState *domain_state;        /* per mesh domain: raised when one of its owned tets changes */
-  PetscBool setup;
-};
+
 PETSC_EXTERN PetscErrorCode VKMaterialCreate(VKMesh, VKMaterial *);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUniform(VKMaterial, PetscReal gs, PetscReal gv);
 /* The per-element material of a material.h5 (read at set-up; -mat_file). */
@@ -127,12 +116,22 @@ PETSC_EXTERN PetscErrorCode VKMaterialGetGamma(VKMaterial, Vec);
 PETSC_EXTERN PetscErrorCode VKMaterialSetGamma(VKMaterial, Vec);
 PETSC_EXTERN PetscErrorCode VKMaterialGetState(VKMaterial, PetscObjectState *);
 PETSC_EXTERN PetscErrorCode VKMaterialGetDomainState(VKMaterial, PetscInt domain, PetscObjectState *);
+PETSC_EXTERN PetscErrorCode VKMaterialGetComm(VKMaterial, MPI_Comm *);
+PETSC_EXTERN PetscErrorCode VKMaterialGetMesh(VKMaterial, VKMesh *);
+/* g_s, g_v of the owned tets (2 each), read-only and valid until the next
+ * VKMaterialSetGamma: the solvers' inner loops read them in place. */
+PETSC_EXTERN PetscErrorCode VKMaterialGetGammaArrayRead(VKMaterial, const PetscReal **);
+PETSC_EXTERN PetscErrorCode VKMaterialGetStretchBand(VKMaterial, VKStretchBand *);
+/* The material.h5 the values came from or were last written to (""
+ * for a uniform material). */
+PETSC_EXTERN PetscErrorCode VKMaterialGetFile(VKMaterial, const char **);
 PETSC_EXTERN PetscErrorCode VKMaterialSetUp(VKMaterial);
 PETSC_EXTERN PetscErrorCode VKMaterialView(VKMaterial, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKMaterialDestroy(VKMaterial *);
 /* material.h5: g_s, g_v per tet with the tet's voxel and Kuhn index, so a
  * file written for one partition reads into any other, and the stretch
- * band (files without one: [1, 1]). */
+ * band (files without one: [1, 1]).  After a write the material is that
+ * file's (VKMaterialGetFile, VKMaterialView). */
 PETSC_EXTERN PetscErrorCode VKMaterialWriteH5(VKMaterial, const char path[]);
 PETSC_EXTERN PetscErrorCode VKMaterialLoadH5(VKMaterial, const char path[]);
 

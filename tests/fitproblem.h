@@ -4,6 +4,7 @@
  * while the right edge is pulled along x at 0.5 m/s (set up by VKFitSetUp). */
 #pragma once
 #include <vkfit.h>
+#include "../src/material/materialimpl.h" /* white-box: the material's mesh, values and band */
 
 static inline PetscErrorCode FitProblemCreate(MPI_Comm comm, PetscInt ndomains, VKYarn *y, VKMesh *m, VKMaterial *mat, VKScene *scene)
 {

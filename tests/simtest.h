@@ -2,6 +2,7 @@
  * as expressions (the getters only copy a handle, so they cannot fail). */
 #pragma once
 #include <vksim.h>
+#include "../src/material/materialimpl.h" /* white-box: the material's mesh and values */
 
 static inline VKPD VKTestSimPD(VKSim sim)
 {

@@ -422,25 +422,27 @@ PetscErrorCode VKAppFitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, VK
   PetscInt  n = MAX_JOINT + 1;
   PetscBool set;
   VKFitLoss loss;
+  MPI_Comm  comm;
 
   PetscFunctionBegin;
+  PetscCall(VKMaterialGetComm(mat, &comm));
   PetscCall(VKFitCreate(mat, scene, fit));
   PetscCall(VKFitSetFromOptions(*fit));
-  PetscOptionsBegin(mat->comm, NULL, "Fitting outputs", "volknit fit");
+  PetscOptionsBegin(comm, NULL, "Fitting outputs", "volknit fit");
   PetscCall(PetscOptionsName("-fit_view", "Print the fitting's set-up (schedule, shape fit, solvers) before the run", "VKFitView", NULL));
   PetscCall(PetscOptionsStringArray("-fit_joint", "Fit one material to the trajectories of these directories' yls.h5 as well (yarn-level runs of other scenes on the same yarn; up to 4); the i-th scene's options under the prefix fit_joint<i>_, e.g. -prefix_push fit_joint1_ -options_file options/stretch.opts -prefix_pop; with -fit_loss trajectory", "VKFitTrajectoryRunJoint", dirs, &n, &set));
   PetscOptionsEnd();
   if (!set) n = 0;
-  PetscCheck(!n || J, mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint is an option of volknit fit (volknit run fits the scene it runs)");
-  PetscCheck(!set || (n > 0 && n <= MAX_JOINT), mat->comm, PETSC_ERR_ARG_WRONG, "-fit_joint needs a list of 1 to %d directories DIR1,DIR2,...", MAX_JOINT);
+  PetscCheck(!n || J, comm, PETSC_ERR_ARG_WRONG, "-fit_joint is an option of volknit fit (volknit run fits the scene it runs)");
+  PetscCheck(!set || (n > 0 && n <= MAX_JOINT), comm, PETSC_ERR_ARG_WRONG, "-fit_joint needs a list of 1 to %d directories DIR1,DIR2,...", MAX_JOINT);
   PetscCall(VKFitGetLossType(*fit, &loss));
-  PetscCheck(!n || loss == VK_FIT_LOSS_TRAJECTORY, mat->comm, PETSC_ERR_ARG_INCOMP, "-fit_joint fits trajectories of several scenes: give -fit_loss trajectory");
+  PetscCheck(!n || loss == VK_FIT_LOSS_TRAJECTORY, comm, PETSC_ERR_ARG_INCOMP, "-fit_joint fits trajectories of several scenes: give -fit_loss trajectory");
   for (PetscInt i = 0; i < n; i++) {
     char prefix[32];
     J->dir[i] = dirs[i];
     J->n      = i + 1;
     PetscCall(PetscSNPrintf(prefix, sizeof(prefix), "fit_joint%d_", (int)(i + 1)));
-    PetscCall(VKSceneCreate(mat->comm, &J->scene[i]));
+    PetscCall(VKSceneCreate(comm, &J->scene[i]));
     PetscCall(VKSceneSetOptionsPrefix(J->scene[i], prefix));
     PetscCall(VKSceneSetFromOptions(J->scene[i]));
     PetscCall(VKFitCreate(mat, J->scene[i], &J->fit[i]));

@@ -57,10 +57,19 @@ typedef struct {
   const PetscScalar *avg, *gamma, *x;
 } WriteCtx;
 
+/* The material's stretch band (its accessor cannot fail). */
+static VKStretchBand Band(VKFit fit)
+{
+  VKStretchBand band = {1, 1};
+  (void)VKMaterialGetStretchBand(fit->mat, &band);
+  return band;
+}
+
 static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
 {
   WriteCtx         *w   = (WriteCtx *)ctx;
   VKFit             fit = w->fit;
+  VKStretchBand     band = Band(fit);
   const VKFitState *st  = w->st;
   VKH5              h;
   PetscReal        *hist;
@@ -69,7 +78,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   struct {
     const char *name;
     PetscReal   v;
-  } reals[] = {{"weight", st->weight}, {"gamma_min_s", fit->gamma_min[0]}, {"gamma_min_v", fit->gamma_min[1]}, {"gamma_max_s", fit->gamma_max[0]}, {"gamma_max_v", fit->gamma_max[1]}, {"fingerprint", Fingerprint(fit->mesh)}, {"wall", st->wall}, {"step_factor", fit->step_factor}, {"time_equilibrium", fit->time_eq}, {"time_adjoint", fit->time_adjoint}, {"time_kkt", fit->time_kkt}, {"time_eigensolves", fit->time_eigen}, {"band_lo", fit->mat->band.lo}, {"band_hi", fit->mat->band.hi}};
+  } reals[] = {{"weight", st->weight}, {"gamma_min_s", fit->gamma_min[0]}, {"gamma_min_v", fit->gamma_min[1]}, {"gamma_max_s", fit->gamma_max[0]}, {"gamma_max_v", fit->gamma_max[1]}, {"fingerprint", Fingerprint(fit->mesh)}, {"wall", st->wall}, {"step_factor", fit->step_factor}, {"time_equilibrium", fit->time_eq}, {"time_adjoint", fit->time_adjoint}, {"time_kkt", fit->time_kkt}, {"time_eigensolves", fit->time_eigen}, {"band_lo", band.lo}, {"band_hi", band.hi}};
   struct {
     const char *name;
     PetscInt    v;
@@ -151,6 +160,7 @@ static PetscErrorCode TakeOwned(const char path[], const char name[], const Pets
 static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *st)
 {
   VKMesh     m = fit->mesh;
+  VKStretchBand band = Band(fit);
   VKH5       h;
   char       format[64];
   PetscInt   ne, nv, nd, rows, nfl = 0, *samples = NULL, *stages = NULL;
@@ -169,7 +179,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr && !(ne == m->ne && nv == m->nv && nd == m->ndomains && fp == Fingerprint(m))) ierr = BAD("%s belongs to another mesh (%d tets, %d nodes, %d domains; this one has %d, %d, %d%s)", path, (int)ne, (int)nv, (int)nd, (int)m->ne, (int)m->nv, (int)m->ndomains, ne == m->ne && nv == m->nv && nd == m->ndomains ? ", numbered differently" : "");
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "band_lo", &blo);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "band_hi", &bhi);
-  if (!ierr && !(blo == fit->mat->band.lo && bhi == fit->mat->band.hi)) ierr = BAD("%s was written by a fit with the stretch band %g,%g; this one has %g,%g (give the same -mat_band)", path, (double)blo, (double)bhi, (double)fit->mat->band.lo, (double)fit->mat->band.hi);
+  if (!ierr && !(blo == band.lo && bhi == band.hi)) ierr = BAD("%s was written by a fit with the stretch band %g,%g; this one has %g,%g (give the same -mat_band)", path, (double)blo, (double)bhi, (double)band.lo, (double)band.hi);
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "sample", &st->sample);
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "stage", &st->stage);
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "phase", &st->phase);

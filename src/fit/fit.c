@@ -20,8 +20,8 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
 
   PetscFunctionBegin;
   PetscCall(PetscNew(&fit));
-  fit->comm          = mat->comm;
-  fit->mesh          = mat->mesh;
+  PetscCall(VKMaterialGetComm(mat, &fit->comm));
+  PetscCall(VKMaterialGetMesh(mat, &fit->mesh));
   fit->mat           = mat;
   fit->scene         = scene;
   fit->dt            = 1.0 / 150;
@@ -192,7 +192,11 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   /* measured on the 4 x 4 rib twist: from 1 kPa the stage r = 1 stops in a
    * local minimum (training REL 0.307), from the searched uniform material
    * the fit reaches 0.255 in half the time (docs/FIDELITY.md) */
-  if (!best_uniform_set) fit->best_uniform = (PetscBool)(fit->loss == VK_FIT_LOSS_TRAJECTORY && !fit->mat->file[0]);
+  {
+    const char *matfile;
+    PetscCall(VKMaterialGetFile(fit->mat, &matfile));
+    if (!best_uniform_set) fit->best_uniform = (PetscBool)(fit->loss == VK_FIT_LOSS_TRAJECTORY && !matfile[0]);
+  }
   PetscCall(PetscOptionsReal("-fit_trajectory_dt", "Time step of the trajectory loss's rollout (0: volknit sim's default, min(1/150 s, -scene_output_interval)); give the -ts_dt the simulation will use", "VKFitTrajectoryStep", fit->traj_dt, &fit->traj_dt, NULL));
   PetscCall(PetscOptionsReal("-fit_trajectory_prior", "Weight mu of the trajectory fit's prior mu L0 mean_i log^2((gamma_i - floor)/(gamma0_i - floor)): parameters the frames do not determine stay near the start material gamma0 (L0 its loss)", "VKFitTrajectoryOptimize", fit->traj_prior, &fit->traj_prior, NULL));
   PetscCall(PetscOptionsReal("-fit_trajectory_max_factor", "Largest factor by which one trajectory Gauss-Newton iteration changes a parameter", "VKFitTrajectoryOptimize", fit->traj_max_factor, &fit->traj_max_factor, NULL));

@@ -318,7 +318,6 @@ PetscErrorCode VKFitWriteOutputs_Private(VKFit fit, VKFitData data, const VKFitR
   PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
   PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
   PetscCall(VKMaterialWriteH5(fit->mat, path));
-  PetscCall(PetscStrncpy(fit->mat->file, path, sizeof(fit->mat->file))); /* the material is now that file's (VKMaterialView) */
   PetscCall(VKFitGammaAtFloor(fit, res->gamma, sum.at_floor, sum.largest));
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));

@@ -5,7 +5,7 @@
  * evaluates its own tets from the ghosted positions; contributions to
  * nodes owned elsewhere travel by the ghost scatter (vectors) or by
  * MatAssembly (matrices). */
-#include <vkmaterial.h>
+#include "materialimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
 

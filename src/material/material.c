@@ -7,7 +7,7 @@
  *   /material/band    1 x 2     stretch band lo, hi (-mat_band; absent: 1, 1)
  * Tets are matched through (voxel, Kuhn index), so a file written with one
  * partition reads into a mesh with any other. */
-#include <vkmaterial.h>
+#include "materialimpl.h"
 #include <vkio.h>
 #include <math.h>
 
@@ -26,6 +26,42 @@ PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
   m->gamma_v = NOMINAL_GAMMA;
   m->band.lo = m->band.hi = 1;
   *mat       = m;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetComm(VKMaterial m, MPI_Comm *comm)
+{
+  PetscFunctionBegin;
+  *comm = m->comm;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetMesh(VKMaterial m, VKMesh *mesh)
+{
+  PetscFunctionBegin;
+  *mesh = m->mesh;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetGammaArrayRead(VKMaterial m, const PetscReal **gamma)
+{
+  PetscFunctionBegin;
+  PetscCheck(m->setup, m->comm, PETSC_ERR_ORDER, "Call VKMaterialSetUp() before VKMaterialGetGammaArrayRead()");
+  *gamma = m->gamma;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetStretchBand(VKMaterial m, VKStretchBand *band)
+{
+  PetscFunctionBegin;
+  *band = m->band;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetFile(VKMaterial m, const char **file)
+{
+  PetscFunctionBegin;
+  *file = m->file;
   PetscFunctionReturn(0);
 }
 
@@ -276,6 +312,7 @@ PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
     PetscCall(PetscFree(all));
   }
   PetscCall(VKCollective(m->comm, ierr, path));
+  PetscCall(PetscStrncpy(m->file, path, sizeof(m->file)));
   PetscFunctionReturn(0);
 }
 

@@ -34,8 +34,8 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   PetscFunctionBegin;
   PetscCall(VKSimInitializePackage());
   PetscCall(PetscNew(&pd));
-  pd->comm        = mat->comm;
-  pd->mesh        = mat->mesh;
+  PetscCall(VKMaterialGetComm(mat, &pd->comm));
+  PetscCall(VKMaterialGetMesh(mat, &pd->mesh));
   pd->mat         = mat;
   pd->scene       = scene;
   pd->dt          = 1.0 / 150;
@@ -566,13 +566,15 @@ static PetscErrorCode AssembleK(VKPD pd)
   VKLayout *L    = &pd->mesh->layout;
   PetscReal dsum = 0, dt2 = pd->dt * pd->dt, kmean;
   PetscInt  N, ne = L->eEnd - L->eStart;
+  const PetscReal *gamma;
 
   PetscFunctionBegin;
+  PetscCall(VKMaterialGetGammaArrayRead(pd->mat, &gamma));
   PetscCall(PetscLogEventBegin(VK_EVENT_PDSetUp, 0, 0, 0, 0));
   if (!pd->K) PetscCall(CreateK(pd));
   for (PetscInt e = 0; e < ne; e++) {
     const PetscReal *G  = mesh->G + 12 * (L->eStart + e);
-    PetscReal        w  = 2 * mesh->vol[L->eStart + e] * (pd->mat->gamma[2 * e] + pd->mat->gamma[2 * e + 1]);
+    PetscReal        w  = 2 * mesh->vol[L->eStart + e] * (gamma[2 * e] + gamma[2 * e + 1]);
     PetscScalar     *Ke = pd->kcoo + 16 * e;
     for (int a = 0; a < 4; a++)
       for (int b = 0; b < 4; b++) Ke[4 * a + b] = w * (G[a] * G[b] + G[4 + a] * G[4 + b] + G[8 + a] * G[8 + b]);

@@ -35,9 +35,13 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
   VKSum              sum  = {0, 0};
   PetscInt           ninv = 0, mine[1];
   PetscReal          Emine;
+  const PetscReal   *gamma;
+  VKStretchBand      band;
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_PDLocal, 0, 0, 0, 0));
+  PetscCall(VKMaterialGetGammaArrayRead(pd->mat, &gamma));
+  PetscCall(VKMaterialGetStretchBand(pd->mat, &band));
   PetscCall(VKMeshGetLocalPositions(x, &xl, &a));
   PetscCall(VecGhostGetLocalForm(b, &bl));
   PetscCall(VecSet(bl, 0));
@@ -46,7 +50,7 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
     PetscInt  n = PetscMin(VK_SVD3_BATCH, L->eEnd - L->eStart - e0);
     PetscReal X[12 * VK_SVD3_BATCH], rhs[12 * VK_SVD3_BATCH], Ee[VK_SVD3_BATCH], det[VK_SVD3_BATCH];
     for (PetscInt l = 0; l < n; l++) VKLayoutGatherTet(L, e0 + l, a, X + 12 * l);
-    PetscCall(VKTetProject(n, mesh->G + 12 * (L->eStart + e0), mesh->vol + L->eStart + e0, X, &pd->mat->band, pd->mat->gamma + 2 * e0, pd->tetW + 9 * e0, Ee, rhs, det));
+    PetscCall(VKTetProject(n, mesh->G + 12 * (L->eStart + e0), mesh->vol + L->eStart + e0, X, &band, gamma + 2 * e0, pd->tetW + 9 * e0, Ee, rhs, det));
     for (PetscInt l = 0; l < n; l++) {
       VKSumAdd(&sum, Ee[l]);
       if (!(det[l] > 0)) ninv++;

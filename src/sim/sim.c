@@ -14,8 +14,8 @@ PetscErrorCode VKSimCreate(VKMaterial mat, VKScene scene, VKSim *simout)
   PetscFunctionBegin;
   PetscCall(VKSimInitializePackage());
   PetscCall(PetscNew(&sim));
-  sim->comm  = mat->comm;
-  sim->mesh  = mat->mesh;
+  PetscCall(VKMaterialGetComm(mat, &sim->comm));
+  PetscCall(VKMaterialGetMesh(mat, &sim->mesh));
   sim->mat   = mat;
   sim->scene = scene;
   PetscCall(VKPDCreate(mat, scene, &sim->pd));

@@ -25,8 +25,12 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
   const PetscScalar *a;
   PetscScalar       *fa;
   Vec                loc;
+  const PetscReal   *gamma;
+  VKStretchBand      band;
 
   PetscFunctionBegin;
+  PetscCall(VKMaterialGetGammaArrayRead(sim->mat, &gamma));
+  PetscCall(VKMaterialGetStretchBand(sim->mat, &band));
   PetscCall(VKMeshGetLocalPositions(x, &loc, &a));
   PetscCall(VecGetArray(f, &fa));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
@@ -35,10 +39,10 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
     VKPsiState       st;
     VKLayoutGatherTet(L, e, a, X);
     VKTetDeformation(G, X, F);
-    PetscCall(VKPsiProject(F, NULL, &sim->mat->band, &st));
+    PetscCall(VKPsiProject(F, NULL, &band, &st));
     J                             = st.svd.s[0] * st.svd.s[1] * st.svd.s[2];
     fa[VK_SIM_TET_FIELDS * e + 0] = J;
-    fa[VK_SIM_TET_FIELDS * e + 1] = sim->mat->gamma[2 * e] * st.psi_s + sim->mat->gamma[2 * e + 1] * st.psi_v;
+    fa[VK_SIM_TET_FIELDS * e + 1] = gamma[2 * e] * st.psi_s + gamma[2 * e + 1] * st.psi_v;
     fa[VK_SIM_TET_FIELDS * e + 2] = st.svd.s[0];
     fa[VK_SIM_TET_FIELDS * e + 3] = st.svd.s[2];
     fa[VK_SIM_TET_FIELDS * e + 4] = J <= 0;
@@ -53,12 +57,14 @@ PetscErrorCode VKSimTetMaterial(VKSim sim, Vec f)
   VKMesh          m = sim->mesh;
   const VKLayout *L = &m->layout;
   PetscScalar    *fa;
+  const PetscReal *gamma;
 
   PetscFunctionBegin;
+  PetscCall(VKMaterialGetGammaArrayRead(sim->mat, &gamma));
   PetscCall(VecGetArray(f, &fa));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    fa[3 * e + 0] = sim->mat->gamma[2 * e];
-    fa[3 * e + 1] = sim->mat->gamma[2 * e + 1];
+    fa[3 * e + 0] = gamma[2 * e];
+    fa[3 * e + 1] = gamma[2 * e + 1];
     fa[3 * e + 2] = m->tet_domain[L->eStart + e];
   }
   PetscCall(VecRestoreArray(f, &fa));

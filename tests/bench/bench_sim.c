@@ -21,9 +21,8 @@ static const char help[] = "Benchmark of the homogenized PD simulator (issue 3):
 /* The PD set-up's time after n material changes confined to domain 0
  * (every g of its tets scaled by 1.1, then back), then after n changes of
  * every tet, averaged; one table row. */
-static PetscErrorCode TimeMaterialChanges(VKMaterial mat, VKSim sim, PetscInt n, PetscLogDouble tfirst)
+static PetscErrorCode TimeMaterialChanges(VKMesh mesh, VKMaterial mat, VKSim sim, PetscInt n, PetscLogDouble tfirst)
 {
-  VKMesh         mesh = mat->mesh;
   VKPD           pd;
   KSP            ksp;
   const VKLayout *L   = &mesh->layout;
@@ -183,7 +182,7 @@ int main(int argc, char **argv)
   t0 = VKWallTime();
   PetscCall(VKSimSetUp(sim));
   tsetup = VKWallTime() - t0;
-  if (changes) PetscCall(TimeMaterialChanges(mat, sim, changes, tsetup));
+  if (changes) PetscCall(TimeMaterialChanges(mesh, mat, sim, changes, tsetup));
   else PetscCall(TimeSteps(mesh, sim, wales, courses, tsetup));
   PetscCall(VKSimDestroy(&sim));
   PetscCall(VKSceneDestroy(&scene));

@@ -1,0 +1,17 @@
+/* materialimpl.h: the material object's struct (DESIGN §6), private to
+ * src/material; other modules use the accessors of vkmaterial.h. */
+#pragma once
+#include <vkmaterial.h>
+
+struct _n_VKMaterial {
+  MPI_Comm  comm;
+  VKMesh    mesh;
+  PetscReal gamma_s, gamma_v;            /* uniform values */
+  VKStretchBand band;                    /* one for the whole mesh (-mat_band) */
+  PetscBool     band_set;                /* set by VKMaterialSetStretchBand (-mat_band): a file's band must agree */
+  char      file[PETSC_MAX_PATH_LEN];    /* per-element values (-mat_file) */
+  PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v (change them by VKMaterialSetGamma) */
+  PetscObjectState state;                /* raised by every change of gamma */
+  PetscObjectState *domain_state;        /* per mesh domain: raised when one of its owned tets changes */
+  PetscBool setup;
+};
