@@ -56,7 +56,7 @@ int main(int argc, char **argv)
 {
   char        pattern[64] = "rib1x1", dir[PETSC_MAX_PATH_LEN] = "out/ex2";
   PetscInt    wales = 6, courses = 4;
-  PetscReal   stretch = 0.5, w0, w1;
+  PetscReal   stretch = 0.5, w0, w1, nogravity[3] = {0, 0, 0};
   VKYarn      yarn;
   VKMesh      mesh;
   VKMaterial  mat;
@@ -90,20 +90,16 @@ int main(int argc, char **argv)
   /* 4. the scene, in scene units (see include/vkscene.h): two handles, the
    *    left and right 5% of the patch, pulled apart; no gravity */
   PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &scene));
-  PetscCall(PetscStrncpy(scene->name, "ex2 stretch", sizeof(scene->name)));
-  scene->gravity[2] = 0;
-  scene->duration   = 1;
-  scene->nhandles   = 2;
+  PetscCall(VKSceneSetName(scene, "ex2 stretch"));
+  PetscCall(VKSceneSetGravity(scene, nogravity));
+  PetscCall(VKSceneSetTimes(scene, 1, 1.0 / 30));
   for (int h = 0; h < 2; h++) {
-    VKHandle *H = &scene->handle[h];
-    for (int a = 0; a < 3; a++) {
-      H->box[a]     = -1;
-      H->box[3 + a] = 1;
-    }
-    if (h == 0) H->box[3] = -0.45; /* left edge */
-    else H->box[0] = 0.45;         /* right edge */
-    H->velocity[0] = (h == 0 ? -0.5 : 0.5) * stretch;
-    H->window[1]   = PETSC_MAX_REAL;
+    VKHandle H;
+    VKHandleInitialize(&H); /* the whole box, at rest, over the whole scene */
+    if (h == 0) H.box[3] = -0.45; /* left edge */
+    else H.box[0] = 0.45;         /* right edge */
+    H.velocity[0] = (h == 0 ? -0.5 : 0.5) * stretch;
+    PetscCall(VKSceneAddHandle(scene, &H, PETSC_FALSE));
   }
 
   /* 5. the simulator: PD in a TS of type pd, every -pd_ and -ts_ option */

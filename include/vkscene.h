@@ -48,22 +48,7 @@ typedef struct {
 } VKCollider;
 
 typedef struct _n_VKScene *VKScene;
-struct _n_VKScene {
-  MPI_Comm   comm;
-  char       prefix[64];      /* of its options, e.g. fit_joint1_ for -fit_joint1_scene_gravity */
-  char       name[64];
-  PetscReal  gravity[3];      /* m/s^2 */
-  PetscReal  damping;         /* mass-proportional viscous damping c, 1/s: force -c m v on every yarn vertex and mesh node */
-  PetscReal  duration;        /* s */
-  PetscReal  output_interval; /* s */
-  PetscBool  relative;        /* lengths in bounding-box units (until set-up) */
-  PetscInt   nhandles, ncolliders;
-  VKHandle   handle[VK_SCENE_MAX];
-  VKCollider collider[VK_SCENE_MAX];
-  PetscBool  center_set[VK_SCENE_MAX];
-  PetscReal  lo[3], hi[3]; /* reference bounding box */
-  PetscBool  setup;
-};
+
 
 PETSC_EXTERN PetscErrorCode VKSceneCreate(MPI_Comm, VKScene *);
 /* Options read as -<prefix>scene_...; set before VKSceneSetFromOptions.
@@ -71,10 +56,36 @@ PETSC_EXTERN PetscErrorCode VKSceneCreate(MPI_Comm, VKScene *);
  * under a prefix. */
 PETSC_EXTERN PetscErrorCode VKSceneSetOptionsPrefix(VKScene, const char prefix[]);
 PETSC_EXTERN PetscErrorCode VKSceneSetFromOptions(VKScene);
+/* A scene built in code rather than from options, before VKSceneSetUp:
+ * its name, gravity (m/s^2), damping (1/s), duration and output interval
+ * (s), whether lengths are in metres (else scene units, the default), and
+ * its handles and colliders, in the units chosen.  VKHandleInitialize
+ * gives a handle the options' defaults: the whole box, at rest, rotation
+ * axis y, moving over the whole scene.  A handle added with
+ * center_set = PETSC_FALSE rotates about its box's centre. */
+PETSC_EXTERN PetscErrorCode VKSceneSetName(VKScene, const char name[]);
+PETSC_EXTERN PetscErrorCode VKSceneSetGravity(VKScene, const PetscReal g[3]);
+PETSC_EXTERN PetscErrorCode VKSceneSetDamping(VKScene, PetscReal);
+PETSC_EXTERN PetscErrorCode VKSceneSetTimes(VKScene, PetscReal duration, PetscReal output_interval);
+PETSC_EXTERN PetscErrorCode VKSceneSetAbsolute(VKScene, PetscBool metres);
+PETSC_EXTERN void           VKHandleInitialize(VKHandle *);
+PETSC_EXTERN PetscErrorCode VKSceneAddHandle(VKScene, const VKHandle *, PetscBool center_set);
+PETSC_EXTERN PetscErrorCode VKSceneAddCollider(VKScene, const VKCollider *);
 /* Fix scene units to metres with the rest bounding box [lo, hi] of the
  * yarn model (both simulators pass the same box). */
 PETSC_EXTERN PetscErrorCode VKSceneSetUp(VKScene, const PetscReal lo[], const PetscReal hi[]);
 PETSC_EXTERN PetscErrorCode VKSceneView(VKScene, PetscViewer);
+PETSC_EXTERN PetscErrorCode VKSceneGetName(VKScene, const char **);
+PETSC_EXTERN PetscErrorCode VKSceneGetGravity(VKScene, PetscReal g[3]);
+/* Mass-proportional damping c (1/s). */
+PETSC_EXTERN PetscErrorCode VKSceneGetDamping(VKScene, PetscReal *);
+/* Duration and output interval (s); either may be NULL. */
+PETSC_EXTERN PetscErrorCode VKSceneGetTimes(VKScene, PetscReal *duration, PetscReal *output_interval);
+/* The handles and the colliders (in metres once set up); n or the array
+ * may be NULL. */
+PETSC_EXTERN PetscErrorCode VKSceneGetHandles(VKScene, PetscInt *n, const VKHandle **);
+PETSC_EXTERN PetscErrorCode VKSceneGetColliders(VKScene, PetscInt *n, const VKCollider **);
+PETSC_EXTERN PetscErrorCode VKSceneIsSetUp(VKScene, PetscBool *);
 /* The largest step <= dt that divides the output interval, so a run at a
  * constant step writes its frames at k x the interval (volknit sim, and
  * the fit's rollout of it). */

@@ -3,6 +3,7 @@
  * (g_s 1e3, g_v 2e3 Pa), and a scene with gravity whose left edge is held
  * while the right edge is pulled along x at 0.5 m/s (set up by VKFitSetUp). */
 #pragma once
+#include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <vkfit.h>
 #include "../src/material/materialimpl.h" /* white-box: the material's mesh, values and band */
 

@@ -15,6 +15,7 @@
  *    part resting on the sphere, penetration bounded, 1 and 2 ranks agree.
  * ranks: 1 2
  */
+#include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <vksim.h>
 #include "vktest.h"
 #include "simtest.h"
@@ -194,6 +195,7 @@ static PetscErrorCode TestNodeTaylor(void)
   PetscCall(PetscMemzero(&pd, sizeof(pd)));
   pd.scene     = s;
   pd.contact_w = &w;
+  PetscCall(VKSceneGetColliders(s, &pd.ncolliders, &pd.collider));
   pd.t         = 0.1;
   pd.dt        = 0.01;
   PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd));

@@ -9,6 +9,8 @@
  *  - scene units: options in bounding-box units become metres.
  * ranks: 1 2
  */
+#include <string.h>
+#include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <vkscene.h>
 #include "vktest.h"
 
@@ -159,6 +161,73 @@ static PetscErrorCode TestUnits(void)
   PetscFunctionReturn(0);
 }
 
+/* The scene of TestUnits built in code (VKSceneAddHandle, VKSceneAddCollider)
+ * equals the one built from options, read back through the accessors; a
+ * box upside down, a ninth handle and a handle added after set-up are
+ * refused with a message naming the problem. */
+static PetscErrorCode TestBuiltInCode(void)
+{
+  const PetscReal   lo[3] = {0, 0, 0}, hi[3] = {2, 1, 0.01};
+  VKScene           a, b;
+  VKHandle          h;
+  VKCollider        c = {VK_COLLIDER_SPHERE, {0, 0, -0.42}, {0, 0, 1}, 0.3, {0, 0, 0}, 0.3};
+  const VKHandle   *ha, *hb;
+  const VKCollider *ca, *cb;
+  PetscInt          nha, nhb, nca, ncb;
+  PetscReal         d = 0;
+
+  PetscFunctionBegin;
+  PetscCall(PetscOptionsInsertString(NULL, "-scene_handles 1 -scene_handle0_box -1,0.46,-1,2,0.75,0.5 -scene_handle0_velocity 0.1,0,0 "
+                                           "-scene_colliders 1 -scene_collider0_type sphere -scene_collider0_point 0,0,-0.42 -scene_collider0_radius 0.3"));
+  PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &a));
+  PetscCall(VKSceneSetFromOptions(a));
+  PetscCall(PetscOptionsClear(NULL));
+  PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &b));
+  VKHandleInitialize(&h);
+  {
+    const PetscReal box[6] = {-1, 0.46, -1, 2, 0.75, 0.5};
+    for (int k = 0; k < 6; k++) h.box[k] = box[k];
+  }
+  h.velocity[0] = 0.1;
+  PetscCall(VKSceneAddHandle(b, &h, PETSC_FALSE));
+  PetscCall(VKSceneAddCollider(b, &c));
+  PetscCall(VKSceneSetUp(a, lo, hi));
+  PetscCall(VKSceneSetUp(b, lo, hi));
+  PetscCall(VKSceneGetHandles(a, &nha, &ha));
+  PetscCall(VKSceneGetHandles(b, &nhb, &hb));
+  PetscCall(VKSceneGetColliders(a, &nca, &ca));
+  PetscCall(VKSceneGetColliders(b, &ncb, &cb));
+  if (nha == 1 && nhb == 1 && nca == 1 && ncb == 1) {
+    for (int k = 0; k < 6; k++) d = PetscMax(d, PetscAbsReal(ha[0].box[k] - hb[0].box[k]));
+    for (int k = 0; k < 3; k++) d = PetscMax(d, PetscMax(PetscAbsReal(ha[0].velocity[k] - hb[0].velocity[k]), PetscAbsReal(ha[0].center[k] - hb[0].center[k])));
+    for (int k = 0; k < 3; k++) d = PetscMax(d, PetscAbsReal(ca[0].point[k] - cb[0].point[k]));
+    d = PetscMax(d, PetscMax(PetscAbsReal(ca[0].radius - cb[0].radius), PetscAbsReal(ca[0].friction - cb[0].friction)));
+  } else d = PETSC_MAX_REAL;
+  PetscCall(VKTestCheck((PetscBool)(d == 0), NULL, "a scene built in code equals the same scene from options after set-up (%d/%d handles, %d/%d colliders, largest difference %g)", (int)nha, (int)nhb, (int)nca, (int)ncb, (double)d));
+  {
+    const char *expect[3] = {"lower corner must be below", "at most 8 handles", "after VKSceneSetUp"};
+    for (int k = 0; k < 3; k++) {
+      VKScene        s = b;
+      PetscErrorCode ierr;
+      const char    *msg = NULL;
+      VKHandleInitialize(&h);
+      if (k == 0) h.box[2] = 2; /* z: 2 >= 1 */
+      if (k < 2) PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &s));
+      if (k == 1)
+        for (int i = 0; i < VK_SCENE_MAX; i++) PetscCall(VKSceneAddHandle(s, &h, PETSC_FALSE));
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+      ierr = VKSceneAddHandle(s, &h, PETSC_FALSE);
+      PetscCall(PetscPopErrorHandler());
+      if (ierr) PetscCall(PetscErrorMessage(ierr, NULL, (char **)&msg));
+      PetscCall(VKTestCheck((PetscBool)(ierr && msg && strstr(msg, expect[k])), msg, "VKSceneAddHandle refuses %s: '... %s ...'", k == 0 ? "a box upside down" : k == 1 ? "a ninth handle" : "a scene already set up", expect[k]));
+      if (k < 2) PetscCall(VKSceneDestroy(&s));
+    }
+  }
+  PetscCall(VKSceneDestroy(&a));
+  PetscCall(VKSceneDestroy(&b));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscFunctionBeginUser;
@@ -167,6 +236,7 @@ int main(int argc, char **argv)
   PetscCall(TestColliders());
   PetscCall(TestHandles());
   PetscCall(TestUnits());
+  PetscCall(TestBuiltInCode());
   {
     int rc = VKTestFinish();
     PetscCall(PetscFinalize());

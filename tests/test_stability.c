@@ -13,6 +13,7 @@
  * to the run's elastic and kinetic energies.
  * ranks: 1 2
  */
+#include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <vksim.h>
 #include <vkio.h>
 #include "vktest.h"

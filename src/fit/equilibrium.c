@@ -51,7 +51,7 @@ PetscErrorCode VKFitFrameCreateSpaced(VKFit fit, PetscInt index, PetscReal t, Pe
   PetscCall(VecAXPBY(f->y, -h / hprev, 1 + h / hprev, xhat2));
   PetscCall(VecGetArray(f->y, &ya));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) ya[3 * i + r] += h * h * fit->scene->gravity[r];
+    for (int r = 0; r < 3; r++) ya[3 * i + r] += h * h * fit->gravity[r];
   PetscCall(VecRestoreArray(f->y, &ya));
   if (fit->inertia != VK_FIT_INERTIA_IMPLICIT) { /* M (y - xhat)/dt^2 = M (g - a_data), or M g */
     const PetscScalar *xa;
@@ -63,7 +63,7 @@ PetscErrorCode VKFitFrameCreateSpaced(VKFit fit, PetscInt index, PetscReal t, Pe
     for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
       for (int r = 0; r < 3; r++) {
         PetscReal m = fit->mesh->mass[L->nStart + i];
-        fa[3 * i + r] = fit->inertia == VK_FIT_INERTIA_DATA ? m * (ya[3 * i + r] - xa[3 * i + r]) / (h * h) : m * fit->scene->gravity[r];
+        fa[3 * i + r] = fit->inertia == VK_FIT_INERTIA_DATA ? m * (ya[3 * i + r] - xa[3 * i + r]) / (h * h) : m * fit->gravity[r];
       }
     PetscCall(VecRestoreArray(f->fext, &fa));
     PetscCall(VecRestoreArrayRead(f->y, (const PetscScalar **)&ya));

@@ -246,14 +246,20 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
 
 PetscErrorCode VKFitSetUp(VKFit fit)
 {
+  PetscBool scene_setup;
+  PetscInt  nhandles;
+
   PetscFunctionBegin;
   if (fit->setup) PetscFunctionReturn(0);
-  if (!fit->scene->setup) { /* boxes relative to the yarn's rest bounding box, as in yls and sim */
+  PetscCall(VKSceneIsSetUp(fit->scene, &scene_setup));
+  if (!scene_setup) { /* boxes relative to the yarn's rest bounding box, as in yls and sim */
     PetscReal lo[3], hi[3];
     PetscCall(VKCurvesBoundingBox(&fit->mesh->yarn->curves, lo, hi));
     PetscCall(VKSceneSetUp(fit->scene, lo, hi));
   }
-  PetscCheck(fit->inertia == VK_FIT_INERTIA_IMPLICIT || fit->scene->nhandles > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_inertia %s is a static equilibrium, which needs scene handles to hold the mesh (this scene has none); use -fit_inertia implicit", VKFitInertias[fit->inertia]);
+  PetscCall(VKSceneGetGravity(fit->scene, fit->gravity));
+  PetscCall(VKSceneGetHandles(fit->scene, &nhandles, NULL));
+  PetscCheck(fit->inertia == VK_FIT_INERTIA_IMPLICIT || nhandles > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_inertia %s is a static equilibrium, which needs scene handles to hold the mesh (this scene has none); use -fit_inertia implicit", VKFitInertias[fit->inertia]);
   PetscCall(VKShapeFitSetUp(fit->sf));
   PetscCall(VKPDSetStatic(fit->pd, fit->inertia == VK_FIT_INERTIA_IMPLICIT ? PETSC_FALSE : PETSC_TRUE));
   PetscCall(VKPDSetUp(fit->pd));

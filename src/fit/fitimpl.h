@@ -36,6 +36,7 @@ struct _n_VKFit {
   VKMesh       mesh;
   VKMaterial   mat;
   VKScene      scene;
+  PetscReal    gravity[3]; /* the scene's, from the set-up */
   VKShapeFit   sf;
   VKPD         pd;      /* options prefix fit_ */
   VKPDType     pd_type; /* -fit_pd_type, restored after an equilibrium's L-BFGS fallback */

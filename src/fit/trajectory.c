@@ -71,8 +71,8 @@ PetscReal VKFitTrajectoryStep(VKFit fit)
   PetscBool set;
 
   if (fit->traj_dt > 0) return fit->traj_dt;
-  if (PetscOptionsGetReal(NULL, NULL, "-ts_dt", &dt, &set) || !set || !(dt > 0)) dt = PetscMin(1.0 / 150, fit->scene->output_interval);
-  return VKSceneFrameStep(fit->scene, dt); /* as volknit sim steps */
+  if (PetscOptionsGetReal(NULL, NULL, "-ts_dt", &dt, &set) || !set || !(dt > 0)) dt = 1.0 / 150;
+  return VKSceneFrameStep(fit->scene, dt); /* as volknit sim steps: min(dt, the output interval), shortened to divide it */
 }
 
 /* max_k |M (xhat_k - 2 xhat_{k-1} + xhat_{k-2})| / dh^2 (rest before t_0) */
@@ -331,7 +331,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
   VKFit           fit = T->fit;
   const VKLayout *L   = &fit->mesh->layout;
   PetscReal       dt  = VKFitTrajectoryStep(fit), t = 0, hprev = dt;
-  const PetscReal *g  = fit->scene->gravity;
+  const PetscReal *g  = fit->gravity;
 
   PetscFunctionBegin;
   PetscCheck(r >= 0 && r <= fit->rbasis, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "Trajectory sensitivities in %d harmonics; the basis has %d (VKFitHarmonicSetUp)", (int)r, (int)fit->rbasis);

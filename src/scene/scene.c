@@ -4,10 +4,11 @@
  * collider geometry: depth and outward normal of a point (the simulators
  * turn them into contact and friction potentials: src/sim/pd_contact.c,
  * src/yls/potential.c). */
-#include <vkscene.h>
+#include "sceneimpl.h"
 #include <petscviewer.h>
 #include <vkutil.h>
 #include <math.h>
+#include <string.h>
 
 const char *const VKColliderTypes[] = {"plane", "sphere", "cylinder", "VKColliderType", "VK_COLLIDER_", NULL};
 
@@ -25,6 +26,58 @@ PetscErrorCode VKSceneCreate(MPI_Comm comm, VKScene *scene)
   s->relative        = PETSC_TRUE;
   PetscCall(PetscStrncpy(s->name, "scene", sizeof(s->name)));
   *scene = s;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneGetName(VKScene s, const char **name)
+{
+  PetscFunctionBegin;
+  *name = s->name;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneGetGravity(VKScene s, PetscReal g[3])
+{
+  PetscFunctionBegin;
+  for (int k = 0; k < 3; k++) g[k] = s->gravity[k];
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneGetDamping(VKScene s, PetscReal *c)
+{
+  PetscFunctionBegin;
+  *c = s->damping;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneGetTimes(VKScene s, PetscReal *duration, PetscReal *output_interval)
+{
+  PetscFunctionBegin;
+  if (duration) *duration = s->duration;
+  if (output_interval) *output_interval = s->output_interval;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneGetHandles(VKScene s, PetscInt *n, const VKHandle **h)
+{
+  PetscFunctionBegin;
+  if (n) *n = s->nhandles;
+  if (h) *h = s->handle;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneGetColliders(VKScene s, PetscInt *n, const VKCollider **c)
+{
+  PetscFunctionBegin;
+  if (n) *n = s->ncolliders;
+  if (c) *c = s->collider;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneIsSetUp(VKScene s, PetscBool *setup)
+{
+  PetscFunctionBegin;
+  *setup = s->setup;
   PetscFunctionReturn(0);
 }
 
@@ -62,11 +115,7 @@ static PetscErrorCode HandleOptions(PetscOptionItems *PetscOptionsObject, VKScen
   PetscBool set = PETSC_FALSE;
 
   PetscFunctionBegin;
-  h->box[0] = h->box[1] = h->box[2] = -1;
-  h->box[3] = h->box[4] = h->box[5] = 1;
-  h->axis[1]   = 1;
-  h->window[0] = 0;
-  h->window[1] = PETSC_MAX_REAL;
+  VKHandleInitialize(h);
   PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_handle%d_box", (int)i));
   PetscCall(Option3(PetscOptionsObject, opt, "Handle box in rest coordinates: xlo,ylo,zlo,xhi,yhi,zhi (fractions of the rest bounding box per axis, -0.5..0.5 spans it)", h->box, 6, &set));
   PetscCheck(set, PETSC_COMM_WORLD, PETSC_ERR_ARG_WRONG, "-scene_handles %d needs %s", (int)s->nhandles, opt);
@@ -126,6 +175,107 @@ static PetscErrorCode ColliderOptions(PetscOptionItems *PetscOptionsObject, VKSc
   PetscCall(PetscSNPrintf(opt, sizeof(opt), "-scene_collider%d_friction", (int)i));
   PetscCall(PetscOptionsReal(opt, "Coulomb friction coefficient", "VKSceneSetFromOptions", c->friction, &c->friction, NULL));
   PetscCheck(c->friction >= 0 && isfinite(c->friction), PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be >= 0 and finite, got %g", opt, (double)c->friction);
+  PetscFunctionReturn(0);
+}
+
+void VKHandleInitialize(VKHandle *h)
+{
+  memset(h, 0, sizeof(*h));
+  h->box[0] = h->box[1] = h->box[2] = -1;
+  h->box[3] = h->box[4] = h->box[5] = 1;
+  h->axis[1]   = 1;
+  h->window[0] = 0;
+  h->window[1] = PETSC_MAX_REAL;
+}
+
+static PetscErrorCode CheckNotSetUp(VKScene s, const char caller[])
+{
+  PetscFunctionBegin;
+  PetscCheck(!s->setup, s->comm, PETSC_ERR_ORDER, "%s() after VKSceneSetUp(): the scene is fixed once set up", caller);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneSetName(VKScene s, const char name[])
+{
+  PetscFunctionBegin;
+  PetscCall(CheckNotSetUp(s, "VKSceneSetName"));
+  PetscCall(PetscStrncpy(s->name, name, sizeof(s->name)));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneSetGravity(VKScene s, const PetscReal g[3])
+{
+  PetscFunctionBegin;
+  PetscCall(CheckNotSetUp(s, "VKSceneSetGravity"));
+  for (int k = 0; k < 3; k++) PetscCheck(isfinite(g[k]), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Scene gravity must be finite, got (%g, %g, %g)", (double)g[0], (double)g[1], (double)g[2]);
+  for (int k = 0; k < 3; k++) s->gravity[k] = g[k];
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneSetDamping(VKScene s, PetscReal c)
+{
+  PetscFunctionBegin;
+  PetscCall(CheckNotSetUp(s, "VKSceneSetDamping"));
+  PetscCheck(c >= 0 && isfinite(c), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Scene damping must be >= 0 and finite, got %g", (double)c);
+  s->damping = c;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneSetTimes(VKScene s, PetscReal duration, PetscReal output_interval)
+{
+  PetscFunctionBegin;
+  PetscCall(CheckNotSetUp(s, "VKSceneSetTimes"));
+  PetscCheck(duration > 0 && isfinite(duration) && output_interval > 0 && isfinite(output_interval), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Scene duration and output interval must be positive and finite, got %g s and %g s", (double)duration, (double)output_interval);
+  PetscCheck(duration / output_interval <= VK_SCENE_MAX_FRAMES, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Scene duration %g s at an output interval of %g s asks for more than %g frames", (double)duration, (double)output_interval, (double)VK_SCENE_MAX_FRAMES);
+  s->duration        = duration;
+  s->output_interval = output_interval;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneSetAbsolute(VKScene s, PetscBool metres)
+{
+  PetscFunctionBegin;
+  PetscCall(CheckNotSetUp(s, "VKSceneSetAbsolute"));
+  s->relative = metres ? PETSC_FALSE : PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneAddHandle(VKScene s, const VKHandle *h, PetscBool center_set)
+{
+  VKHandle *d;
+
+  PetscFunctionBegin;
+  PetscCall(CheckNotSetUp(s, "VKSceneAddHandle"));
+  PetscCheck(s->nhandles < VK_SCENE_MAX, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "A scene has at most %d handles", VK_SCENE_MAX);
+  for (int a = 0; a < 3; a++) PetscCheck(h->box[a] < h->box[3 + a], s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Handle %d: the box's lower corner must be below its upper corner in every coordinate (coordinate %d: %g >= %g)", (int)s->nhandles, a, (double)h->box[a], (double)h->box[3 + a]);
+  PetscCheck(h->omega == 0 || Norm3(h->axis) > 0, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Handle %d rotates about a zero axis", (int)s->nhandles);
+  PetscCheck(h->window[0] >= 0 && h->window[0] < h->window[1], s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Handle %d: its time window needs 0 <= t0 < t1, got %g, %g", (int)s->nhandles, (double)h->window[0], (double)h->window[1]);
+  d = &s->handle[s->nhandles];
+  *d = *h;
+  if (d->omega != 0) {
+    PetscReal n = Norm3(d->axis);
+    for (int a = 0; a < 3; a++) d->axis[a] /= n;
+  }
+  s->center_set[s->nhandles++] = center_set;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKSceneAddCollider(VKScene s, const VKCollider *c)
+{
+  VKCollider *d;
+
+  PetscFunctionBegin;
+  PetscCall(CheckNotSetUp(s, "VKSceneAddCollider"));
+  PetscCheck(s->ncolliders < VK_SCENE_MAX, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "A scene has at most %d colliders", VK_SCENE_MAX);
+  PetscCheck(Norm3(c->normal) > 0, s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Collider %d: its normal (plane) or axis (cylinder) must be non-zero", (int)s->ncolliders);
+  PetscCheck(c->type == VK_COLLIDER_PLANE || (c->radius > 0 && isfinite(c->radius)), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Collider %d: a %s needs a positive radius", (int)s->ncolliders, VKColliderTypes[c->type]);
+  PetscCheck(c->friction >= 0 && isfinite(c->friction), s->comm, PETSC_ERR_ARG_OUTOFRANGE, "Collider %d: friction must be >= 0 and finite, got %g", (int)s->ncolliders, (double)c->friction);
+  d  = &s->collider[s->ncolliders++];
+  *d = *c;
+  {
+    PetscReal n = Norm3(d->normal);
+    for (int a = 0; a < 3; a++) d->normal[a] /= n;
+  }
   PetscFunctionReturn(0);
 }
 

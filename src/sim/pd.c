@@ -420,7 +420,7 @@ PetscErrorCode VKPDHandleNodesOf(VKScene scene, VKMesh mesh, VKPDHandleNodes rul
 
 PetscErrorCode VKPDCheckHandles(VKScene scene, VKMesh mesh, VKPDHandleNodes rule)
 {
-  PetscInt *node_of, held[VK_SCENE_MAX] = {0}, nodes[VK_SCENE_MAX] = {0};
+  PetscInt *node_of, held[VK_SCENE_MAX] = {0}, nodes[VK_SCENE_MAX] = {0}, nhandles;
 
   PetscFunctionBegin;
   PetscCall(PetscMalloc1(mesh->nv + 1, &node_of));
@@ -428,7 +428,8 @@ PetscErrorCode VKPDCheckHandles(VKScene scene, VKMesh mesh, VKPDHandleNodes rule
   for (PetscInt i = 0; i < mesh->nv; i++)
     if (node_of[i] >= 0) nodes[node_of[i]]++;
   PetscCall(PetscFree(node_of));
-  for (PetscInt h = 0; h < scene->nhandles; h++) {
+  PetscCall(VKSceneGetHandles(scene, &nhandles, NULL));
+  for (PetscInt h = 0; h < nhandles; h++) {
     if (rule == VK_PD_HANDLE_EMBEDDED) PetscCheck(held[h] > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no embedded yarn vertex, so it holds nothing (with -pd_handle_nodes box it would hold the mesh nodes in the box)", (int)h, (int)h);
     PetscCheck(nodes[h] > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node (mesh h = %g m; a smaller -mesh_h, a larger box, or -pd_handle_nodes embedded)", (int)h, (int)h, (double)mesh->grid.h);
   }
@@ -475,7 +476,7 @@ static PetscErrorCode ForceScales(VKPD pd)
   Vec             xr, kx;
 
   PetscFunctionBegin;
-  for (int c = 0; c < 3; c++) g2 += PetscSqr(pd->scene->gravity[c]);
+  for (int c = 0; c < 3; c++) g2 += PetscSqr(pd->gravity[c]);
   sums[0] = sums[1] = 0;
   PetscCall(MatCreateVecs(pd->K, &xr, &kx));
   for (int c = 0; c < 3; c++) {
@@ -605,7 +606,7 @@ static PetscErrorCode AssembleK(VKPD pd)
       if (pd->node_handle[i] >= 0 && pd->node_handle[i] < VK_SCENE_MAX) continue;
       pd->node_handle[i] = -1;
       if (da[i] > 1e-14 * kmean) {
-        if (pd->scene->ncolliders) pd->contact_w[i] = pd->contact_weight * da[i];
+        if (pd->ncolliders) pd->contact_w[i] = pd->contact_weight * da[i];
         continue;
       }
       pd->node_handle[i]            = VK_SCENE_MAX; /* frozen */
@@ -614,7 +615,7 @@ static PetscErrorCode AssembleK(VKPD pd)
       pd->handle_row[pd->nhandle++] = L->nStart + i;
     }
     PetscCall(VecRestoreArrayRead(d, &da));
-    if (pd->scene->ncolliders) {
+    if (pd->ncolliders) {
       PetscScalar *wa;
       PetscCall(VecGetArray(d, &wa));
       for (PetscInt i = 0; i < nown; i++) wa[i] = pd->contact_w[i];
@@ -659,16 +660,23 @@ static PetscErrorCode AssembleK(VKPD pd)
 
 PetscErrorCode VKPDSetUp(VKPD pd)
 {
+  PetscBool scene_setup;
+  PetscReal damping;
+
   PetscFunctionBegin;
-  PetscCheck(pd->scene->setup, pd->comm, PETSC_ERR_ORDER, "Call VKSceneSetUp() before VKPDSetUp()");
+  PetscCall(VKSceneIsSetUp(pd->scene, &scene_setup));
+  PetscCheck(scene_setup, pd->comm, PETSC_ERR_ORDER, "Call VKSceneSetUp() before VKPDSetUp()");
+  PetscCall(VKSceneGetGravity(pd->scene, pd->gravity));
+  PetscCall(VKSceneGetColliders(pd->scene, &pd->ncolliders, &pd->collider));
   PetscCall(VKMaterialSetUp(pd->mat));
   if (pd->kset) { /* the material changed since K was built (VKMaterialSetGamma) */
     PetscObjectState state;
     PetscCall(VKMaterialGetState(pd->mat, &state));
     if (state != pd->mat_state) pd->kset = PETSC_FALSE;
   }
-  if (pd->damping != pd->scene->damping) { /* -scene_damping is read after VKPDCreate */
-    pd->damping = pd->scene->damping;
+  PetscCall(VKSceneGetDamping(pd->scene, &damping));
+  if (pd->damping != damping) { /* -scene_damping is read after VKPDCreate */
+    pd->damping = damping;
     pd->kset    = PETSC_FALSE;
   }
   if (!pd->setup) {
@@ -713,7 +721,7 @@ PetscErrorCode VKPDView(VKPD pd, PetscViewer viewer)
   PetscFunctionBegin;
   {
     char cheb[128] = "", newton[128] = "", contact[96] = "", type[64] = "", stop[160];
-    if (pd->scene->ncolliders) PetscCall(PetscSNPrintf(contact, sizeof(contact), ", collider constraints of weight %g K_ii", (double)pd->contact_weight));
+    if (pd->ncolliders) PetscCall(PetscSNPrintf(contact, sizeof(contact), ", collider constraints of weight %g K_ii", (double)pd->contact_weight));
     if (pd->cheb_rho > 0) PetscCall(PetscSNPrintf(cheb, sizeof(cheb), ", Chebyshev rho %g gamma %g after %d", (double)pd->cheb_rho, (double)pd->cheb_gamma, (int)pd->cheb_delay));
     if (pd->newton_its) PetscCall(PetscSNPrintf(newton, sizeof(newton), ", then up to %d Newton iterations to rtol %g", (int)pd->newton_its, (double)pd->newton_rtol));
     if (pd->type == VK_PD_TYPE_LBFGS) PetscCall(PetscSNPrintf(type, sizeof(type), "L-BFGS (history %d, K^-1 initial Hessian)", (int)pd->lbfgs_m));

@@ -37,12 +37,12 @@ PetscReal VKPDNodeContact(VKPD pd, PetscInt i, const PetscReal x[], const PetscR
   if (prev) {
     PetscReal nl[3], d0 = VKSceneContact(pd->scene, pd->t - pd->dt, prev, 0, nl, &which), mu, mul, eps, u[3], un = 0, y, f0, f1y, df1;
     if (!(d0 > 0)) return E;
-    mu = pd->scene->collider[which].friction;
+    mu = pd->collider[which].friction;
     if (!(mu > 0)) return E;
     mul = mu * w * d0;
     eps = 2 * mu * d0;
     for (int k = 0; k < 3; k++) {
-      u[k] = x[k] - prev[k] - pd->scene->collider[which].velocity[k] * pd->dt;
+      u[k] = x[k] - prev[k] - pd->collider[which].velocity[k] * pd->dt;
       un += u[k] * nl[k];
     }
     for (int k = 0; k < 3; k++) u[k] -= un * nl[k];

@@ -43,7 +43,7 @@ static PetscErrorCode Hessian(VKPD pd, Vec x, PetscBool psd, Mat H)
     for (int c = 0; c < 3; c++) ma[3 * i + c] = VKPDInertiaScale(pd) * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt);
   PetscCall(VecRestoreArray(pd->hdiag, &ma));
   PetscCall(MatDiagonalSet(H, pd->hdiag, ADD_VALUES));
-  if (pd->scene->ncolliders) {
+  if (pd->ncolliders) {
     const PetscScalar *xa, *pa = NULL;
     PetscCall(VecGetArrayRead(x, &xa));
     if (pd->prev) PetscCall(VecGetArrayRead(pd->prev, &pa));

@@ -321,7 +321,7 @@ static PetscErrorCode RightHandSide(VKPD pd, Vec y, Vec x, PetscReal *phi, VKPDS
   *creaction = 0;
   PetscCall(VKPDLocalStep(pd, x, pd->b, &st->energy, &st->inverted));
   PetscCall(VecAXPY(pd->b, 1, pd->My));
-  if (pd->scene->ncolliders) PetscCall(ContactStep(pd, x, pd->b, &Ec, &st->contacts, &st->depth, creaction));
+  if (pd->ncolliders) PetscCall(ContactStep(pd, x, pd->b, &Ec, &st->contacts, &st->depth, creaction));
   PetscCall(KineticTerm(pd, x, y, &T));
   *phi = T + st->energy + Ec;
   PetscFunctionReturn(0);

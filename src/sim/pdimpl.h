@@ -11,6 +11,10 @@ struct _n_VKPD {
   VKMesh     mesh;
   VKMaterial mat;
   VKScene    scene;
+  /* what the solves read of the scene, from its set-up (VKPDSetUp) */
+  PetscReal         gravity[3];
+  PetscInt          ncolliders;
+  const VKCollider *collider;
   PetscReal  dt;
   /* inertia: 1, or 0 for a static equilibrium (fitting, -fit_inertia
    * data|none), where Phi = E(x) - fconst . x; fconst (optional, not

@@ -55,12 +55,13 @@ PetscErrorCode VKSimSetOutputDirectory(VKSim sim, const char dir[])
 PetscErrorCode VKSimSetFromOptions(VKSim sim)
 {
   PetscBool ispd;
-  PetscReal dt;
+  PetscReal dt, duration, interval;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetTimes(sim->scene, &duration, &interval));
   PetscCall(VKPDSetFromOptions(sim->pd));
-  PetscCall(TSSetMaxTime(sim->ts, sim->scene->duration));
-  dt = PetscMin(1.0 / 150, sim->scene->output_interval);
+  PetscCall(TSSetMaxTime(sim->ts, duration));
+  dt = PetscMin(1.0 / 150, interval);
   PetscCall(TSSetTimeStep(sim->ts, dt));
   PetscCall(TSSetFromOptions(sim->ts));
   PetscCall(PetscObjectTypeCompare((PetscObject)sim->ts, TSPD, &ispd));
@@ -85,24 +86,25 @@ PetscErrorCode VKSimSetFromOptions(VKSim sim)
 static PetscErrorCode OutputMonitor(TS ts, PetscInt step, PetscReal t, Vec x, void *ctx)
 {
   VKSim                  sim = (VKSim)ctx;
-  PetscReal              dt, T;
+  PetscReal              dt, T, interval;
   TSExactFinalTimeOption eft;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetTimes(sim->scene, NULL, &interval));
   (void)step;
   PetscCall(TSGetTimeStep(ts, &dt));
   PetscCall(TSGetMaxTime(ts, &T));
   PetscCall(TSGetExactFinalTime(ts, &eft));
   if (t >= sim->next_output - 1e-6 * dt || (eft == TS_EXACTFINALTIME_MATCHSTEP && t >= T)) {
     PetscCall(VKSimOutputFrame(sim, t, x));
-    while (sim->next_output <= t + 1e-6 * dt) sim->next_output += sim->scene->output_interval;
+    while (sim->next_output <= t + 1e-6 * dt) sim->next_output += interval;
   }
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKSimSetUp(VKSim sim)
 {
-  PetscReal lo[3], hi[3], dt;
+  PetscReal lo[3], hi[3], dt, interval;
 
   PetscFunctionBegin;
   if (sim->setup) PetscFunctionReturn(0);
@@ -112,8 +114,9 @@ PetscErrorCode VKSimSetUp(VKSim sim)
   PetscCall(TSGetTimeStep(sim->ts, &dt));
   {
     PetscReal step = VKSceneFrameStep(sim->scene, dt);
+    PetscCall(VKSceneGetTimes(sim->scene, NULL, &interval));
     if (step != dt) {
-      if (!sim->quiet) PetscCall(PetscPrintf(sim->comm, "volknit sim: -ts_dt %g does not divide the output interval %g s: steps of %g s instead, so the frames fall on it\n", (double)dt, (double)sim->scene->output_interval, (double)step));
+      if (!sim->quiet) PetscCall(PetscPrintf(sim->comm, "volknit sim: -ts_dt %g does not divide the output interval %g s: steps of %g s instead, so the frames fall on it\n", (double)dt, (double)interval, (double)step));
       dt = step;
       PetscCall(TSSetTimeStep(sim->ts, dt));
     }
@@ -154,10 +157,11 @@ PetscErrorCode VKSimEnergies(VKSim sim, Vec x, Vec v, PetscReal e[3])
 {
   const VKLayout    *L = &sim->mesh->layout;
   const PetscScalar *xa, *va;
-  const PetscReal   *g = sim->scene->gravity;
+  PetscReal          g[3];
   PetscReal          mine[2] = {0, 0}, all[2];
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetGravity(sim->scene, g));
   PetscCall(VKMaterialEnergy(sim->mat, x, &e[0]));
   PetscCall(VecGetArrayRead(x, &xa));
   PetscCall(VecGetArrayRead(v, &va));
@@ -256,8 +260,10 @@ PetscErrorCode VKSimRun(VKSim sim)
   PetscInt          steps;
   Vec               v;
   PetscLogDouble    t0;
+  const char       *scene_name;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetName(sim->scene, &scene_name));
   PetscCall(VKSimSetUp(sim));
   PetscCall(PetscLogStagePush(VK_STAGE_SIM));
   t0 = VKWallTime();
@@ -297,7 +303,7 @@ PetscErrorCode VKSimRun(VKSim sim)
     if (st.unconverged_steps) PetscCall(PetscSNPrintf(conv, sizeof(conv), "UNCONVERGED in %d of %d steps (first: step %d; worst |grad Phi| %.3g x its tolerance)", (int)st.unconverged_steps, (int)st.steps, (int)st.first_unconverged_step, (double)st.residual_over_tol_max));
     else if (st.unmeasured_steps) PetscCall(PetscSNPrintf(conv, sizeof(conv), "residual not measured (-pd_fixed_its)"));
     else PetscCall(PetscSNPrintf(conv, sizeof(conv), "converged in every step (|grad Phi| <= %.2g x f_scale at most)", (double)st.residual_force_max));
-    PetscCall(PetscPrintf(sim->comm, "volknit sim: %s, %d steps of %g s to t = %g s, %s iterations %.1f per step (max %d), %s, %d inverted tets (max), %.3f s per step (local %.3f, global %.3f, other %.3f)%s%s\n", sim->scene->name, (int)steps, (double)dt, (double)t, VKPDTypes[sim->pd->type], st.steps ? (double)st.iterations / st.steps : 0.0, (int)st.iterations_max, conv, (int)st.inverted_max, st.steps ? sim->time_run / st.steps : 0.0,
+    PetscCall(PetscPrintf(sim->comm, "volknit sim: %s, %d steps of %g s to t = %g s, %s iterations %.1f per step (max %d), %s, %d inverted tets (max), %.3f s per step (local %.3f, global %.3f, other %.3f)%s%s\n", scene_name, (int)steps, (double)dt, (double)t, VKPDTypes[sim->pd->type], st.steps ? (double)st.iterations / st.steps : 0.0, (int)st.iterations_max, conv, (int)st.inverted_max, st.steps ? sim->time_run / st.steps : 0.0,
                           st.steps ? st.time_local / st.steps : 0.0, st.steps ? st.time_global / st.steps : 0.0, st.steps ? st.time_other / st.steps : 0.0, sim->dir[0] ? " -> " : "", sim->dir[0] ? sim->dir : ""));
     if (st.roundoff_steps)
       PetscCall(PetscPrintf(sim->comm, "volknit sim: WARNING: %d of %d steps stopped at the round-off floor of |grad Phi| (%.3g N), above the -pd_ftol %g x f_scale asked for, and count as unconverged: the material is stiff enough somewhere that the requested accuracy cannot be reached (a fitted material: refit with a lower -fit_gamma_max)\n", (int)st.roundoff_steps, (int)st.steps, (double)sim->pd->res_floor, (double)sim->pd->ftol));

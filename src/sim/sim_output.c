@@ -42,9 +42,11 @@ typedef struct {
 static PetscErrorCode WriteStatic(VKSim sim, SimOutput *o)
 {
   VKMesh m = sim->mesh;
+  const char *scene_name;
 
   PetscFunctionBegin;
-  PetscCall(VKRunFileOpen(&o->rf, sim->dir, "sim", SIM_FORMAT, m->yarn, sim->scene->name, VKSceneFrameCount(sim->scene)));
+  PetscCall(VKSceneGetName(sim->scene, &scene_name));
+  PetscCall(VKRunFileOpen(&o->rf, sim->dir, "sim", SIM_FORMAT, m->yarn, scene_name, VKSceneFrameCount(sim->scene)));
   PetscCall(VKH5WriteInt(&o->rf.h5, "/mesh/tets", m->ne, 4, m->tet));
   PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/node_mass", m->nv, 1, m->mass));
   PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/x_rest", m->nv, 3, m->x));
@@ -247,8 +249,10 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscInt     nsteps;
   PetscMPIInt  size;
   const char  *solver;
+  const char *scene_name;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetName(sim->scene, &scene_name));
   PetscCall(VKTSPDGetStats(sim->ts, &st));
   PetscCall(TSGetTimeStep(sim->ts, &dt));
   PetscCall(TSGetTime(sim->ts, &t));
@@ -261,7 +265,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   }
   PetscCall(VKJSONBegin(&j, out->fp));
   PetscCall(VKJSONString(&j, "format", "volknit-sim-summary 1"));
-  PetscCall(VKJSONString(&j, "scene", sim->scene->name));
+  PetscCall(VKJSONString(&j, "scene", scene_name));
   {
     const char *status;
     PetscCall(VKSimGetStatus(sim, &status));
@@ -322,8 +326,10 @@ static PetscErrorCode CloseRank0(VKSim sim, const char failure[])
   SimOutput *o = (SimOutput *)sim->out;
   char       path[PETSC_MAX_PATH_LEN];
   JSONCtx    ctx = {sim, failure};
+  const char *scene_name;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetName(sim->scene, &scene_name));
   PetscCall(VKH5WriteReal(&o->rf.h5, "/sim/time", o->n, 1, o->time));
   PetscCall(VKH5WriteReal(&o->rf.h5, "/sim/energy", o->n, 3, o->energy));
   {
@@ -342,7 +348,7 @@ static PetscErrorCode CloseRank0(VKSim sim, const char failure[])
   }
   {
     char title[128];
-    PetscCall(PetscSNPrintf(title, sizeof(title), "volknit sim: scene %s, embedded yarns", sim->scene->name));
+    PetscCall(PetscSNPrintf(title, sizeof(title), "volknit sim: scene %s, embedded yarns", scene_name));
     PetscCall(VKRunFileClose(&o->rf, WriteXdmf, sim, "volknit sim", title));
   }
   PetscCall(VKPathJoin(sim->dir, "sim.json", path, sizeof(path)));

@@ -46,7 +46,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   Vec             x  = ts->vec_sol;
   PetscReal       dt = ts->time_step, t1 = ts->ptime + dt, rel;
   PetscBool       last = PETSC_FALSE, roundoff;
-  const PetscReal *g = pd->scene->gravity;
+  const PetscReal *g = pd->gravity;
   PetscScalar    *ya;
   PetscInt        n;
   VKTSPDStats    *s = &p->stats;

@@ -43,15 +43,17 @@ PetscErrorCode VKYLSOutputOpen(VKYLS y)
   YLSOutput     *o;
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
+  const char *scene_name;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetName(y->scene, &scene_name));
   PetscCall(VKYLSOutputDestroy(y));
   PetscCall(PetscNew(&o));
   y->out = o;
   if (!y->dir[0]) PetscFunctionReturn(0);
   PetscCall(VKMakeDirectory(y->comm, y->dir));
   PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
-  if (rank == 0) ierr = VKRunFileOpen(&o->rf, y->dir, "yls", YLS_FORMAT, y->yarn, y->scene->name, VKSceneFrameCount(y->scene));
+  if (rank == 0) ierr = VKRunFileOpen(&o->rf, y->dir, "yls", YLS_FORMAT, y->yarn, scene_name, VKSceneFrameCount(y->scene));
   PetscCall(VKCollective(y->comm, ierr, "Creating yls.h5"));
   PetscCall(PetscMalloc4(3 * y->model.nv, &o->vel, y->model.nv, &o->stretch, y->model.nv, &o->curvature, 3 * y->model.nv, &o->contact));
   PetscFunctionReturn(0);
@@ -185,8 +187,10 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscMPIInt size;
   PetscInt    steps = PetscMax(y->stats.steps, 1);
   const char *pc;
+  const char *scene_name;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetName(y->scene, &scene_name));
   PetscCallMPI(MPI_Comm_size(y->comm, &size));
   {
     KSP ksp;
@@ -197,7 +201,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   }
   PetscCall(VKJSONBegin(&j, out->fp));
   PetscCall(VKJSONString(&j, "format", "volknit-yls-summary 1"));
-  PetscCall(VKJSONString(&j, "scene", y->scene->name));
+  PetscCall(VKJSONString(&j, "scene", scene_name));
   PetscCall(VKJSONString(&j, "status", VKYLSStatus(y, c->failure)));
   if (((YLSOutput *)y->out)->rf.has_preview) PetscCall(VKJSONString(&j, "preview", "yls_preview.png"));
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
@@ -271,8 +275,10 @@ static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
   char       path[PETSC_MAX_PATH_LEN];
   JSONCtx    ctx = {y, failure};
   PetscReal *t, *e;
+  const char *scene_name;
 
   PetscFunctionBegin;
+  PetscCall(VKSceneGetName(y->scene, &scene_name));
   PetscCall(PetscMalloc2(o->n + 1, &t, 6 * o->n + 1, &e));
   for (PetscInt f = 0; f < o->n; f++) {
     t[f] = o->row[NCOL * f];
@@ -288,7 +294,7 @@ static PetscErrorCode CloseRank0(VKYLS y, const char failure[])
   PetscCall(VKH5WriteAttrReal(&o->rf.h5, "/yls", "wall_time_stepping", y->time_run - y->relax_time)); /* for volknit report */
   {
     char title[128];
-    PetscCall(PetscSNPrintf(title, sizeof(title), "volknit yls: scene %s, yarns", y->scene->name));
+    PetscCall(PetscSNPrintf(title, sizeof(title), "volknit yls: scene %s, yarns", scene_name));
     PetscCall(VKRunFileClose(&o->rf, WriteXdmf, y, "volknit yls", title));
   }
   PetscCall(VKPathJoin(y->dir, "yls.csv", path, sizeof(path)));

@@ -113,7 +113,7 @@ static PetscReal Friction(PetscReal yv, PetscReal eps, PetscReal *f1, PetscReal 
 /* Inertia, gravity, viscous damping, colliders and friction of vertex i. */
 static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accum *acc)
 {
-  const PetscReal *xi = x + 3 * i, *xn = y->xn + 3 * i, *vn = y->vn + 3 * i, *grav = y->scene->gravity;
+  const PetscReal *xi = x + 3 * i, *xn = y->xn + 3 * i, *vn = y->vn + 3 * i, *grav = y->gravity;
   PetscReal        m = y->model.mass[i], dt = y->dt, ge[3] = {0, 0, 0}, He[9] = {0}, d2 = 0, u2 = 0, work = 0, diag;
   PetscReal        n[3], depth, t1 = y->t + dt;
   PetscInt         which;
@@ -131,7 +131,7 @@ static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accu
   VKSumAdd(&acc->term[YLS_DAMPING], 0.5 * y->cv * m * u2 / dt);
   diag = m / (dt * dt) + y->cv * m / dt;
   for (int k = 0; k < 3; k++) He[4 * k] = diag;
-  depth = y->scene->ncolliders ? VKSceneContact(y->scene, t1, xi, y->par.radius, n, &which) : 0;
+  depth = y->ncolliders ? VKSceneContact(y->scene, t1, xi, y->par.radius, n, &which) : 0;
   if (depth > 0) {
     VKSumAdd(&acc->term[YLS_COLLIDER], 0.5 * y->kw * depth * depth);
     acc->collider2 += PetscSqr(y->kw * depth);
@@ -141,7 +141,7 @@ static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accu
     }
   }
   if (y->friction[i] > 0) { /* lagged normal force and tangent plane */
-    const PetscReal *nl = y->contact_normal + 3 * i, *vc = y->scene->collider[y->contact_collider[i]].velocity;
+    const PetscReal *nl = y->contact_normal + 3 * i, *vc = y->collider[y->contact_collider[i]].velocity;
     PetscReal        u[3], un = 0, yv, f1, f1y, df1, mul = y->friction[i], eps = y->friction_eps * dt;
     for (int k = 0; k < 3; k++) {
       u[k] = xi[k] - xn[k] - vc[k] * dt;

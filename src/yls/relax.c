@@ -71,15 +71,14 @@ static PetscErrorCode ResetRest(VKYLS y)
 
 PetscErrorCode VKYLSRelax(VKYLS y)
 {
-  PetscInt      *handle, steps = 0, halved, nhandles, ncolliders;
+  PetscInt      *handle, steps = 0, halved, ncolliders;
   PetscReal      g[3], dt, cv, cs, r, *thheld;
   VKYLSStats     stats;
   PetscLogDouble t0 = VKWallTime();
 
   PetscFunctionBegin;
   PetscCall(VKYLSSetUp(y)); /* sets r and dt */
-  nhandles   = y->scene->nhandles;
-  ncolliders = y->scene->ncolliders;
+  ncolliders = y->ncolliders;
   dt         = y->dt;
   cv         = y->cv;
   cs         = y->cs;
@@ -93,10 +92,10 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   for (PetscInt i = 0; i < y->model.nv; i++) y->handle[i] = -1;
   for (PetscInt sg = 0; sg < y->model.nseg; sg++) y->thheld[sg] = (PetscReal)NAN; /* no frame held either */
   for (int k = 0; k < 3; k++) {
-    g[k]                  = y->scene->gravity[k];
-    y->scene->gravity[k]  = 0;
+    g[k]          = y->gravity[k];
+    y->gravity[k] = 0;
   }
-  y->scene->nhandles = y->scene->ncolliders = 0;
+  y->ncolliders = 0; /* the handles are off through y->handle */
   y->dt       = y->relax_tau;
   y->cv       = y->cs = 0;
   y->relaxing = PETSC_TRUE;
@@ -111,9 +110,8 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   PetscCall(PetscArraycpy(y->handle, handle, y->model.nv));
   PetscCall(PetscArraycpy(y->thheld, thheld, y->model.nseg));
   PetscCall(PetscFree2(handle, thheld));
-  for (int k = 0; k < 3; k++) y->scene->gravity[k] = g[k];
-  y->scene->nhandles   = nhandles;
-  y->scene->ncolliders = ncolliders;
+  for (int k = 0; k < 3; k++) y->gravity[k] = g[k];
+  y->ncolliders        = ncolliders;
   y->relaxing          = PETSC_FALSE;
   y->dt                = dt;
   y->cv                = cv;

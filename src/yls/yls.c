@@ -105,12 +105,12 @@ PetscErrorCode VKYLSSetOutputDirectory(VKYLS y, const char dir[])
 }
 
 /* Largest distance a handle vertex travels in one step of dt. */
-static PetscReal HandleTravel(VKYLS y, PetscReal dt)
+static PetscReal HandleTravel(VKYLS y, const VKHandle handles[], PetscReal dt)
 {
   const PetscReal *X   = y->yarn->curves.x;
   PetscReal        top = 0;
   for (PetscInt i = 0; i < y->model.nv; i++) {
-    const VKHandle *h = y->handle[i] >= 0 ? &y->scene->handle[y->handle[i]] : NULL;
+    const VKHandle *h = y->handle[i] >= 0 ? &handles[y->handle[i]] : NULL;
     PetscReal       r[3], rr = 0, v;
     if (!h) continue;
     for (int a = 0; a < 3; a++) {
@@ -126,13 +126,19 @@ static PetscReal HandleTravel(VKYLS y, PetscReal dt)
 /* Handles, the time step, and the checks of what the scene asks. */
 static PetscErrorCode SetUpScene(VKYLS y)
 {
-  PetscReal lo[3], hi[3], travel, capm = y->cap * y->par.radius;
-  PetscInt  held[VK_SCENE_MAX] = {0};
+  PetscReal       lo[3], hi[3], travel, capm = y->cap * y->par.radius;
+  PetscInt        held[VK_SCENE_MAX] = {0}, nhandles;
+  const VKHandle *handles;
+  const char     *name;
 
   PetscFunctionBegin;
   PetscCall(VKCurvesBoundingBox(&y->yarn->curves, lo, hi));
   PetscCall(VKSceneSetUp(y->scene, lo, hi));
-  y->cv = y->scene->damping;
+  PetscCall(VKSceneGetDamping(y->scene, &y->cv));
+  PetscCall(VKSceneGetGravity(y->scene, y->gravity));
+  PetscCall(VKSceneGetColliders(y->scene, &y->ncolliders, &y->collider));
+  PetscCall(VKSceneGetHandles(y->scene, &nhandles, &handles));
+  PetscCall(VKSceneGetName(y->scene, &name));
   PetscCall(PetscMalloc1(y->model.nv, &y->handle));
   y->nhandle_vertices = 0;
   for (PetscInt i = 0; i < y->model.nv; i++) {
@@ -142,16 +148,17 @@ static PetscErrorCode SetUpScene(VKYLS y)
       y->nhandle_vertices++;
     }
   }
-  for (PetscInt h = 0; h < y->scene->nhandles; h++) {
-    const PetscReal *b = y->scene->handle[h].box;
-    PetscCheck(held[h] > 0, y->comm, PETSC_ERR_ARG_WRONG, "Scene %s: handle %d (box [%g %g %g] - [%g %g %g] m) holds no yarn vertex, so the scene pins nothing there; check -scene_handle%d_box against the patch", y->scene->name, (int)h, (double)b[0], (double)b[1], (double)b[2], (double)b[3], (double)b[4], (double)b[5], (int)h);
+  for (PetscInt h = 0; h < nhandles; h++) {
+    const PetscReal *b = handles[h].box;
+    PetscCheck(held[h] > 0, y->comm, PETSC_ERR_ARG_WRONG, "Scene %s: handle %d (box [%g %g %g] - [%g %g %g] m) holds no yarn vertex, so the scene pins nothing there; check -scene_handle%d_box against the patch", name, (int)h, (double)b[0], (double)b[1], (double)b[2], (double)b[3], (double)b[4], (double)b[5], (int)h);
   }
   if (y->dt == 0) {
-    PetscReal need = HandleTravel(y, 1.0);
-    y->dt          = PetscMin(1e-3, y->scene->output_interval);
+    PetscReal need = HandleTravel(y, handles, 1.0), interval;
+    PetscCall(VKSceneGetTimes(y->scene, NULL, &interval));
+    y->dt = PetscMin(1e-3, interval);
     if (need > 0) y->dt = PetscMin(y->dt, 0.5 * capm / need);
   }
-  travel = HandleTravel(y, y->dt);
+  travel = HandleTravel(y, handles, y->dt);
   PetscCheck(travel <= capm * (1 + 1e-12), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt %g s moves a handle vertex by %g m per step, more than the contact cap %g m (-yls_cap %g x r): a yarn could pass through another; use -yls_dt <= %g", (double)y->dt, (double)travel, (double)capm, (double)y->cap, (double)(y->dt * capm / travel));
   PetscFunctionReturn(0);
 }
@@ -356,7 +363,7 @@ static PetscErrorCode BeginStep(VKYLS y)
   for (PetscInt sg = 0; sg < m->nseg; sg++)
     if (!PetscIsNanReal(y->thheld[sg]) && y->handle[m->seg[2 * sg]] >= 0) y->theta[sg] = y->thheld[sg] = HeldAngle(y, sg, t1);
   {
-    const PetscReal *g = y->scene->gravity;
+    const PetscReal *g = y->gravity;
     PetscReal        m2 = 0, all;
     for (PetscInt i = y->vbeg; i < y->vend; i++)
       if (y->handle[i] < 0) m2 += PetscSqr(m->mass[i]);
@@ -365,8 +372,8 @@ static PetscErrorCode BeginStep(VKYLS y)
   }
   for (PetscInt i = y->vbeg; i < y->vend; i++) {
     PetscInt  which = -1;
-    PetscReal depth = y->scene->ncolliders ? VKSceneContact(y->scene, y->t, y->xn + 3 * i, y->par.radius, y->contact_normal + 3 * i, &which) : 0;
-    y->friction[i]  = depth > 0 && which >= 0 ? y->scene->collider[which].friction * y->kw * depth : 0;
+    PetscReal depth = y->ncolliders ? VKSceneContact(y->scene, y->t, y->xn + 3 * i, y->par.radius, y->contact_normal + 3 * i, &which) : 0;
+    y->friction[i]  = depth > 0 && which >= 0 ? y->collider[which].friction * y->kw * depth : 0;
     y->contact_collider[i] = PetscMax(which, 0);
   }
   PetscFunctionReturn(0);
@@ -576,7 +583,7 @@ PetscErrorCode VKYLSMeasure(VKYLS y, PetscReal e[], PetscReal momentum[], PetscR
       for (int k = 0; k < 3; k++) {
         PetscReal vik = va[3 * (i - y->vbeg) + k];
         loc[0] += 0.5 * m->mass[i] * vik * vik;
-        loc[1] -= m->mass[i] * y->scene->gravity[k] * y->xall[3 * i + k];
+        loc[1] -= m->mass[i] * y->gravity[k] * y->xall[3 * i + k];
         loc[2 + k] += m->mass[i] * vik;
       }
     PetscCall(VecRestoreArrayRead(y->v, &va));
@@ -620,7 +627,7 @@ const char *VKYLSStatus(VKYLS y, const char failure[])
 PetscErrorCode VKYLSRun(VKYLS y)
 {
   PetscInt       kout;
-  PetscReal      dt, T;
+  PetscReal      dt, T, interval;
   PetscErrorCode ierr = 0;
   char           failure[256] = "";
   PetscLogDouble t0           = VKWallTime();
@@ -629,14 +636,14 @@ PetscErrorCode VKYLSRun(VKYLS y)
   PetscCall(VKYLSSetUp(y));
   if (y->relax && !(y->yarn->contact_radius > 0)) PetscCall(VKYLSRelax(y));
   dt = y->dt;
-  T  = y->scene->duration;
+  PetscCall(VKSceneGetTimes(y->scene, &T, &interval));
   /* steps of dt, the one before each output time (and the end) shortened
    * (or the last two before it split evenly) so frames land on the output
    * interval exactly and the run ends at the scene's duration */
   PetscCall(VKYLSOutputOpen(y));
   PetscCall(VKYLSOutputFrame(y));
   kout           = 1;
-  y->next_output = PetscMin(y->scene->output_interval, T);
+  y->next_output = PetscMin(interval, T);
   while (y->t < T - 1e-9 * dt) {
     PetscReal gap = y->next_output - y->t, h = gap <= dt * (1 + 1e-9) ? gap : (gap < 1.5 * dt ? gap / 2 : dt);
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
@@ -655,7 +662,7 @@ PetscErrorCode VKYLSRun(VKYLS y)
       y->t = y->next_output; /* exactly */
       PetscCall(VKYLSOutputFrame(y));
       kout++;
-      y->next_output = PetscMin(kout * y->scene->output_interval, T);
+      y->next_output = PetscMin(kout * interval, T);
     }
   }
   y->time_run = VKWallTime() - t0;

@@ -11,6 +11,11 @@ struct _n_VKYLS {
   MPI_Comm   comm;
   VKYarn     yarn;
   VKScene    scene;
+  /* what the steps read of the scene, from its set-up (the relaxation
+   * turns gravity and colliders off here, not in the scene) */
+  PetscReal         gravity[3];
+  PetscInt          ncolliders;
+  const VKCollider *collider;
   VKRodModel model;
   /* parameters */
   VKRodParams par;

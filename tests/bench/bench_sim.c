@@ -167,15 +167,13 @@ int main(int argc, char **argv)
   PetscCall(VKMaterialCreate(mesh, &mat));
   PetscCall(VKMaterialSetFromOptions(mat));
   PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &scene));
-  scene->duration = steps / 150.0;
-  scene->nhandles = 1;
-  for (int a = 0; a < 3; a++) {
-    scene->handle[0].box[a]     = -1;
-    scene->handle[0].box[3 + a] = 1;
+  PetscCall(VKSceneSetTimes(scene, steps / 150.0, 1.0 / 30));
+  {
+    VKHandle top; /* the top 4 % of the patch, held */
+    VKHandleInitialize(&top);
+    top.box[1] = 0.46;
+    PetscCall(VKSceneAddHandle(scene, &top, PETSC_FALSE));
   }
-  scene->handle[0].box[1]    = 0.46;
-  scene->handle[0].axis[1]   = 1;
-  scene->handle[0].window[1] = PETSC_MAX_REAL;
   PetscCall(VKSimCreate(mat, scene, &sim));
   PetscCall(VKSimSetQuiet(sim, PETSC_TRUE));
   PetscCall(VKSimSetFromOptions(sim));
