@@ -73,7 +73,11 @@ int main(int argc, char **argv)
   PetscCall(VKYarnGetMass(yarn, &ymass, NULL));
   PetscCall(PetscMalloc1(3 * mesh->ny, &xy));
   PetscCall(VKMeshApplyEmbedding(mesh, mesh->x, xy));
-  for (PetscInt k = 0; k < 3 * mesh->ny; k++) err = PetscMax(err, PetscAbsReal(xy[k] - yarn->curves.x[k]));
+  {
+    const VKCurves *rest;
+    PetscCall(VKYarnGetCurves(yarn, &rest));
+    for (PetscInt k = 0; k < 3 * mesh->ny; k++) err = PetscMax(err, PetscAbsReal(xy[k] - rest->x[k]));
+  }
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Mass on the mesh nodes %.12g kg, yarn mass %.12g kg (relative difference %.1e)\n", (double)total, (double)ymass, (double)(PetscAbsReal(total - ymass) / ymass)));
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "N x^V reproduces the rest yarn to %.1e m\n", (double)err));
   if (write) {

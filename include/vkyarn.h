@@ -100,27 +100,6 @@ typedef enum {
 PETSC_EXTERN const char *const VKYarnSources[];
 
 typedef struct _n_VKYarn *VKYarn;
-struct _n_VKYarn {
-  MPI_Comm      comm;
-  VKYarnSource  source;
-  char          file[PETSC_MAX_PATH_LEN]; /* chart/bcc/pyp/h5/weave file ("" for built-ins) */
-  char          pattern[64];              /* built-in knit pattern or weave */
-  char          description[PETSC_MAX_PATH_LEN + 64];
-  VKKnitParams  knit;
-  VKWeaveParams weave;
-  PetscInt      weave_param[2];
-  PetscInt      tiles[2];
-  PetscReal     scale, radius, density, seglen;
-  PetscReal     contact_radius; /* > 0: the rest state is relaxed (VKYLSRelax) and honours this contact radius (<= radius) */
-  PetscBool     radius_set, radius_estimated, seglen_set, knit_set[5], weave_set[2], weave_param_set;
-  PetscBool     setup;
-  /* the model */
-  VKCurves   curves; /* rest polylines (m) */
-  PetscReal *normal; /* rest n1 per segment */
-  PetscInt   nbind;
-  PetscInt  *bind;   /* 2 per glued vertex pair */
-  PetscLogDouble time_build;
-};
 
 PETSC_EXTERN PetscErrorCode VKYarnCreate(MPI_Comm, VKYarn *);
 PETSC_EXTERN PetscErrorCode VKYarnSetFromOptions(VKYarn);
@@ -133,6 +112,30 @@ PETSC_EXTERN PetscErrorCode VKYarnSetRadius(VKYarn, PetscReal);
 /* Take ownership-free copies of given polylines as the model (tests, tools) */
 PETSC_EXTERN PetscErrorCode VKYarnSetCurves(VKYarn, const VKCurves *);
 
+/* A yarn.h5 (or the /yarn group of a mesh.h5) to read at set-up (-yarn_h5). */
+PETSC_EXTERN PetscErrorCode VKYarnSetH5File(VKYarn, const char path[]);
+/* Read the /yarn group of an open file as the set-up model (mesh.h5). */
+PETSC_EXTERN PetscErrorCode VKYarnSetUpFromH5(VKYarn, VKH5 *);
+/* The relaxed state becomes the rest state: positions x (3 per vertex),
+ * the contact radius it honours, and rest frames carried along it
+ * (VKYLSRelax). */
+PETSC_EXTERN PetscErrorCode VKYarnSetRelaxed(VKYarn, const PetscReal x[], PetscReal contact_radius);
+
+/* What a set-up yarn holds: its rest polylines (m), the rest director n1
+ * of every segment, the glued vertex pairs (2 per pair); radius, density
+ * (kg/m) and the contact radius its rest state honours (0: not relaxed);
+ * where it came from.  Read-only; any pointer argument may be NULL. */
+PETSC_EXTERN PetscErrorCode VKYarnGetComm(VKYarn, MPI_Comm *);
+PETSC_EXTERN PetscErrorCode VKYarnIsSetUp(VKYarn, PetscBool *);
+PETSC_EXTERN PetscErrorCode VKYarnGetCurves(VKYarn, const VKCurves **);
+PETSC_EXTERN PetscErrorCode VKYarnGetNormals(VKYarn, const PetscReal **);
+PETSC_EXTERN PetscErrorCode VKYarnGetBindings(VKYarn, PetscInt *n, const PetscInt **pairs);
+PETSC_EXTERN PetscErrorCode VKYarnGetProperties(VKYarn, PetscReal *radius, PetscReal *density, PetscReal *contact_radius);
+/* radius_estimated: no radius was given, it was estimated from the geometry */
+PETSC_EXTERN PetscErrorCode VKYarnGetSource(VKYarn, VKYarnSource *, const char **file, const char **description, PetscBool *radius_estimated);
+PETSC_EXTERN PetscErrorCode VKYarnGetBuildTime(VKYarn, PetscLogDouble *);
+/* The rest polylines' bounding box (scenes are set up in its units). */
+PETSC_EXTERN PetscErrorCode VKYarnGetBoundingBox(VKYarn, PetscReal lo[3], PetscReal hi[3]);
 PETSC_EXTERN PetscErrorCode VKYarnGetMass(VKYarn, PetscReal *mass, PetscReal *length);
 /* Files: own HDF5 (read/write), XDMF companion, JSON summary, BCC, OBJ */
 PETSC_EXTERN PetscErrorCode VKYarnWriteH5(VKYarn, const char path[]);

@@ -8,6 +8,7 @@
  * one-polyline-per-curve layout of the XDMF outputs, and the per-vertex
  * stretch and curvature of the yarn time series on a stretched circle and
  * a bent line. */
+#include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkcurves.h>
 #include <vkyarn.h>
 #include <vkutil.h>

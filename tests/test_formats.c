@@ -6,6 +6,7 @@
  * pattern is periodic: every tile copy of a vertex is the tile (0,0) copy
  * translated by the periods.  volknit's HDF5 yarn file reproduces the
  * model bit for bit.  Broken buffers are refused with an error code. */
+#include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkyarn.h>
 #include <vkio.h>
 #include "vktest.h"

@@ -10,6 +10,7 @@
  * every other yarn, each to a neighbouring course no more than two yarn
  * diameters away.  Chart files parse to the same stitches as the
  * built-ins. */
+#include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkyarn.h>
 #include "vktest.h"
 

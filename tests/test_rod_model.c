@@ -10,6 +10,7 @@
  *    twist angles) on a deformed, twisted patch with its contact pairs.
  * ranks: 1
  */
+#include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkyarn.h>
 #include <vkrod.h>
 #include "vktest.h"

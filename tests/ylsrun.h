@@ -2,6 +2,7 @@
  * a yarn model of given polylines (or a 3x3 1x1 rib), an empty scene in
  * metres without gravity, and the simulator, quiet and not relaxing. */
 #pragma once
+#include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include "../src/yls/ylsimpl.h" /* white-box: the simulator's state, parameters and counters */
 

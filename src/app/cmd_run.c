@@ -471,7 +471,7 @@ static PetscErrorCode CheckSceneOnMeshes(Run *R, VKYarn y)
   PetscCall(PetscOptionsGetEnum(NULL, NULL, "-pd_handle_nodes", VKPDHandleNodesTypes, (PetscEnum *)&rule, NULL));
   PetscCall(VKSceneCreate(R->comm, &scene));
   PetscCall(VKSceneSetFromOptions(scene));
-  PetscCall(VKCurvesBoundingBox(&y->curves, lo, hi));
+  PetscCall(VKYarnGetBoundingBox(y, lo, hi));
   PetscCall(VKSceneSetUp(scene, lo, hi));
   for (PetscInt i = 0; i < PetscMax(R->nh, 1); i++) {
     PetscCall(PetscLogStagePush(VK_STAGE_MESH));
@@ -499,7 +499,7 @@ static PetscErrorCode ReferenceStage(Run *R, VKYarn y, VKYLS yls)
     char path[PETSC_MAX_PATH_LEN];
     PetscCall(VKPathJoin(R->dir, "yarn.h5", path, sizeof(path)));
     PetscCall(VKAppYarnUseFile(y, path));
-    PetscCall(PetscPrintf(R->comm, "volknit run: the yarn-level reference in %s is up to date (same -yarn_, -yls_, -scene_ options and files): relaxed yarn read from %s, volknit yls not rerun\n", R->dir, y->file));
+    PetscCall(PetscPrintf(R->comm, "volknit run: the yarn-level reference in %s is up to date (same -yarn_, -yls_, -scene_ options and files): relaxed yarn read from %s, volknit yls not rerun\n", R->dir, path));
     PetscCall(VKAppYarnBuild(y, PETSC_FALSE));
     PetscCall(CheckSceneOnMeshes(R, y));
     PetscCall(VKAppYarnStage(y, R->dir, PETSC_FALSE, PETSC_FALSE));

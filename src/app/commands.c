@@ -101,18 +101,26 @@ PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
  * not relaxed yet; nothing written. */
 PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
 {
-  PetscBool relax_opt = PETSC_FALSE;
+  PetscBool    relax_opt = PETSC_FALSE, setup, estimated;
+  PetscReal    radius, contact_radius;
+  VKYarnSource source;
+  MPI_Comm     comm;
 
   PetscFunctionBegin;
   PetscCall(PetscOptionsGetBool(NULL, NULL, "-yarn_relax", &relax_opt, NULL));
   relax = (PetscBool)(relax || relax_opt);
-  if (y->setup && (y->contact_radius > 0 || !relax)) PetscFunctionReturn(0);
+  PetscCall(VKYarnIsSetUp(y, &setup));
+  PetscCall(VKYarnGetProperties(y, NULL, NULL, &contact_radius));
+  if (setup && (contact_radius > 0 || !relax)) PetscFunctionReturn(0);
   PetscCall(PetscLogStagePush(VK_STAGE_YARN));
-  if (!y->setup) {
+  if (!setup) {
     PetscCall(VKYarnSetUp(y));
-    if (y->radius_estimated && y->source != VK_YARN_H5) PetscCall(PetscPrintf(y->comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)y->radius));
+    PetscCall(VKYarnGetComm(y, &comm));
+    PetscCall(VKYarnGetSource(y, &source, NULL, NULL, &estimated));
+    PetscCall(VKYarnGetProperties(y, &radius, NULL, &contact_radius));
+    if (estimated && source != VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit yarn: no radius given, estimated r = %g m from the geometry (set -yarn_radius to override)\n", (double)radius));
   }
-  if (relax && !(y->contact_radius > 0)) PetscCall(VKYLSRelaxYarn(y));
+  if (relax && !(contact_radius > 0)) PetscCall(VKYLSRelaxYarn(y));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
@@ -120,13 +128,21 @@ PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
 /* VKAppYarnBuild, then with `write` the outputs; the summary line. */
 PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, PetscBool relax)
 {
-  MPI_Comm  comm = y->comm;
-  char      path[PETSC_MAX_PATH_LEN];
-  PetscBool set;
-  PetscReal mass, length;
+  MPI_Comm        comm;
+  char            path[PETSC_MAX_PATH_LEN];
+  PetscBool       set;
+  PetscReal       mass, length, radius, contact_radius;
+  const VKCurves *c;
+  const char     *description;
+  PetscLogDouble  tbuild;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetComm(y, &comm));
   PetscCall(VKAppYarnBuild(y, relax));
+  PetscCall(VKYarnGetCurves(y, &c));
+  PetscCall(VKYarnGetSource(y, NULL, NULL, &description, NULL));
+  PetscCall(VKYarnGetProperties(y, &radius, NULL, &contact_radius));
+  PetscCall(VKYarnGetBuildTime(y, &tbuild));
   PetscCall(PetscLogStagePush(VK_STAGE_YARN));
   if (write) {
     PetscCall(VKYarnWriteOutputs(y, dir));
@@ -135,7 +151,7 @@ PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, Petsc
       PetscMPIInt    rank;
       PetscErrorCode ierr = 0;
       PetscCallMPI(MPI_Comm_rank(comm, &rank));
-      if (rank == 0) ierr = VKBCCWrite(path, &y->curves);
+      if (rank == 0) ierr = VKBCCWrite(path, c);
       PetscCall(VKCollective(comm, ierr, path));
     }
     PetscCall(PetscOptionsGetString(NULL, NULL, "-yarn_write_obj", path, sizeof(path), &set));
@@ -143,7 +159,7 @@ PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, Petsc
   }
   PetscCall(VKAppViewFromOptions(comm, "-yarn_view", YarnView, y));
   PetscCall(VKYarnGetMass(y, &mass, &length));
-  PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m%s%s%s%s (%.2f s)\n", y->description, (int)y->curves.n, (int)y->curves.nv, (double)length, (double)mass, (double)y->radius, y->contact_radius > 0 ? ", relaxed" : "", write ? " -> " : "", write ? dir : "", write ? "/yarn.h5" : "", y->time_build));
+  PetscCall(PetscPrintf(comm, "volknit yarn: %s: %d curves, %d vertices, length %.4g m, mass %.4g kg, r = %g m%s%s%s%s (%.2f s)\n", description, (int)c->n, (int)c->nv, (double)length, (double)mass, (double)radius, contact_radius > 0 ? ", relaxed" : "", write ? " -> " : "", write ? dir : "", write ? "/yarn.h5" : "", tbuild));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
@@ -246,11 +262,22 @@ PetscErrorCode VKAppYarnForStage(MPI_Comm comm, const char dir[], VKYarn *y)
   PetscFunctionReturn(0);
 }
 
+/* "volknit <who>: yarn model read from F" when the yarn comes from a file. */
+static PetscErrorCode PrintYarnFile(MPI_Comm comm, const char who[], VKYarn y)
+{
+  VKYarnSource source;
+  const char  *file;
+
+  PetscFunctionBegin;
+  PetscCall(VKYarnGetSource(y, &source, &file, NULL, NULL));
+  if (source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit %s: yarn model read from %s\n", who, file));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKAppYarnUseFile(VKYarn y, const char path[])
 {
   PetscFunctionBegin;
-  PetscCall(PetscStrncpy(y->file, path, sizeof(y->file)));
-  y->source = VK_YARN_H5;
+  PetscCall(VKYarnSetH5File(y, path));
   PetscFunctionReturn(0);
 }
 
@@ -270,7 +297,7 @@ PetscErrorCode VKCommandMesh(MPI_Comm comm)
   PetscCall(VKAppMeshFromOptions(comm, y, &m));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
-    if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit mesh: yarn model read from %s\n", y->file));
+    PetscCall(PrintYarnFile(comm, "mesh", y));
     PetscCall(VKAppYarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
     PetscCall(VKAppMeshStage(m, dir));
   }
@@ -315,11 +342,14 @@ static PetscErrorCode YLSView(void *y, PetscViewer v)
 /* The yarn-level simulator of a scene, every option read. */
 PetscErrorCode VKAppYLSFromOptions(VKYarn y, VKScene scene, const char dir[], VKYLS *yls)
 {
+  MPI_Comm comm;
+
   PetscFunctionBegin;
   PetscCall(VKYLSCreate(y, scene, yls));
   PetscCall(VKYLSSetFromOptions(*yls));
   PetscCall(VKYLSSetOutputDirectory(*yls, dir));
-  PetscOptionsBegin(y->comm, NULL, "Yarn-level simulation outputs", "volknit yls");
+  PetscCall(VKYarnGetComm(y, &comm));
+  PetscOptionsBegin(comm, NULL, "Yarn-level simulation outputs", "volknit yls");
   PetscCall(PetscOptionsName("-yls_view", "Print the simulator, scene and solver after set-up", "VKYLSView", NULL));
   PetscOptionsEnd();
   PetscFunctionReturn(0);
@@ -356,7 +386,7 @@ PetscErrorCode VKCommandYLS(MPI_Comm comm)
   PetscCall(VKAppYLSFromOptions(y, scene, dir, &yls));
   PetscCall(PetscOptionsHasHelp(NULL, &help));
   if (!help) {
-    if (y->source == VK_YARN_H5) PetscCall(PetscPrintf(comm, "volknit yls: yarn model read from %s\n", y->file));
+    PetscCall(PrintYarnFile(comm, "yls", y));
     PetscCall(VKAppYarnStage(y, dir, PETSC_FALSE, PETSC_FALSE));
     PetscCall(VKAppYLSStage(yls));
   }

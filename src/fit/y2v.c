@@ -96,19 +96,25 @@ static PetscReal SegmentFrame(const PetscReal a[], const PetscReal b[], const Pe
 /* Dbar^{-1} per segment and lumped yarn masses, from the mesh's yarn model. */
 static PetscErrorCode SetUpSegments(VKShapeFit sf)
 {
-  VKYarn           y = sf->mesh->yarn;
-  const PetscReal *x = y->curves.x;
-  PetscInt         nv = y->curves.nv;
+  const VKCurves  *c;
+  const PetscReal *x, *normal;
+  PetscReal        density;
+  PetscInt         nv;
 
   PetscFunctionBegin;
-  PetscCall(VKCurvesGetSegments(&y->curves, &sf->nseg, &sf->seg));
+  PetscCall(VKYarnGetCurves(sf->mesh->yarn, &c));
+  PetscCall(VKYarnGetNormals(sf->mesh->yarn, &normal));
+  PetscCall(VKYarnGetProperties(sf->mesh->yarn, NULL, &density, NULL));
+  x  = c->x;
+  nv = c->nv;
+  PetscCall(VKCurvesGetSegments(c, &sf->nseg, &sf->seg));
   PetscCall(PetscCalloc5(9 * sf->nseg + 1, &sf->Dinv, nv + 1, &sf->ymass, 18 * sf->nseg + 1, &sf->RS, sf->nseg + 1, &sf->needed, nv + 1, &sf->yv));
   for (PetscInt s = 0; s < sf->nseg; s++) {
-    PetscReal D[9], L = SegmentFrame(x + 3 * sf->seg[2 * s], x + 3 * sf->seg[2 * s + 1], y->normal + 3 * s, D);
+    PetscReal D[9], L = SegmentFrame(x + 3 * sf->seg[2 * s], x + 3 * sf->seg[2 * s + 1], normal + 3 * s, D);
     PetscReal det = VKInverse3(D, sf->Dinv + 9 * s);
     PetscCheck(PetscAbsReal(det) > 1e-6 * L && L > 0, sf->comm, PETSC_ERR_ARG_WRONG, "Yarn segment %d has a degenerate rest frame (length %g, det %g): the shape fit needs rest normals orthogonal to the segments", (int)s, (double)L, (double)det);
-    sf->ymass[sf->seg[2 * s]] += 0.5 * y->density * L;
-    sf->ymass[sf->seg[2 * s + 1]] += 0.5 * y->density * L;
+    sf->ymass[sf->seg[2 * s]] += 0.5 * density * L;
+    sf->ymass[sf->seg[2 * s + 1]] += 0.5 * density * L;
   }
   PetscFunctionReturn(0);
 }
@@ -121,9 +127,12 @@ static PetscErrorCode SetUpVoxels(VKShapeFit sf)
   PetscInt        ne = L->eEnd - L->eStart, *local, n = 0, cap = 0, *pv = NULL, *ps = NULL;
   PetscReal      *pw = NULL, floor = 1e-6 * m->grid.h;
   VKSegmentPieces pieces = {0};
-  const PetscReal *x = m->yarn->curves.x;
+  const PetscReal *x;
+  const VKCurves  *c;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetCurves(m->yarn, &c));
+  x = c->x;
   PetscCall(PetscMalloc1(m->nvox, &local));
   for (PetscInt v = 0; v < m->nvox; v++) local[v] = -1;
   PetscCall(PetscMalloc1(ne + 1, &sf->tet_vox));
@@ -224,11 +233,13 @@ static PetscErrorCode AssembleA(VKShapeFit sf)
 
 PetscErrorCode VKShapeFitSetUp(VKShapeFit sf)
 {
-  PetscInt n, N;
+  PetscInt         n, N;
+  const PetscReal *normal = NULL;
 
   PetscFunctionBegin;
   if (sf->setup) PetscFunctionReturn(0);
-  PetscCheck(sf->mesh->yarn && sf->mesh->yarn->normal, sf->comm, PETSC_ERR_ORDER, "The mesh has no yarn model with rest frames");
+  if (sf->mesh->yarn) PetscCall(VKYarnGetNormals(sf->mesh->yarn, &normal));
+  PetscCheck(normal, sf->comm, PETSC_ERR_ORDER, "The mesh has no yarn model with rest frames");
   PetscCall(SetUpSegments(sf));
   PetscCall(SetUpVoxels(sf));
   PetscCall(AssembleA(sf));

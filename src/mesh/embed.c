@@ -37,9 +37,10 @@ PetscErrorCode VKMeshLocate(VKMesh m, const PetscReal p[], PetscInt *tet, PetscR
 
 PetscErrorCode VKMeshEmbed(VKMesh m)
 {
-  const VKCurves *c = &m->yarn->curves;
+  const VKCurves *c;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetCurves(m->yarn, &c));
   m->ny = c->nv;
   PetscCall(PetscFree(m->emb_tet));
   PetscCall(PetscFree(m->emb_w));

@@ -117,12 +117,15 @@ PetscErrorCode VKGridWalkSegment(VKGridWalk *w, const PetscReal A[], const Petsc
 
 PetscErrorCode VKMeshSetUpGrid(VKMesh m)
 {
-  PetscReal lo[3], hi[3], r = m->yarn->radius;
+  PetscReal       lo[3], hi[3], r;
+  const VKCurves *c;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetProperties(m->yarn, &r, NULL, NULL));
+  PetscCall(VKYarnGetCurves(m->yarn, &c));
   if (!m->h_set) m->grid.h = 3 * r;
   PetscCheck(m->grid.h > 0 && isfinite(m->grid.h), m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h must be positive and finite, got %g", (double)m->grid.h);
-  PetscCall(VKCurvesBoundingBox(&m->yarn->curves, lo, hi));
+  PetscCall(VKCurvesBoundingBox(c, lo, hi));
   {
     PetscReal extent = PetscMax(PetscMax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
     PetscCheck(m->grid.h <= extent, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mesh_h %g m is larger than the yarn (extent %g m): it takes values in (0, %g] m", (double)m->grid.h, (double)extent, (double)extent);

@@ -116,11 +116,13 @@ PetscErrorCode VKSegmentPiecesFree(VKSegmentPieces *p)
 
 PetscErrorCode VKMeshLump(VKMesh m)
 {
-  const VKCurves *c   = &m->yarn->curves;
-  PetscReal       rho = m->yarn->density;
+  const VKCurves *c;
+  PetscReal       rho;
   VKSegmentPieces pieces = {0};
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetCurves(m->yarn, &c));
+  PetscCall(VKYarnGetProperties(m->yarn, NULL, &rho, NULL));
   PetscCall(PetscFree(m->mass));
   PetscCall(PetscCalloc1(m->nv, &m->mass));
   for (PetscInt i = 0; i < c->n; i++) {

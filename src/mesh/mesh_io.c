@@ -62,8 +62,10 @@ static PetscErrorCode WriteMeshXdmf(void *ctx, VKOutput *out)
 {
   VKMesh   m    = (VKMesh)ctx;
   FILE    *fp   = out->fp;
+  const VKCurves *yc;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetCurves(m->yarn, &yc));
   PetscCall(VKXdmfBegin(fp));
   PetscCall(VKXdmfGridBegin(fp, "mesh"));
   PetscCall(VKXdmfTopology(fp, "Tetrahedron", m->ne, 4, "mesh.h5", "/mesh/tets"));
@@ -74,7 +76,7 @@ static PetscErrorCode WriteMeshXdmf(void *ctx, VKOutput *out)
   PetscCall(VKXdmfAttribute(fp, "interface", "Node", m->nv, 1, PETSC_TRUE, "mesh.h5", "/mesh/node_interface"));
   PetscCall(VKXdmfGridEnd(fp));
   PetscCall(VKXdmfGridBegin(fp, "yarn")); /* one polyline (cell) per curve */
-  PetscCall(VKXdmfTopologyMixed(fp, m->yarn->curves.n, VKCurvesPolylineLength(&m->yarn->curves), "mesh.h5", "/yarn/polylines"));
+  PetscCall(VKXdmfTopologyMixed(fp, yc->n, VKCurvesPolylineLength(yc), "mesh.h5", "/yarn/polylines"));
   PetscCall(VKXdmfGeometry(fp, m->ny, "mesh.h5", "/embedding/yarn_x"));
   PetscCall(VKXdmfGridEnd(fp));
   PetscCall(VKXdmfEnd(fp));
@@ -118,14 +120,18 @@ static PetscErrorCode WriteMeshJSON(void *ctx, VKOutput *out)
   PetscInt *iface, ninterface = 0;
   PetscReal vol = 0;
   static const char *steps[8] = {"voxelize", "tets", "lump", "embed", "dual_graph", "partition", "layout", "total_setup"};
+  const char *ydesc;
+  PetscLogDouble ytime;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetBuildTime(m->yarn, &ytime));
+  PetscCall(VKYarnGetSource(m->yarn, NULL, NULL, &ydesc, NULL));
   PetscCall(PetscMalloc1(m->ndomains, &iface));
   PetscCall(DomainInterfaceCounts(m, iface));
   for (PetscInt i = 0; i < m->nv; i++) ninterface += m->node_interface[i];
   for (PetscInt e = 0; e < m->ne; e++) vol += m->vol[e];
   PetscCall(VKJSONBegin(&j, fp));
-  PetscCall(VKJSONString(&j, "yarn", m->yarn->description));
+  PetscCall(VKJSONString(&j, "yarn", ydesc));
   PetscCall(VKJSONReal(&j, "h_m", m->grid.h));
   PetscCall(VKJSONInt(&j, "voxels", m->nvox));
   PetscCall(VKJSONInt(&j, "nodes", m->nv));
@@ -150,7 +156,7 @@ static PetscErrorCode WriteMeshJSON(void *ctx, VKOutput *out)
   }
   PetscCall(VKJSONArrayEnd(&j));
   PetscCall(VKJSONObjectBegin(&j, "wall_time_s"));
-  PetscCall(VKJSONReal(&j, "yarn", m->yarn->time_build));
+  PetscCall(VKJSONReal(&j, "yarn", ytime));
   for (int s = 0; s < 8; s++) PetscCall(VKJSONReal(&j, steps[s], m->time[s]));
   PetscCall(VKJSONReal(&j, "write_h5_xdmf", twrite));
   PetscCall(VKJSONObjectEnd(&j));
@@ -290,7 +296,10 @@ static PetscErrorCode RebuildKuhn(VKMesh m, const char path[])
 
 static PetscErrorCode CheckMesh(VKMesh m, VKYarn y, const char path[])
 {
+  const VKCurves *c;
+
   PetscFunctionBegin;
+  PetscCall(VKYarnGetCurves(y, &c));
   PetscCheck(m->nv > 0 && m->ne > 0 && m->ndomains >= 1, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty mesh", path);
   PetscCheck(m->grid.h > 0 && isfinite(m->grid.h), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: grid size h = %g", path, (double)m->grid.h);
   for (int a = 0; a < 3; a++) PetscCheck(m->grid.dims[a] >= 1 && m->grid.dims[a] < 2000000 && isfinite(m->grid.origin[a]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: bad grid", path);
@@ -327,15 +336,14 @@ static PetscErrorCode CheckMesh(VKMesh m, VKYarn y, const char path[])
     for (PetscInt e = m->domain_tet_start[d]; e < m->domain_tet_start[d + 1]; e++) PetscCheck(m->tet_domain[e] == d, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: tet %d is in domain %d but listed in domain %d", path, (int)e, (int)m->tet_domain[e], (int)d);
     for (PetscInt i = m->domain_node_start[d]; i < m->domain_node_start[d + 1]; i++) PetscCheck(m->node_domain[i] == d, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: node %d is owned by domain %d but listed in domain %d", path, (int)i, (int)m->node_domain[i], (int)d);
   }
-  PetscCheck(m->ny == y->curves.nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: the embedding has %d yarn vertices, the yarn %d", path, (int)m->ny, (int)y->curves.nv);
+  PetscCheck(m->ny == c->nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: the embedding has %d yarn vertices, the yarn %d", path, (int)m->ny, (int)c->nv);
   PetscFunctionReturn(0);
 }
 
 static PetscErrorCode LoadMesh(VKMesh m, VKYarn y, VKH5 *h)
 {
   PetscFunctionBegin;
-  PetscCall(VKYarnLoadFromH5(y, h));
-  y->setup = PETSC_TRUE;
+  PetscCall(VKYarnSetUpFromH5(y, h));
   PetscCall(ReadMeshArrays(m, h));
   PetscCall(CheckMesh(m, y, h->path));
   PetscCall(RebuildKuhn(m, h->path));
@@ -362,9 +370,7 @@ PetscErrorCode VKMeshLoadH5(MPI_Comm comm, const char path[], VKMesh *mesh, VKYa
   PetscFunctionBegin;
   PetscCall(VKMeshCreate(comm, &m));
   PetscCall(VKYarnCreate(comm, yarn));
-  PetscCall(PetscStrncpy((*yarn)->file, path, sizeof((*yarn)->file)));
-  (*yarn)->source = VK_YARN_H5;
-  m->yarn         = *yarn;
+  m->yarn = *yarn;
   *mesh           = m;
   VKCallCollective(comm, LoadMeshFile(m, *yarn, path));
   PetscCall(VKMeshComputeGeometry(m));

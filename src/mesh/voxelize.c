@@ -54,11 +54,13 @@ PetscErrorCode VKMeshYarnVoxelChain(const VKGrid *g, const VKCurves *c, PetscInt
 
 PetscErrorCode VKMeshVoxelize(VKMesh m)
 {
-  const VKCurves *c   = &m->yarn->curves;
-  PetscInt        cap = 2 * c->nv + 16, n = 0;
+  const VKCurves *c;
+  PetscInt        cap, n = 0;
   uint64_t       *keys;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetCurves(m->yarn, &c));
+  cap = 2 * c->nv + 16;
   PetscCall(PetscMalloc1(cap, &keys));
   for (PetscInt i = 0; i < c->n; i++) {
     PetscInt nc, *ijk;

@@ -117,9 +117,11 @@ static PetscErrorCode ReadOptionalReal(VKH5 *h, const char obj[], const char nam
  * wall time, and frame 0 (rest). */
 static PetscErrorCode LoadReference(VKReport r)
 {
-  char     path[PETSC_MAX_PATH_LEN];
-  VKH5     h;
-  PetscInt nseg, *seg;
+  char            path[PETSC_MAX_PATH_LEN];
+  VKH5            h;
+  PetscInt        nseg, *seg;
+  PetscReal       density;
+  const VKCurves *c;
 
   PetscFunctionBegin;
   PetscCheck(r->ref[0], r->comm, PETSC_ERR_ARG_WRONG, "No yarn-level run: give -report_yls DIR (a volknit yls output directory)");
@@ -134,19 +136,20 @@ static PetscErrorCode LoadReference(VKReport r)
     VKH5Close(&h);
     VKCallCollective(r->comm, ierr);
   }
-  r->ny = r->yarn->curves.nv;
-  PetscCall(VKCurvesGetSegments(&r->yarn->curves, &nseg, &seg));
+  PetscCall(VKYarnGetCurves(r->yarn, &c));
+  PetscCall(VKYarnGetProperties(r->yarn, &r->radius, &density, NULL));
+  r->ny = c->nv;
+  PetscCall(VKCurvesGetSegments(c, &nseg, &seg));
   r->nseg = nseg;
   PetscCall(PetscCalloc3(r->ny, &r->mass, 3 * r->ny, &r->x0, 3 * PetscMax(nseg, 1), &r->n1));
   for (PetscInt s = 0; s < nseg; s++) {
-    const PetscReal *a = r->yarn->curves.x + 3 * seg[2 * s], *b = r->yarn->curves.x + 3 * seg[2 * s + 1];
+    const PetscReal *a = c->x + 3 * seg[2 * s], *b = c->x + 3 * seg[2 * s + 1];
     PetscReal        L = PetscSqrtReal(PetscSqr(b[0] - a[0]) + PetscSqr(b[1] - a[1]) + PetscSqr(b[2] - a[2]));
-    r->mass[seg[2 * s]] += 0.5 * r->yarn->density * L;
-    r->mass[seg[2 * s + 1]] += 0.5 * r->yarn->density * L;
+    r->mass[seg[2 * s]] += 0.5 * density * L;
+    r->mass[seg[2 * s + 1]] += 0.5 * density * L;
   }
   PetscCall(PetscFree(seg));
   PetscCall(VKFitDataReadFrame(r->data, 0, r->ny, r->nseg, r->x0, r->n1));
-  r->radius       = r->yarn->radius;
   PetscCall(VKFitDataGetFrames(r->data, &r->nframes, &r->time));
   PetscCall(VKFitDataGetStatus(r->data, &r->status));
   r->time_reached = r->time[r->nframes - 1];

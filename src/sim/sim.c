@@ -109,7 +109,7 @@ PetscErrorCode VKSimSetUp(VKSim sim)
   PetscFunctionBegin;
   if (sim->setup) PetscFunctionReturn(0);
   PetscCall(PetscLogStagePush(VK_STAGE_SIM)); /* the PD set-up (assembly, factorization) is the sim's */
-  PetscCall(VKCurvesBoundingBox(&sim->mesh->yarn->curves, lo, hi));
+  PetscCall(VKYarnGetBoundingBox(sim->mesh->yarn, lo, hi));
   PetscCall(VKSceneSetUp(sim->scene, lo, hi));
   PetscCall(TSGetTimeStep(sim->ts, &dt));
   {

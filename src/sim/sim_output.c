@@ -125,6 +125,7 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
   Vec            v;
   PetscErrorCode ierr = 0;
   PetscMPIInt    rank;
+  const VKCurves *rest;
 
   PetscFunctionBegin;
   PetscCall(VKTSPDGetVelocity(sim->ts, &v));
@@ -154,7 +155,8 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
     PetscCall(VecGetArrayRead(o->vseq, &va));
     PetscCall(VKMeshApplyEmbedding(sim->mesh, xa, o->xy));
     PetscCall(VKMeshApplyEmbedding(sim->mesh, va, o->vy)); /* the embedding is linear: v^Y = N v^V */
-    PetscCall(VKCurvesVertexFields(&sim->mesh->yarn->curves, o->xy, o->ystretch, o->ycurv));
+    PetscCall(VKYarnGetCurves(sim->mesh->yarn, &rest));
+    PetscCall(VKCurvesVertexFields(rest, o->xy, o->ystretch, o->ycurv));
     ierr = VKRunFileWriteReal(&o->rf, "x", sim->mesh->nv, 3, xa);
     if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn", sim->mesh->ny, 3, o->xy);
     if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "velocity", sim->mesh->nv, 3, va);
@@ -210,17 +212,20 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   VKSim      sim  = (VKSim)ctx;
   SimOutput *o    = (SimOutput *)sim->out;
   FILE      *fp   = out->fp;
-  PetscInt   npoly = VKCurvesPolylineLength(&sim->mesh->yarn->curves);
+  PetscInt   npoly;
   char       ds[64];
+  const VKCurves *rest;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetCurves(sim->mesh->yarn, &rest));
+  npoly = VKCurvesPolylineLength(rest);
   PetscCall(VKXdmfBegin(fp));
   for (int part = 0; part < 2; part++) {
     PetscCall(VKXdmfCollectionBegin(fp, part ? "yarn" : "mesh"));
     for (PetscInt f = 0; f < o->n; f++) {
       PetscCall(VKXdmfGridBegin(fp, part ? "yarn" : "mesh"));
       PetscCall(VKXdmfTime(fp, o->time[f]));
-      if (part) PetscCall(VKXdmfTopologyMixed(fp, sim->mesh->yarn->curves.n, npoly, "sim.h5", "/yarn/polylines")); /* one polyline per curve */
+      if (part) PetscCall(VKXdmfTopologyMixed(fp, rest->n, npoly, "sim.h5", "/yarn/polylines")); /* one polyline per curve */
       else PetscCall(VKXdmfTopology(fp, "Tetrahedron", sim->mesh->ne, 4, "sim.h5", "/mesh/tets"));
       PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, part ? "yarn" : "x"));
       PetscCall(VKXdmfGeometry(fp, part ? sim->mesh->ny : sim->mesh->nv, "sim.h5", ds));
@@ -248,8 +253,8 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscReal    dt, t;
   PetscInt     nsteps;
   PetscMPIInt  size;
-  const char  *solver;
-  const char *scene_name;
+  const char  *solver, *scene_name;
+  PetscReal    radius;
 
   PetscFunctionBegin;
   PetscCall(VKSceneGetName(sim->scene, &scene_name));
@@ -277,7 +282,8 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "nodes", sim->mesh->nv));
   PetscCall(VKJSONInt(&j, "tets", sim->mesh->ne));
   PetscCall(VKJSONInt(&j, "yarn_vertices", sim->mesh->ny));
-  PetscCall(VKJSONReal(&j, "yarn_radius_m", sim->mesh->yarn->radius));
+  PetscCall(VKYarnGetProperties(sim->mesh->yarn, &radius, NULL, NULL));
+  PetscCall(VKJSONReal(&j, "yarn_radius_m", radius));
   PetscCall(VKJSONReal(&j, "dt", dt));
   PetscCall(VKJSONReal(&j, "time_reached", t));
   PetscCall(VKJSONInt(&j, "steps", st.steps));

@@ -8,7 +8,7 @@
  * draws a yarn-level run (wide, grey) and a homogenized run's embedded
  * yarns (blue) over each other from their files, for volknit run.  Rank 0
  * alone. */
-#include <vkyarn.h>
+#include "yarnimpl.h"
 #include <vkio.h>
 #include <string.h>
 #include <unistd.h>

@@ -6,7 +6,7 @@
  * side (y, z), in mm, on axes fixed over the whole run so the motion
  * shows; gnuplot draws them (like the preview, src/yarn/preview.c), a
  * chunk of frames per call.  Rank 0 alone. */
-#include <vkyarn.h>
+#include "yarnimpl.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -7,7 +7,7 @@
  * good frame up to it) and write DIR/<stem>.xdmf and the preview picture
  * DIR/<stem>_preview.png (src/yarn/preview.c).  What each stage puts in a
  * frame, its JSON summary and its other files stay with the stage. */
-#include <vkyarn.h>
+#include "yarnimpl.h"
 #include <unistd.h>
 
 PetscErrorCode VKRunFileOpen(VKRunFile *f, const char dir[], const char stem[], const char format[], VKYarn yarn, const char scene[], PetscInt expected_frames)

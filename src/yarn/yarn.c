@@ -5,7 +5,7 @@
  * charts the glue pairs that keep the free edges from unravelling.
  * Every rank builds the same model (files are read once and broadcast),
  * so the later stages can distribute it as they need. */
-#include <vkyarn.h>
+#include "yarnimpl.h"
 #include <vkio.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -33,6 +33,106 @@ PetscErrorCode VKYarnCreate(MPI_Comm comm, VKYarn *yarn)
   PetscCall(VKKnitParamsDefault(y->radius, &y->knit));
   PetscCall(VKCurvesInit(&y->curves));
   *yarn = y;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetH5File(VKYarn y, const char path[])
+{
+  PetscFunctionBegin;
+  PetscCheck(!y->setup, y->comm, PETSC_ERR_ORDER, "VKYarnSetH5File(%s) after VKYarnSetUp()", path);
+  PetscCall(PetscStrncpy(y->file, path, sizeof(y->file)));
+  y->source = VK_YARN_H5;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetUpFromH5(VKYarn y, VKH5 *h)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscStrncpy(y->file, h->path, sizeof(y->file)));
+  y->source = VK_YARN_H5;
+  PetscCall(VKYarnLoadFromH5(y, h));
+  y->setup = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetRelaxed(VKYarn y, const PetscReal x[], PetscReal contact_radius)
+{
+  PetscFunctionBegin;
+  PetscCheck(y->setup, y->comm, PETSC_ERR_ORDER, "VKYarnSetRelaxed() needs a set-up yarn");
+  PetscCheck(contact_radius > 0 && contact_radius <= y->radius, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "A relaxed yarn's contact radius must be in (0, radius %g], got %g", (double)y->radius, (double)contact_radius);
+  for (PetscInt i = 0; i < 3 * y->curves.nv; i++) PetscCheck(isfinite(x[i]), y->comm, PETSC_ERR_FP, "The relaxed positions are not finite (vertex %d)", (int)(i / 3));
+  PetscCall(PetscArraycpy(y->curves.x, x, 3 * y->curves.nv));
+  y->contact_radius = contact_radius;
+  PetscCall(VKCurvesTransportFrames(&y->curves, y->normal));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetComm(VKYarn y, MPI_Comm *comm)
+{
+  PetscFunctionBegin;
+  *comm = y->comm;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnIsSetUp(VKYarn y, PetscBool *setup)
+{
+  PetscFunctionBegin;
+  *setup = y->setup;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetCurves(VKYarn y, const VKCurves **c)
+{
+  PetscFunctionBegin;
+  *c = &y->curves;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetNormals(VKYarn y, const PetscReal **n1)
+{
+  PetscFunctionBegin;
+  *n1 = y->normal;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetBindings(VKYarn y, PetscInt *n, const PetscInt **pairs)
+{
+  PetscFunctionBegin;
+  if (n) *n = y->nbind;
+  if (pairs) *pairs = y->bind;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetProperties(VKYarn y, PetscReal *radius, PetscReal *density, PetscReal *contact_radius)
+{
+  PetscFunctionBegin;
+  if (radius) *radius = y->radius;
+  if (density) *density = y->density;
+  if (contact_radius) *contact_radius = y->contact_radius;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetSource(VKYarn y, VKYarnSource *source, const char **file, const char **description, PetscBool *radius_estimated)
+{
+  PetscFunctionBegin;
+  if (source) *source = y->source;
+  if (file) *file = y->file;
+  if (description) *description = y->description;
+  if (radius_estimated) *radius_estimated = y->radius_estimated;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetBuildTime(VKYarn y, PetscLogDouble *t)
+{
+  PetscFunctionBegin;
+  *t = y->time_build;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetBoundingBox(VKYarn y, PetscReal lo[3], PetscReal hi[3])
+{
+  PetscFunctionBegin;
+  PetscCall(VKCurvesBoundingBox(&y->curves, lo, hi));
   PetscFunctionReturn(0);
 }
 

@@ -13,7 +13,7 @@
  * with a reader that checks every invariant before trusting the file, an
  * XDMF companion, the JSON summary, and OBJ polylines.  Writers run on
  * rank 0 into a temporary name that is renamed when complete. */
-#include <vkyarn.h>
+#include "yarnimpl.h"
 #include <vkio.h>
 #include <vklog.h>
 #include <vkutil.h>

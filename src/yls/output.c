@@ -74,7 +74,7 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   PetscCall(VKYLSMeasure(y, e, NULL, &dmin, &np, rank == 0 ? o->contact : NULL)); /* leaves the positions in y->xall */
   if (o->vel) {
     PetscCall(VKYLSGather(y, y->v, o->vel)); /* collective */
-    if (rank == 0) PetscCall(VKCurvesVertexFields(&y->yarn->curves, y->xall, o->stretch, o->curvature)); /* rank 0 writes them */
+    if (rank == 0) PetscCall(VKCurvesVertexFields(y->rest, y->xall, o->stretch, o->curvature)); /* rank 0 writes them */
   }
   PetscCall(PetscArraycpy(y->energy, e, 7));
   y->stats.pairs_max    = PetscMax(y->stats.pairs_max, np);
@@ -127,7 +127,7 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   for (PetscInt f = 0; f < o->n; f++) {
     PetscCall(VKXdmfGridBegin(fp, "yarn"));
     PetscCall(VKXdmfTime(fp, o->row[NCOL * f]));
-    PetscCall(VKXdmfTopologyMixed(fp, y->yarn->curves.n, VKCurvesPolylineLength(&y->yarn->curves), "yls.h5", "/yarn/polylines")); /* one polyline per curve */
+    PetscCall(VKXdmfTopologyMixed(fp, y->rest->n, VKCurvesPolylineLength(y->rest), "yls.h5", "/yarn/polylines")); /* one polyline per curve */
     PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/x", (int)f));
     PetscCall(VKXdmfGeometry(fp, y->model.nv, "yls.h5", ds));
     PetscCall(VKRunFileYarnAttributes(fp, "yls.h5", f, y->model.nv, "", PETSC_TRUE));
@@ -188,8 +188,10 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscInt    steps = PetscMax(y->stats.steps, 1);
   const char *pc;
   const char *scene_name;
+  PetscReal   contact_radius;
 
   PetscFunctionBegin;
+  PetscCall(VKYarnGetProperties(y->yarn, NULL, NULL, &contact_radius));
   PetscCall(VKSceneGetName(y->scene, &scene_name));
   PetscCallMPI(MPI_Comm_size(y->comm, &size));
   {
@@ -236,7 +238,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONObjectBegin(&j, "relaxation"));
   PetscCall(VKJSONBool(&j, "done_in_this_run", y->relax_time > 0 ? PETSC_TRUE : PETSC_FALSE));
-  PetscCall(VKJSONBool(&j, "rest_state_relaxed", y->yarn->contact_radius > 0 ? PETSC_TRUE : PETSC_FALSE));
+  PetscCall(VKJSONBool(&j, "rest_state_relaxed", contact_radius > 0 ? PETSC_TRUE : PETSC_FALSE));
   PetscCall(VKJSONInt(&j, "proximal_steps", y->relax_steps));
   PetscCall(VKJSONReal(&j, "wall_time", y->relax_time));
   PetscCall(VKJSONObjectEnd(&j));

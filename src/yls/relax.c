@@ -55,15 +55,13 @@ static PetscErrorCode ResetRest(VKYLS y)
   PetscFunctionBegin;
   PetscCall(VKYLSMinDistance(y, &dmin, NULL)); /* over 2 x the current contact radius; fills y->xall */
   par.radius = PetscMin(y->par.radius, dmin * par.radius * (1 - 1e-9));
-  PetscCall(PetscArraycpy(y->yarn->curves.x, y->xall, 3 * y->model.nv));
-  y->yarn->contact_radius = par.radius;
+  PetscCall(VKYarnSetRelaxed(y->yarn, y->xall, par.radius)); /* positions, contact radius, rest frames */
   PetscCall(VKRodModelDestroy(&y->model));
-  PetscCall(VKRodModelCreate(&y->yarn->curves, &par, y->density, &y->model));
+  PetscCall(VKRodModelCreate(y->rest, &par, y->density, &y->model));
   for (PetscInt k = 0; k < y->nglue; k++) {
     const PetscReal *p = y->xall + 3 * y->glue[2 * k], *q = y->xall + 3 * y->glue[2 * k + 1];
     y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));
   }
-  PetscCall(VKCurvesTransportFrames(&y->yarn->curves, y->yarn->normal));
   PetscCall(VKYLSResetFrames(y)); /* the relaxed frames, untwisted, are the rest frames */
   PetscCall(VecSet(y->v, 0));
   PetscFunctionReturn(0);
@@ -128,11 +126,13 @@ PetscErrorCode VKYLSRelax(VKYLS y)
 
 PetscErrorCode VKYLSRelaxYarn(VKYarn yarn)
 {
-  VKScene scene;
-  VKYLS   y;
+  VKScene  scene;
+  VKYLS    y;
+  MPI_Comm comm;
 
   PetscFunctionBegin;
-  PetscCall(VKSceneCreate(yarn->comm, &scene)); /* the relaxation ignores the scene */
+  PetscCall(VKYarnGetComm(yarn, &comm));
+  PetscCall(VKSceneCreate(comm, &scene)); /* the relaxation ignores the scene */
   PetscCall(VKYLSCreate(yarn, scene, &y));
   PetscCall(VKYLSSetFromOptions(y));
   PetscCall(VKYLSRelax(y));

@@ -26,7 +26,8 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   PetscFunctionBegin;
   PetscCall(VKInitializePackage());
   PetscCall(PetscNew(&y));
-  y->comm         = yarn->comm;
+  PetscCall(VKYarnGetComm(yarn, &y->comm));
+  PetscCall(VKYarnGetCurves(yarn, &y->rest));
   y->yarn         = yarn;
   y->scene        = scene;
   y->par.ks       = YLS_KS;
@@ -107,7 +108,7 @@ PetscErrorCode VKYLSSetOutputDirectory(VKYLS y, const char dir[])
 /* Largest distance a handle vertex travels in one step of dt. */
 static PetscReal HandleTravel(VKYLS y, const VKHandle handles[], PetscReal dt)
 {
-  const PetscReal *X   = y->yarn->curves.x;
+  const PetscReal *X   = y->rest->x;
   PetscReal        top = 0;
   for (PetscInt i = 0; i < y->model.nv; i++) {
     const VKHandle *h = y->handle[i] >= 0 ? &handles[y->handle[i]] : NULL;
@@ -132,7 +133,7 @@ static PetscErrorCode SetUpScene(VKYLS y)
   const char     *name;
 
   PetscFunctionBegin;
-  PetscCall(VKCurvesBoundingBox(&y->yarn->curves, lo, hi));
+  PetscCall(VKCurvesBoundingBox(y->rest, lo, hi));
   PetscCall(VKSceneSetUp(y->scene, lo, hi));
   PetscCall(VKSceneGetDamping(y->scene, &y->cv));
   PetscCall(VKSceneGetGravity(y->scene, y->gravity));
@@ -142,7 +143,7 @@ static PetscErrorCode SetUpScene(VKYLS y)
   PetscCall(PetscMalloc1(y->model.nv, &y->handle));
   y->nhandle_vertices = 0;
   for (PetscInt i = 0; i < y->model.nv; i++) {
-    y->handle[i] = VKSceneHandleOf(y->scene, y->yarn->curves.x + 3 * i);
+    y->handle[i] = VKSceneHandleOf(y->scene, y->rest->x + 3 * i);
     if (y->handle[i] >= 0) {
       held[y->handle[i]]++;
       y->nhandle_vertices++;
@@ -165,29 +166,33 @@ static PetscErrorCode SetUpScene(VKYLS y)
 
 PetscErrorCode VKYLSSetUp(VKYLS y)
 {
-  PetscMPIInt rank, size;
-  PetscInt    nv, n;
+  PetscMPIInt     rank, size;
+  PetscInt        nv, n;
+  PetscBool       yarn_setup;
+  PetscReal       radius, contact_radius;
+  const PetscInt *bind;
 
   PetscFunctionBegin;
   if (y->setup) PetscFunctionReturn(0);
-  PetscCheck(y->yarn->setup, y->comm, PETSC_ERR_ORDER, "Call VKYarnSetUp() before VKYLSSetUp()");
-  y->par.radius    = y->yarn->radius;
-  y->density       = y->yarn->density;
-  y->twist_scale   = y->yarn->radius;
+  PetscCall(VKYarnIsSetUp(y->yarn, &yarn_setup));
+  PetscCheck(yarn_setup, y->comm, PETSC_ERR_ORDER, "Call VKYarnSetUp() before VKYLSSetUp()");
+  PetscCall(VKYarnGetProperties(y->yarn, &radius, &y->density, &contact_radius));
+  y->par.radius  = radius;
+  y->twist_scale = radius;
   {
     VKRodParams par = y->par; /* a relaxed rest state keeps the contact radius it was relaxed to */
-    par.section = y->yarn->radius;
-    if (y->yarn->contact_radius > 0) par.radius = y->yarn->contact_radius;
-    PetscCall(VKRodModelCreate(&y->yarn->curves, &par, y->density, &y->model));
+    par.section = radius;
+    if (contact_radius > 0) par.radius = contact_radius;
+    PetscCall(VKRodModelCreate(y->rest, &par, y->density, &y->model));
   }
   nv = y->model.nv;
   /* glue springs of the bound edges, at their rest length */
-  y->nglue = y->yarn->nbind;
+  PetscCall(VKYarnGetBindings(y->yarn, &y->nglue, &bind));
   PetscCall(PetscMalloc2(2 * y->nglue + 1, &y->glue, y->nglue + 1, &y->Lglue));
   for (PetscInt k = 0; k < y->nglue; k++) {
-    const PetscReal *p = y->yarn->curves.x + 3 * y->yarn->bind[2 * k], *q = y->yarn->curves.x + 3 * y->yarn->bind[2 * k + 1];
-    y->glue[2 * k]     = PetscMin(y->yarn->bind[2 * k], y->yarn->bind[2 * k + 1]);
-    y->glue[2 * k + 1] = PetscMax(y->yarn->bind[2 * k], y->yarn->bind[2 * k + 1]);
+    const PetscReal *p = y->rest->x + 3 * bind[2 * k], *q = y->rest->x + 3 * bind[2 * k + 1];
+    y->glue[2 * k]     = PetscMin(bind[2 * k], bind[2 * k + 1]);
+    y->glue[2 * k + 1] = PetscMax(bind[2 * k], bind[2 * k + 1]);
     y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));
   }
   PetscCall(SetUpScene(y));
@@ -220,7 +225,7 @@ PetscErrorCode VKYLSSetUp(VKYLS y)
   {
     PetscScalar *xa;
     PetscCall(VecGetArray(y->x, &xa));
-    PetscCall(PetscArraycpy(xa, y->yarn->curves.x + 3 * y->vbeg, 3 * n));
+    PetscCall(PetscArraycpy(xa, y->rest->x + 3 * y->vbeg, 3 * n));
     PetscCall(VecRestoreArray(y->x, &xa));
   }
   PetscCall(VecSet(y->v, 0));
@@ -324,7 +329,7 @@ PetscErrorCode VKYLSResetFrames(VKYLS y)
 static PetscReal HeldAngle(VKYLS y, PetscInt sg, PetscReal t)
 {
   const VKRodModel *m = &y->model;
-  const PetscReal  *Xa = y->yarn->curves.x + 3 * m->seg[2 * sg], *Xb = y->yarn->curves.x + 3 * m->seg[2 * sg + 1], *d0 = m->d0 + 3 * sg, *tn = y->tn + 3 * sg;
+  const PetscReal  *Xa = y->rest->x + 3 * m->seg[2 * sg], *Xb = y->rest->x + 3 * m->seg[2 * sg + 1], *d0 = m->d0 + 3 * sg, *tn = y->tn + 3 * sg;
   PetscInt          h = y->handle[m->seg[2 * sg]];
   PetscReal         Xd[3], pa[3], pb[3], pd[3], tt[3], dm[3], dr[3], c = 0, f = 0, cr[3], a;
 
@@ -406,7 +411,7 @@ static PetscErrorCode InitialGuess(VKYLS y, PetscReal s)
   PetscCall(VecGetArray(y->x, &xa));
   for (PetscInt i = y->vbeg; i < y->vend; i++) {
     PetscScalar *xi = xa + 3 * (i - y->vbeg);
-    if (y->handle[i] >= 0) VKSceneHandlePosition(y->scene, y->handle[i], y->yarn->curves.x + 3 * i, t1, xi);
+    if (y->handle[i] >= 0) VKSceneHandlePosition(y->scene, y->handle[i], y->rest->x + 3 * i, t1, xi);
     else
       for (int k = 0; k < 3; k++) xi[k] = y->xn[3 * i + k] + s * y->dt * y->vn[3 * i + k];
   }
@@ -627,14 +632,15 @@ const char *VKYLSStatus(VKYLS y, const char failure[])
 PetscErrorCode VKYLSRun(VKYLS y)
 {
   PetscInt       kout;
-  PetscReal      dt, T, interval;
+  PetscReal      dt, T, interval, contact_radius;
   PetscErrorCode ierr = 0;
   char           failure[256] = "";
   PetscLogDouble t0           = VKWallTime();
 
   PetscFunctionBegin;
   PetscCall(VKYLSSetUp(y));
-  if (y->relax && !(y->yarn->contact_radius > 0)) PetscCall(VKYLSRelax(y));
+  PetscCall(VKYarnGetProperties(y->yarn, NULL, NULL, &contact_radius));
+  if (y->relax && !(contact_radius > 0)) PetscCall(VKYLSRelax(y));
   dt = y->dt;
   PetscCall(VKSceneGetTimes(y->scene, &T, &interval));
   /* steps of dt, the one before each output time (and the end) shortened

@@ -9,7 +9,8 @@
 /* The yarn-level simulator (DESIGN §4-5). */
 struct _n_VKYLS {
   MPI_Comm   comm;
-  VKYarn     yarn;
+  VKYarn          yarn;
+  const VKCurves *rest; /* the yarn's rest polylines (VKYarnGetCurves; the relaxation moves them) */
   VKScene    scene;
   /* what the steps read of the scene, from its set-up (the relaxation
    * turns gravity and colliders off here, not in the scene) */

@@ -37,7 +37,11 @@ int main(int argc, char **argv)
   PetscCall(VKYarnCreate(PETSC_COMM_SELF, &y)); /* vertices per stitch of this pattern */
   PetscCall(VKYarnSetKnit(y, pattern, 8, 8));
   PetscCall(VKYarnSetUp(y));
-  per = (PetscReal)y->curves.nv / 64.0;
+  {
+    const VKCurves *c;
+    PetscCall(VKYarnGetCurves(y, &c));
+    per = (PetscReal)c->nv / 64.0;
+  }
   PetscCall(VKYarnDestroy(&y));
   side = (PetscInt)PetscMax(2, PetscSqrtReal(target / per) + 0.5);
 

@@ -1,0 +1,27 @@
+/* yarnimpl.h: the yarn model's struct (DESIGN §3), private to src/yarn;
+ * the mesh, the simulators, the fit and the report read a yarn through the
+ * accessors of vkyarn.h. */
+#pragma once
+#include <vkyarn.h>
+
+struct _n_VKYarn {
+  MPI_Comm      comm;
+  VKYarnSource  source;
+  char          file[PETSC_MAX_PATH_LEN]; /* chart/bcc/pyp/h5/weave file ("" for built-ins) */
+  char          pattern[64];              /* built-in knit pattern or weave */
+  char          description[PETSC_MAX_PATH_LEN + 64];
+  VKKnitParams  knit;
+  VKWeaveParams weave;
+  PetscInt      weave_param[2];
+  PetscInt      tiles[2];
+  PetscReal     scale, radius, density, seglen;
+  PetscReal     contact_radius; /* > 0: the rest state is relaxed (VKYLSRelax) and honours this contact radius (<= radius) */
+  PetscBool     radius_set, radius_estimated, seglen_set, knit_set[5], weave_set[2], weave_param_set;
+  PetscBool     setup;
+  /* the model */
+  VKCurves   curves; /* rest polylines (m) */
+  PetscReal *normal; /* rest n1 per segment */
+  PetscInt   nbind;
+  PetscInt  *bind;   /* 2 per glued vertex pair */
+  PetscLogDouble time_build;
+};
