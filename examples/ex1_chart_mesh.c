@@ -67,16 +67,16 @@ int main(int argc, char **argv)
   /* 3. a distributed node vector: the lumped masses of the owned nodes */
   PetscCall(VKMeshCreateNodeVec(mesh, 1, &mass));
   PetscCall(VecGetArray(mass, &a));
-  for (PetscInt i = mesh->layout.nStart; i < mesh->layout.nEnd; i++) a[i - mesh->layout.nStart] = mesh->mass[i];
+  for (PetscInt i = VKMeshLayout(mesh)->nStart; i < VKMeshLayout(mesh)->nEnd; i++) a[i - VKMeshLayout(mesh)->nStart] = VKMeshNodeMasses(mesh)[i];
   PetscCall(VecRestoreArray(mass, &a));
   PetscCall(VecSum(mass, &total));
   PetscCall(VKYarnGetMass(yarn, &ymass, NULL));
-  PetscCall(PetscMalloc1(3 * mesh->ny, &xy));
-  PetscCall(VKMeshApplyEmbedding(mesh, mesh->x, xy));
+  PetscCall(PetscMalloc1(3 * VKMeshYarnVertexCount(mesh), &xy));
+  PetscCall(VKMeshApplyEmbedding(mesh, VKMeshRestPositions(mesh), xy));
   {
     const VKCurves *rest;
     PetscCall(VKYarnGetCurves(yarn, &rest));
-    for (PetscInt k = 0; k < 3 * mesh->ny; k++) err = PetscMax(err, PetscAbsReal(xy[k] - rest->x[k]));
+    for (PetscInt k = 0; k < 3 * VKMeshYarnVertexCount(mesh); k++) err = PetscMax(err, PetscAbsReal(xy[k] - rest->x[k]));
   }
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Mass on the mesh nodes %.12g kg, yarn mass %.12g kg (relative difference %.1e)\n", (double)total, (double)ymass, (double)(PetscAbsReal(total - ymass) / ymass)));
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "N x^V reproduces the rest yarn to %.1e m\n", (double)err));

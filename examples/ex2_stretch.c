@@ -37,11 +37,11 @@ static PetscErrorCode YarnWidth(VKMesh mesh, VKSim sim, PetscReal *w)
   PetscCall(VecScatterCreateToAll(xs, &sc, &all));
   PetscCall(VecScatterBegin(sc, xs, all, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(sc, xs, all, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(PetscMalloc1(3 * mesh->ny, &xy));
+  PetscCall(PetscMalloc1(3 * VKMeshYarnVertexCount(mesh), &xy));
   PetscCall(VecGetArrayRead(all, &x));
   PetscCall(VKMeshApplyEmbedding(mesh, x, xy));
   PetscCall(VecRestoreArrayRead(all, &x));
-  for (PetscInt k = 0; k < mesh->ny; k++) {
+  for (PetscInt k = 0; k < VKMeshYarnVertexCount(mesh); k++) {
     lo = PetscMin(lo, xy[3 * k]);
     hi = PetscMax(hi, xy[3 * k]);
   }

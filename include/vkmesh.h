@@ -35,43 +35,47 @@ typedef struct {
 } VKLayout;
 
 typedef struct _n_VKMesh *VKMesh;
-struct _n_VKMesh {
-  MPI_Comm    comm;
-  PetscMPIInt rank, size;
-  VKYarn      yarn; /* the enclosed yarn model (reference) */
-  VKGrid      grid;
-  PetscBool   h_set, setup;
-  /* voxels (Morton order) */
-  PetscInt  nvox;
-  PetscInt *vox;    /* 3 per voxel: grid coordinates */
-  uint64_t *voxkey; /* sorted Morton keys of the voxels */
-  /* nodes */
-  PetscInt   nv;
-  PetscReal *x;        /* 3 per node: rest position */
-  PetscInt  *node_ijk; /* 3 per node: grid coordinates */
-  PetscReal *mass;     /* lumped mass (Eq. 2) */
-  /* tetrahedra */
-  PetscInt   ne;
-  PetscInt  *tet;   /* 4 per tet, positively oriented */
-  PetscReal *G;     /* 12 per tet: G_e (3 x 4, row-major), F_e = [x_0..x_3] G_e^T */
-  PetscReal *vol;   /* rest volume V_e */
-  PetscInt  *tet_of_kuhn; /* 6 v + p (voxel v, Kuhn tet p) -> tet */
-  /* element dual graph (tets sharing a face), CSR */
-  PetscInt *dual_start, *dual_adj;
-  /* embedding: yarn vertex k lies in tet emb_tet[k] with weights emb_w[4k..] */
-  PetscInt   ny;
-  PetscInt  *emb_tet;
-  PetscReal *emb_w;
-  /* domains (contiguous after renumbering) */
-  PetscInt  ndomains;
-  PetscInt *tet_domain, *node_domain, *node_interface;
-  PetscInt *domain_tet_start, *domain_node_start; /* ndomains+1 */
-  PetscInt *rank_tet_start, *rank_node_start;     /* size+1 */
-  VKLayout  layout;
-  /* summary */
-  PetscReal      yarn_mass, mesh_mass;
-  PetscLogDouble time[8]; /* voxelize, tets, lump, embed, dual, partition, layout, total */
-};
+
+/* What a set-up mesh holds, read-only (the struct is private to
+ * src/mesh).  Global numbering; every rank holds the whole mesh, and the
+ * layout says which nodes and tets it owns.
+ *   nodes: rest positions x (3 each), lumped masses (Eq. 2);
+ *   tets: vertices (4 each, positively oriented), G_e (12 each, 3 x 4
+ *     row-major: F_e = [x_0..x_3] G_e^T), rest volumes;
+ *   embedding: yarn vertex k lies in tet EmbedTets[k] with weights
+ *     EmbedWeights[4k..4k+3];
+ *   domains: per tet and per node, and the contiguous ranges of each
+ *     (ndomains + 1 entries), and of each rank (size + 1);
+ *   voxels: grid coordinates (3 each); tet of Kuhn tet p of voxel v at
+ *     6 v + p; the element dual graph (tets sharing a face) in CSR. */
+PETSC_EXTERN MPI_Comm         VKMeshComm(VKMesh);
+PETSC_EXTERN VKYarn           VKMeshYarn(VKMesh);
+PETSC_EXTERN const VKGrid    *VKMeshGrid(VKMesh);
+PETSC_EXTERN const VKLayout  *VKMeshLayout(VKMesh);
+PETSC_EXTERN PetscInt         VKMeshNodeCount(VKMesh);
+PETSC_EXTERN PetscInt         VKMeshTetCount(VKMesh);
+PETSC_EXTERN PetscInt         VKMeshYarnVertexCount(VKMesh);
+PETSC_EXTERN PetscInt         VKMeshDomainCount(VKMesh);
+PETSC_EXTERN PetscInt         VKMeshVoxelCount(VKMesh);
+PETSC_EXTERN const PetscReal *VKMeshRestPositions(VKMesh);
+PETSC_EXTERN const PetscReal *VKMeshNodeMasses(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshTets(VKMesh);
+PETSC_EXTERN const PetscReal *VKMeshTetGradients(VKMesh);
+PETSC_EXTERN const PetscReal *VKMeshTetVolumes(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshEmbedTets(VKMesh);
+PETSC_EXTERN const PetscReal *VKMeshEmbedWeights(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshTetDomains(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshNodeDomains(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshDomainTetStart(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshDomainNodeStart(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshRankTetStart(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshVoxels(VKMesh);
+PETSC_EXTERN const PetscInt  *VKMeshTetOfKuhn(VKMesh);
+PETSC_EXTERN void             VKMeshDualGraph(VKMesh, const PetscInt **start, const PetscInt **adj);
+/* Mass lumped on the nodes and the yarn's (kg), and the wall time of each
+ * set-up phase (voxelize, tets, lump, embed, dual, partition, layout,
+ * total), s. */
+PETSC_EXTERN void             VKMeshGetSummary(VKMesh, PetscReal *mesh_mass, PetscReal *yarn_mass, const PetscLogDouble **time);
 
 PETSC_EXTERN PetscErrorCode VKMeshCreate(MPI_Comm, VKMesh *);
 PETSC_EXTERN PetscErrorCode VKMeshSetYarn(VKMesh, VKYarn);

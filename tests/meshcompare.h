@@ -4,6 +4,7 @@
  * nodes, positions, masses, tets, volumes, embedding and, optionally, the
  * METIS domain of every tet. */
 #pragma once
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include <vkmesh.h>
 #include <vkutil.h>
 #include "vktest.h"

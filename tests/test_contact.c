@@ -15,6 +15,7 @@
  *    part resting on the sphere, penetration bounded, 1 and 2 ranks agree.
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <vksim.h>
 #include "vktest.h"

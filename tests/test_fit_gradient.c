@@ -20,6 +20,7 @@
  * none (static; H is the elastic Hessian alone).
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/fit/fitimpl.h" /* white-box: the fit's solvers, schedule and state */
 #include <slepcsys.h>
 #include "vktest.h"

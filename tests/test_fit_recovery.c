@@ -30,6 +30,7 @@
  * the loss at gamma* under alpha = 0.1 (printed as a comment).
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include "../src/fit/fitimpl.h" /* white-box: the fit's solvers, schedule and state */
 #include <vkutil.h>

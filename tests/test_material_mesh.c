@@ -12,6 +12,7 @@
  * stretch band the same partition independence, exact J and a round trip
  * of the band through material.h5; VKMaterialSetGamma records which
  * domains changed and refuses negative values. */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/material/materialimpl.h" /* white-box: the material's values, states and band */
 #include <vkio.h>
 #include "vktest.h"

@@ -9,6 +9,7 @@
  * graph is exactly that matching; each yarn's voxel chain is face
  * connected, in the mesh, and covers the yarn; G_e reproduces the
  * gradient of linear fields. */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkmesh.h>
 #include <vkutil.h>

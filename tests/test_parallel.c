@@ -9,6 +9,7 @@
  * the mesh volume, and the norm equals the serial one.  Ghosted vectors
  * carry the owners' values.  mesh.h5 written and loaded back gives the
  * same mesh and layout.  Repeated with more domains than ranks. */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkmesh.h>
 #include <vkio.h>

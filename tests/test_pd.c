@@ -19,6 +19,7 @@
  *    against L-BFGS with the direct solve, every step converged.
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <string.h>

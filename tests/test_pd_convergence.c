@@ -17,6 +17,7 @@
  *    no higher than plain PD either (one step of the hanging patch).
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <vksim.h>

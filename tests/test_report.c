@@ -10,6 +10,7 @@
  *    same at rest: a clear error each.
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkreport.h>
 #include <vkmesh.h>

@@ -13,6 +13,7 @@
  * to the run's elastic and kinetic energies.
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include "../src/scene/sceneimpl.h" /* white-box: scenes built field by field */
 #include <vksim.h>

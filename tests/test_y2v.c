@@ -14,6 +14,7 @@
  *    random x (1e-10 relative), and its gradient passes a Taylor test.
  * ranks: 1 2
  */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include "../src/fit/fitimpl.h" /* white-box: the fit's solvers, schedule and state */
 #include <vkutil.h>

@@ -3,6 +3,7 @@
  * same nodes, positions, masses, tets, volumes and embedding, and the same
  * partition when both have the same number of domains.
  * Usage: tool_compare_mesh A/mesh.h5 B/mesh.h5 */
+#include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkmesh.h>
 #include "vktest.h"

@@ -403,7 +403,7 @@ static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
   for (PetscInt i = 0; i < PetscMax(R->nh, 1); i++) {
     PetscCall(VKJSONObjectBegin(&j, NULL));
     PetscCall(VKJSONString(&j, "dir", R->meshdir[i]));
-    PetscCall(VKJSONReal(&j, "h", R->mesh[i]->grid.h));
+    PetscCall(VKJSONReal(&j, "h", VKMeshGrid(R->mesh[i])->h));
     if (R->has_best[i]) {
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_s_Pa", R->best[i][0]));
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_v_Pa", R->best[i][1]));

@@ -166,13 +166,17 @@ PetscErrorCode VKAppYarnStage(VKYarn y, const char dir[], PetscBool write, Petsc
 
 PetscErrorCode VKAppMeshStage(VKMesh m, const char dir[])
 {
+  PetscReal             mesh_mass, yarn_mass;
+  const PetscLogDouble *times;
+
   PetscFunctionBegin;
   PetscCall(PetscLogStagePush(VK_STAGE_MESH));
   PetscCall(VKMeshSetUp(m));
   PetscCall(VKMeshWriteOutputs(m, dir));
-  PetscCall(VKAppViewFromOptions(m->comm, "-mesh_view", MeshView, m));
-  PetscCall(VKAppViewFromOptions(m->comm, "-dd_view", DomainsView, m));
-  PetscCall(PetscPrintf(m->comm, "volknit mesh: h = %g m, %d voxels, %d nodes, %d tets (n_V/n_Y = %.3f), %d domains, mass error %.1e -> %s/mesh.h5 (%.2f s)\n", (double)m->grid.h, (int)m->nvox, (int)m->nv, (int)m->ne, (double)m->nv / (double)m->ny, (int)m->ndomains, (double)(PetscAbsReal(m->mesh_mass - m->yarn_mass) / m->yarn_mass), dir, m->time[7]));
+  PetscCall(VKAppViewFromOptions(VKMeshComm(m), "-mesh_view", MeshView, m));
+  PetscCall(VKAppViewFromOptions(VKMeshComm(m), "-dd_view", DomainsView, m));
+  VKMeshGetSummary(m, &mesh_mass, &yarn_mass, &times);
+  PetscCall(PetscPrintf(VKMeshComm(m), "volknit mesh: h = %g m, %d voxels, %d nodes, %d tets (n_V/n_Y = %.3f), %d domains, mass error %.1e -> %s/mesh.h5 (%.2f s)\n", (double)VKMeshGrid(m)->h, (int)VKMeshVoxelCount(m), (int)VKMeshNodeCount(m), (int)VKMeshTetCount(m), (double)VKMeshNodeCount(m) / (double)VKMeshYarnVertexCount(m), (int)VKMeshDomainCount(m), (double)(PetscAbsReal(mesh_mass - yarn_mass) / yarn_mass), dir, times[7]));
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(0);
 }
@@ -182,12 +186,12 @@ PetscErrorCode VKAppSimFromOptions(VKMesh m, const char dir[], VKAppSimParts *p)
   PetscFunctionBegin;
   PetscCall(VKMaterialCreate(m, &p->mat));
   PetscCall(VKMaterialSetFromOptions(p->mat));
-  PetscCall(VKSceneCreate(m->comm, &p->scene));
+  PetscCall(VKSceneCreate(VKMeshComm(m), &p->scene));
   PetscCall(VKSceneSetFromOptions(p->scene));
   PetscCall(VKSimCreate(p->mat, p->scene, &p->sim));
   PetscCall(VKSimSetFromOptions(p->sim));
   PetscCall(VKSimSetOutputDirectory(p->sim, dir));
-  PetscOptionsBegin(m->comm, NULL, "Simulation outputs", "volknit sim");
+  PetscOptionsBegin(VKMeshComm(m), NULL, "Simulation outputs", "volknit sim");
   PetscCall(PetscOptionsName("-sim_view", "Print scene, material and time integrator before the run", "VKSimView", NULL));
   PetscOptionsEnd();
   PetscFunctionReturn(0);
@@ -325,7 +329,7 @@ PetscErrorCode VKCommandSim(MPI_Comm comm)
   else PetscCall(VKMeshCreate(comm, &m));
   PetscCall(VKAppSimFromOptions(m, dir, &p));
   if (!help) {
-    PetscCall(PetscPrintf(comm, "volknit sim: mesh read from %s (%d nodes, %d tets)\n", path, (int)m->nv, (int)m->ne));
+    PetscCall(PetscPrintf(comm, "volknit sim: mesh read from %s (%d nodes, %d tets)\n", path, (int)VKMeshNodeCount(m), (int)VKMeshTetCount(m)));
     PetscCall(VKAppSimStage(&p));
   }
   PetscCall(VKAppSimPartsDestroy(&p));
@@ -433,7 +437,7 @@ PetscErrorCode VKAppFitStage(VKFit fit, const VKAppFitJoint *J, const char ydir[
     PetscCall(VKFitDataLoad(comm, ypath, &data[i]));
     PetscCall(VKFitDataGetFrames(data[i], &nframes, NULL));
     PetscCall(VKFitDataGetStatus(data[i], &status));
-    PetscCall(PetscPrintf(comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)mesh->nv, (int)mesh->ne, ypath, (int)nframes, status));
+    PetscCall(PetscPrintf(comm, "volknit fit: mesh of %d nodes, %d tets; yarn frames %s (%d frames, run %s)\n", (int)VKMeshNodeCount(mesh), (int)VKMeshTetCount(mesh), ypath, (int)nframes, status));
     PetscCall(VKFitSetUp(fits[i]));
   }
   PetscCall(VKAppViewFromOptions(comm, "-fit_view", FitView, fit));

@@ -33,7 +33,7 @@ static PetscReal Fingerprint(VKMesh m)
 {
   PetscReal s = 0;
 
-  for (PetscInt e = 0; e < m->ne; e++) s += (PetscReal)(e % 1000 + 1) * (PetscReal)(m->tet[4 * e] + 2 * m->tet[4 * e + 1] + 3 * m->tet[4 * e + 2] + 4 * m->tet[4 * e + 3]);
+  for (PetscInt e = 0; e < VKMeshTetCount(m); e++) s += (PetscReal)(e % 1000 + 1) * (PetscReal)(VKMeshTets(m)[4 * e] + 2 * VKMeshTets(m)[4 * e + 1] + 3 * VKMeshTets(m)[4 * e + 2] + 4 * VKMeshTets(m)[4 * e + 3]);
   return s;
 }
 
@@ -82,7 +82,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   struct {
     const char *name;
     PetscInt    v;
-  } ints[] = {{"tets", fit->mesh->ne}, {"nodes", fit->mesh->nv}, {"domains", fit->mesh->ndomains}, {"sample", st->sample}, {"stage", st->stage}, {"phase", st->phase}, {"iteration", st->iteration}, {"iterations", fit->nits}};
+  } ints[] = {{"tets", VKMeshTetCount(fit->mesh)}, {"nodes", VKMeshNodeCount(fit->mesh)}, {"domains", VKMeshDomainCount(fit->mesh)}, {"sample", st->sample}, {"stage", st->stage}, {"phase", st->phase}, {"iteration", st->iteration}, {"iterations", fit->nits}};
 
   PetscFunctionBegin;
   PetscCall(PetscMalloc1(HIST_COLS * fit->nhist + 1, &hist));
@@ -95,9 +95,9 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   ierr = VKH5WriteInt(&h, "/checkpoint/samples", st->ns, 1, st->samples);
   if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/loss_floor", st->ns, 1, st->floor);
   if (!ierr) ierr = VKH5WriteInt(&h, "/checkpoint/stages", st->nstages, 1, st->stages);
-  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/average", fit->mesh->ne, 2, w->avg);
-  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", fit->mesh->ne, 2, w->gamma);
-  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/x", fit->mesh->nv, 3, w->x);
+  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/average", VKMeshTetCount(fit->mesh), 2, w->avg);
+  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", VKMeshTetCount(fit->mesh), 2, w->gamma);
+  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/x", VKMeshNodeCount(fit->mesh), 3, w->x);
   if (!ierr && fit->nhist) ierr = VKH5WriteReal(&h, "/checkpoint/history", fit->nhist, HIST_COLS, hist);
   if (!ierr) ierr = VKH5WriteAttrString(&h, g, "format", CHECKPOINT_FORMAT);
   for (size_t i = 0; i < sizeof(reals) / sizeof(reals[0]) && !ierr; i++) ierr = VKH5WriteAttrReal(&h, g, reals[i].name, reals[i].v);
@@ -176,7 +176,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "nodes", &nv);
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "domains", &nd);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "fingerprint", &fp);
-  if (!ierr && !(ne == m->ne && nv == m->nv && nd == m->ndomains && fp == Fingerprint(m))) ierr = BAD("%s belongs to another mesh (%d tets, %d nodes, %d domains; this one has %d, %d, %d%s)", path, (int)ne, (int)nv, (int)nd, (int)m->ne, (int)m->nv, (int)m->ndomains, ne == m->ne && nv == m->nv && nd == m->ndomains ? ", numbered differently" : "");
+  if (!ierr && !(ne == VKMeshTetCount(m) && nv == VKMeshNodeCount(m) && nd == VKMeshDomainCount(m) && fp == Fingerprint(m))) ierr = BAD("%s belongs to another mesh (%d tets, %d nodes, %d domains; this one has %d, %d, %d%s)", path, (int)ne, (int)nv, (int)nd, (int)VKMeshTetCount(m), (int)VKMeshNodeCount(m), (int)VKMeshDomainCount(m), ne == VKMeshTetCount(m) && nv == VKMeshNodeCount(m) && nd == VKMeshDomainCount(m) ? ", numbered differently" : "");
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "band_lo", &blo);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "band_hi", &bhi);
   if (!ierr && !(blo == band.lo && bhi == band.hi)) ierr = BAD("%s was written by a fit with the stretch band %g,%g; this one has %g,%g (give the same -mat_band)", path, (double)blo, (double)bhi, (double)band.lo, (double)band.hi);
@@ -214,7 +214,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
     PetscCall(PetscArraycpy(st->samples, samples, st->ns));
     PetscCall(PetscArraycpy(st->floor, fl, st->ns));
     PetscCall(PetscArraycpy(st->stages, stages, st->nstages));
-    for (PetscInt i = 0; i < st->nstages; i++) PetscCheck(stages[i] >= 0 && stages[i] <= m->ne, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: stage %d has basis size %d", path, (int)i, (int)stages[i]);
+    for (PetscInt i = 0; i < st->nstages; i++) PetscCheck(stages[i] >= 0 && stages[i] <= VKMeshTetCount(m), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: stage %d has basis size %d", path, (int)i, (int)stages[i]);
     PetscCall(TakeOwned(path, "average", avg, PETSC_TRUE, st->avg));
     if (st->phase >= 0) {
       PetscCall(TakeOwned(path, "gamma", gamma, PETSC_TRUE, st->gamma));

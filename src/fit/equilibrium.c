@@ -28,7 +28,7 @@ PetscErrorCode VKFitFrameCreate(VKFit fit, PetscInt index, PetscReal t, Vec xhat
 
 PetscErrorCode VKFitFrameCreateSpaced(VKFit fit, PetscInt index, PetscReal t, PetscReal h, PetscReal hprev, Vec xhat, PetscReal eps_hat, Vec xhat1, Vec xhat2, VKFitFrame *f)
 {
-  const VKLayout *L = &fit->mesh->layout;
+  const VKLayout *L = VKMeshLayout(fit->mesh);
   PetscScalar    *ya;
 
   PetscFunctionBegin;
@@ -62,7 +62,7 @@ PetscErrorCode VKFitFrameCreateSpaced(VKFit fit, PetscInt index, PetscReal t, Pe
     PetscCall(VecGetArray(f->fext, &fa));
     for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
       for (int r = 0; r < 3; r++) {
-        PetscReal m = fit->mesh->mass[L->nStart + i];
+        PetscReal m = VKMeshNodeMasses(fit->mesh)[L->nStart + i];
         fa[3 * i + r] = fit->inertia == VK_FIT_INERTIA_DATA ? m * (ya[3 * i + r] - xa[3 * i + r]) / (h * h) : m * fit->gravity[r];
       }
     PetscCall(VecRestoreArray(f->fext, &fa));
@@ -86,7 +86,7 @@ PetscErrorCode VKFitFrameDestroy(VKFitFrame *f)
 /* |grad E(xhat)| + |M (xhat - y)|/dt^2, or |fext| in a static equilibrium */
 static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
 {
-  const VKLayout    *L = &fit->mesh->layout;
+  const VKLayout    *L = VKMeshLayout(fit->mesh);
   const PetscScalar *xa, *ya;
   PetscReal          gE, in = 0, all;
 
@@ -101,7 +101,7 @@ static PetscErrorCode ForceScale(VKFit fit, VKFitFrame *f, PetscReal *scale)
   PetscCall(VecGetArrayRead(f->xhat, &xa));
   PetscCall(VecGetArrayRead(f->y, &ya));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) in += PetscSqr(fit->mesh->mass[L->nStart + i] * (xa[3 * i + r] - ya[3 * i + r]));
+    for (int r = 0; r < 3; r++) in += PetscSqr(VKMeshNodeMasses(fit->mesh)[L->nStart + i] * (xa[3 * i + r] - ya[3 * i + r]));
   PetscCall(VecRestoreArrayRead(f->y, &ya));
   PetscCall(VecRestoreArrayRead(f->xhat, &xa));
   PetscCallMPI(MPI_Allreduce(&in, &all, 1, MPIU_REAL, MPIU_SUM, fit->comm));

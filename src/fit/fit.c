@@ -254,7 +254,7 @@ PetscErrorCode VKFitSetUp(VKFit fit)
   PetscCall(VKSceneIsSetUp(fit->scene, &scene_setup));
   if (!scene_setup) { /* boxes relative to the yarn's rest bounding box, as in yls and sim */
     PetscReal lo[3], hi[3];
-    PetscCall(VKYarnGetBoundingBox(fit->mesh->yarn, lo, hi));
+    PetscCall(VKYarnGetBoundingBox(VKMeshYarn(fit->mesh), lo, hi));
     PetscCall(VKSceneSetUp(fit->scene, lo, hi));
   }
   PetscCall(VKSceneGetGravity(fit->scene, fit->gravity));

@@ -15,26 +15,28 @@
 
 static PetscErrorCode DualLaplacian(VKMesh m, Mat *L)
 {
-  const VKLayout *lay = &m->layout;
+  const VKLayout *lay = VKMeshLayout(m);
   PetscInt        n   = lay->eEnd - lay->eStart, *dnz, *onz;
+  const PetscInt *dual_start, *dual_adj;
 
   PetscFunctionBegin;
+  VKMeshDualGraph(m, &dual_start, &dual_adj);
   PetscCall(PetscMalloc2(n, &dnz, n, &onz));
   for (PetscInt e = lay->eStart; e < lay->eEnd; e++) {
     dnz[e - lay->eStart] = 1;
     onz[e - lay->eStart] = 0;
-    for (PetscInt k = m->dual_start[e]; k < m->dual_start[e + 1]; k++) {
-      PetscInt f = m->dual_adj[k];
+    for (PetscInt k = dual_start[e]; k < dual_start[e + 1]; k++) {
+      PetscInt f = dual_adj[k];
       if (f >= lay->eStart && f < lay->eEnd) dnz[e - lay->eStart]++;
       else onz[e - lay->eStart]++;
     }
   }
-  PetscCall(MatCreateAIJ(m->comm, n, n, m->ne, m->ne, 0, dnz, 0, onz, L));
+  PetscCall(MatCreateAIJ(VKMeshComm(m), n, n, VKMeshTetCount(m), VKMeshTetCount(m), 0, dnz, 0, onz, L));
   PetscCall(PetscFree2(dnz, onz));
   for (PetscInt e = lay->eStart; e < lay->eEnd; e++) {
-    PetscReal deg = (PetscReal)(m->dual_start[e + 1] - m->dual_start[e]), minus = -1;
+    PetscReal deg = (PetscReal)(dual_start[e + 1] - dual_start[e]), minus = -1;
     PetscCall(MatSetValue(*L, e, e, deg, INSERT_VALUES));
-    for (PetscInt k = m->dual_start[e]; k < m->dual_start[e + 1]; k++) PetscCall(MatSetValues(*L, 1, &e, 1, &m->dual_adj[k], &minus, INSERT_VALUES));
+    for (PetscInt k = dual_start[e]; k < dual_start[e + 1]; k++) PetscCall(MatSetValues(*L, 1, &e, 1, &dual_adj[k], &minus, INSERT_VALUES));
   }
   PetscCall(MatAssemblyBegin(*L, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(*L, MAT_FINAL_ASSEMBLY));
@@ -45,19 +47,19 @@ static PetscErrorCode DualLaplacian(VKMesh m, Mat *L)
  * centroid (rank-count independent); the constant vector: sum v > 0. */
 static PetscErrorCode FixSign(VKMesh m, PetscReal v[])
 {
-  const VKLayout *lay = &m->layout;
+  const VKLayout *lay = VKMeshLayout(m);
   PetscReal       s[2] = {0, 0}, all[2];
 
   PetscFunctionBegin;
   for (PetscInt e = lay->eStart; e < lay->eEnd; e++) {
     PetscReal c[3] = {0, 0, 0};
     for (int a = 0; a < 4; a++)
-      for (int r = 0; r < 3; r++) c[r] += 0.25 * m->x[3 * m->tet[4 * e + a] + r];
+      for (int r = 0; r < 3; r++) c[r] += 0.25 * VKMeshRestPositions(m)[3 * VKMeshTets(m)[4 * e + a] + r];
     s[0] += v[e - lay->eStart];
     s[1] += v[e - lay->eStart] * (1 + c[0] + PetscSqrtReal(2) * c[1] + PetscSqrtReal(3) * c[2]);
   }
-  PetscCallMPI(MPI_Allreduce(s, all, 2, MPIU_REAL, MPIU_SUM, m->comm));
-  if ((PetscAbsReal(all[0]) > 1e-8 * PetscSqrtReal((PetscReal)m->ne) ? all[0] : all[1]) < 0)
+  PetscCallMPI(MPI_Allreduce(s, all, 2, MPIU_REAL, MPIU_SUM, VKMeshComm(m)));
+  if ((PetscAbsReal(all[0]) > 1e-8 * PetscSqrtReal((PetscReal)VKMeshTetCount(m)) ? all[0] : all[1]) < 0)
     for (PetscInt i = 0; i < lay->eEnd - lay->eStart; i++) v[i] = -v[i];
   PetscFunctionReturn(0);
 }
@@ -65,7 +67,7 @@ static PetscErrorCode FixSign(VKMesh m, PetscReal v[])
 PetscErrorCode VKFitHarmonicSetUp(VKFit fit, PetscInt r)
 {
   VKMesh         m = fit->mesh;
-  PetscInt       n = m->layout.eEnd - m->layout.eStart, nconv;
+  PetscInt       n = VKMeshLayout(m)->eEnd - VKMeshLayout(m)->eStart, nconv;
   Mat            L;
   EPS            eps;
   ST             st;
@@ -75,7 +77,7 @@ PetscErrorCode VKFitHarmonicSetUp(VKFit fit, PetscInt r)
 
   PetscFunctionBegin;
   if (r <= fit->rbasis) PetscFunctionReturn(0);
-  PetscCheck(r <= m->ne, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "A harmonic basis of %d vectors asked of a mesh of %d tets", (int)r, (int)m->ne);
+  PetscCheck(r <= VKMeshTetCount(m), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "A harmonic basis of %d vectors asked of a mesh of %d tets", (int)r, (int)VKMeshTetCount(m));
   t0 = VKWallTime();
   PetscCall(PetscLogEventBegin(VK_EVENT_FitEigen, 0, 0, 0, 0));
   PetscCall(DualLaplacian(m, &L));
@@ -119,7 +121,7 @@ PetscErrorCode VKFitHarmonicSetUp(VKFit fit, PetscInt r)
 
 PetscErrorCode VKFitHarmonicApply(VKFit fit, PetscInt r, const PetscReal dq[], Vec gamma)
 {
-  PetscInt     n = fit->mesh->layout.eEnd - fit->mesh->layout.eStart;
+  PetscInt     n = VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart;
   PetscScalar *g;
 
   PetscFunctionBegin;
@@ -138,7 +140,7 @@ PetscErrorCode VKFitHarmonicApply(VKFit fit, PetscInt r, const PetscReal dq[], V
 
 PetscErrorCode VKFitHarmonicApplyTranspose(VKFit fit, PetscInt r, Vec v, PetscReal dq[])
 {
-  PetscInt           n = fit->mesh->layout.eEnd - fit->mesh->layout.eStart;
+  PetscInt           n = VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart;
   const PetscScalar *a;
   PetscReal         *mine;
 
@@ -161,7 +163,7 @@ PetscErrorCode VKFitHarmonicApplyTranspose(VKFit fit, PetscInt r, Vec v, PetscRe
 
 PetscErrorCode VKFitHarmonicCopy(VKFit from, VKFit to)
 {
-  PetscInt n = from->mesh->layout.eEnd - from->mesh->layout.eStart;
+  PetscInt n = VKMeshLayout(from->mesh)->eEnd - VKMeshLayout(from->mesh)->eStart;
 
   PetscFunctionBegin;
   PetscCheck(from->mesh == to->mesh, from->comm, PETSC_ERR_ARG_INCOMP, "VKFitHarmonicCopy: the two fits are on different meshes");

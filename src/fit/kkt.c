@@ -60,7 +60,7 @@ static PetscInt KKTColumn(const KKTLayout *K, int b, PetscInt c)
 
 static PetscErrorCode KKTLayoutCreate(VKFit fit, PetscBool reduced, KKTLayout *K)
 {
-  const VKLayout *L = &fit->mesh->layout;
+  const VKLayout *L = VKMeshLayout(fit->mesh);
   PetscInt        mine[3] = {3 * (L->nEnd - L->nStart), 3 * (L->nEnd - L->nStart), reduced ? 0 : 2 * (L->eEnd - L->eStart)}, *all;
 
   PetscFunctionBegin;
@@ -227,7 +227,7 @@ static PetscErrorCode RenewKKTSolver(VKFit fit)
  * columns zeroed), G once per fit, J^T, and with reduced J J^T. */
 static PetscErrorCode KKTBlocks(VKFit fit, VKFitFrame *f, const PetscBool frozen[], PetscBool reduced)
 {
-  const VKLayout *L  = &fit->mesh->layout;
+  const VKLayout *L  = VKMeshLayout(fit->mesh);
   PetscInt        ng = 2 * (L->eEnd - L->eStart);
 
   PetscFunctionBegin;
@@ -262,7 +262,7 @@ static PetscErrorCode KKTBlocks(VKFit fit, VKFitFrame *f, const PetscBool frozen
  * created on the first call (*fresh), refilled in its pattern after. */
 static PetscErrorCode KKTAssemble(VKFit fit, KKTLayout *K, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], PetscBool *fresh)
 {
-  const VKLayout *L  = &fit->mesh->layout;
+  const VKLayout *L  = VKMeshLayout(fit->mesh);
   PetscInt        nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart), nloc, *d_nnz, *o_nnz;
   PetscReal      *kdiag;
   PetscMPIInt     rank;
@@ -314,7 +314,7 @@ static PetscErrorCode KKTAssemble(VKFit fit, KKTLayout *K, PetscBool reduced, Pe
  * reduced [0; J grad / kappa]. */
 static PetscErrorCode KKTRightHandSide(VKFit fit, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec rhs)
 {
-  const VKLayout    *L  = &fit->mesh->layout;
+  const VKLayout    *L  = VKMeshLayout(fit->mesh);
   PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart);
   PetscScalar       *ra;
   const PetscScalar *ga;
@@ -373,7 +373,7 @@ static PetscErrorCode KKTSolve(VKFit fit, PetscBool fresh, Vec rhs, Vec sol, KSP
  * kappa; 0 where frozen. */
 static PetscErrorCode KKTDirection(VKFit fit, Vec sol, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
 {
-  const VKLayout    *L  = &fit->mesh->layout;
+  const VKLayout    *L  = VKMeshLayout(fit->mesh);
   PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart);
   PetscScalar       *ra;
   const PetscScalar *ga, *sa;

@@ -25,7 +25,7 @@
 PetscErrorCode VKFitFrameTarget_Private(VKFit fit, VKFitData data, PetscInt k, PetscReal xy[], PetscReal n1[], PetscReal Fhat[], Vec xhat, PetscReal *eps)
 {
   PetscFunctionBegin;
-  PetscCall(VKFitDataReadFrame(data, k, fit->mesh->ny, fit->sf->nseg, xy, n1));
+  PetscCall(VKFitDataReadFrame(data, k, VKMeshYarnVertexCount(fit->mesh), fit->sf->nseg, xy, n1));
   PetscCall(VKShapeFitTargets(fit->sf, xy, n1, Fhat));
   PetscCall(VKShapeFitSolve(fit->sf, Fhat, xy, xhat, eps));
   PetscFunctionReturn(0);
@@ -38,7 +38,7 @@ static PetscErrorCode SampleFrame(VKFit fit, VKFitData data, PetscInt k, VKFitFr
   Vec        xh[3];
 
   PetscFunctionBegin;
-  PetscCall(PetscMalloc3(3 * fit->mesh->ny, &xy, 3 * fit->sf->nseg, &n1, 9 * (fit->mesh->layout.eEnd - fit->mesh->layout.eStart) + 1, &Fhat));
+  PetscCall(PetscMalloc3(3 * VKMeshYarnVertexCount(fit->mesh), &xy, 3 * fit->sf->nseg, &n1, 9 * (VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart) + 1, &Fhat));
   for (int j = 0; j < 3; j++) {
     PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &xh[j]));
     PetscCall(VKFitFrameTarget_Private(fit, data, PetscMax(k - j, 0), xy, n1, Fhat, xh[j], j ? NULL : &eps));
@@ -94,10 +94,10 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONString(&j, "format", "volknit-fit-summary 1"));
   PetscCall(VKJSONString(&j, "data", c->data->path));
   PetscCall(VKJSONInt(&j, "ranks", size));
-  PetscCall(VKJSONInt(&j, "nodes", fit->mesh->nv));
-  PetscCall(VKJSONInt(&j, "tets", fit->mesh->ne));
-  PetscCall(VKJSONInt(&j, "parameters", 2 * fit->mesh->ne));
-  PetscCall(VKJSONInt(&j, "yarn_vertices", fit->mesh->ny));
+  PetscCall(VKJSONInt(&j, "nodes", VKMeshNodeCount(fit->mesh)));
+  PetscCall(VKJSONInt(&j, "tets", VKMeshTetCount(fit->mesh)));
+  PetscCall(VKJSONInt(&j, "parameters", 2 * VKMeshTetCount(fit->mesh)));
+  PetscCall(VKJSONInt(&j, "yarn_vertices", VKMeshYarnVertexCount(fit->mesh)));
   PetscCall(VKJSONReal(&j, "frame_interval", fit->dt));
   PetscCall(VKJSONInt(&j, "equilibrium_fallbacks", fit->eq_fallbacks));
   if (fit->kkt_workspace > 20 && fit->kkt_workspace < PETSC_MAX_INT) PetscCall(VKJSONInt(&j, "kkt_mumps_workspace_percent", fit->kkt_workspace)); /* raised after a failed factorization (kkt.c) */
@@ -192,10 +192,10 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   PetscFunctionBegin;
   PetscCall(VKXdmfBegin(out->fp));
   PetscCall(VKXdmfGridBegin(out->fp, "material"));
-  PetscCall(VKXdmfTopology(out->fp, "Tetrahedron", m->ne, 4, "mesh.h5", "/mesh/tets"));
-  PetscCall(VKXdmfGeometry(out->fp, m->nv, "mesh.h5", "/mesh/x"));
-  PetscCall(VKXdmfAttribute(out->fp, "g_s", "Cell", m->ne, 1, PETSC_FALSE, "material.h5", "/material/g_s"));
-  PetscCall(VKXdmfAttribute(out->fp, "g_v", "Cell", m->ne, 1, PETSC_FALSE, "material.h5", "/material/g_v"));
+  PetscCall(VKXdmfTopology(out->fp, "Tetrahedron", VKMeshTetCount(m), 4, "mesh.h5", "/mesh/tets"));
+  PetscCall(VKXdmfGeometry(out->fp, VKMeshNodeCount(m), "mesh.h5", "/mesh/x"));
+  PetscCall(VKXdmfAttribute(out->fp, "g_s", "Cell", VKMeshTetCount(m), 1, PETSC_FALSE, "material.h5", "/material/g_s"));
+  PetscCall(VKXdmfAttribute(out->fp, "g_v", "Cell", VKMeshTetCount(m), 1, PETSC_FALSE, "material.h5", "/material/g_v"));
   PetscCall(VKXdmfGridEnd(out->fp));
   PetscCall(VKXdmfEnd(out->fp));
   PetscFunctionReturn(0);
@@ -271,7 +271,7 @@ static PetscErrorCode Plan(VKFit fit, VKFitData data, VKFitState *st)
   PetscCall(VKFitDataSelect(data, &st->ns, st->samples, VK_FIT_MAX_SAMPLES));
   st->nstages = 0;
   for (PetscInt h = 0; h < fit->nharm; h++)
-    if (fit->harm_r[h] < fit->mesh->ne) st->stages[st->nstages++] = fit->harm_r[h];
+    if (fit->harm_r[h] < VKMeshTetCount(fit->mesh)) st->stages[st->nstages++] = fit->harm_r[h];
   st->stages[st->nstages++] = 0;
   PetscCall(VKFitGetGamma(fit, st->avg));
   if (fit->best_uniform) { /* the baseline, and the start */
@@ -390,7 +390,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
   if (rmax) PetscCall(VKFitHarmonicSetUp(fit, rmax));
   fit->checkpoint     = Checkpoint;
   fit->checkpoint_ctx = &c;
-  if (st->sample < st->ns) PetscCall(PetscPrintf(fit->comm, "volknit fit: %d sample frame%s of %s (frame interval %g s), %d parameters\n", (int)st->ns, st->ns > 1 ? "s" : "", data->path, (double)dt, (int)(2 * fit->mesh->ne)));
+  if (st->sample < st->ns) PetscCall(PetscPrintf(fit->comm, "volknit fit: %d sample frame%s of %s (frame interval %g s), %d parameters\n", (int)st->ns, st->ns > 1 ? "s" : "", data->path, (double)dt, (int)(2 * VKMeshTetCount(fit->mesh))));
   for (; st->sample < st->ns && !fit->stopped; st->sample++) {
     PetscInt   frame = st->samples[st->sample], its;
     PetscReal  l0, l1, w = st->weight, atfloor[2], largest[2];

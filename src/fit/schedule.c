@@ -72,7 +72,7 @@ static PetscErrorCode RelativeToMean(VKFit fit, Vec gamma, PetscReal rel, PetscR
   PetscCallMPI(MPI_Allreduce(s, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
   for (int k = 0; k < 2; k++) {
     PetscCheck(all[k] > 0, fit->comm, PETSC_ERR_ARG_WRONG, "The starting material has no %s anywhere; give a positive uniform start (-mat_gamma_s, -mat_gamma_v)", k ? "g_v" : "g_s");
-    bound[k] = rel * all[k] / fit->mesh->ne;
+    bound[k] = rel * all[k] / VKMeshTetCount(fit->mesh);
   }
   PetscFunctionReturn(0);
 }
@@ -108,7 +108,7 @@ PetscErrorCode VKFitGammaAtFloor(VKFit fit, Vec gamma, PetscReal fraction[2], Pe
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCallMPI(MPI_Allreduce(mx, largest, 2, MPIU_REAL, MPIU_MAX, fit->comm));
   PetscCallMPI(MPI_Allreduce(c, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
-  for (int k = 0; k < 2; k++) fraction[k] = all[k] / fit->mesh->ne;
+  for (int k = 0; k < 2; k++) fraction[k] = all[k] / VKMeshTetCount(fit->mesh);
   PetscFunctionReturn(0);
 }
 

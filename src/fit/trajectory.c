@@ -79,7 +79,7 @@ PetscReal VKFitTrajectoryStep(VKFit fit)
 static PetscErrorCode DataForceScale(VKFitTrajectory T, Vec rest)
 {
   VKFit           fit = T->fit;
-  const VKLayout *L   = &fit->mesh->layout;
+  const VKLayout *L   = VKMeshLayout(fit->mesh);
 
   PetscFunctionBegin;
   T->force_min = 0;
@@ -90,7 +90,7 @@ static PetscErrorCode DataForceScale(VKFitTrajectory T, Vec rest)
     PetscCall(VecGetArrayRead(T->xhat[k], &x0));
     PetscCall(VecGetArrayRead(a, &x1));
     PetscCall(VecGetArrayRead(b, &x2));
-    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) s += PetscSqr(fit->mesh->mass[L->nStart + i / 3] * (x0[i] - 2 * x1[i] + x2[i]));
+    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) s += PetscSqr(VKMeshNodeMasses(fit->mesh)[L->nStart + i / 3] * (x0[i] - 2 * x1[i] + x2[i]));
     PetscCall(VecRestoreArrayRead(T->xhat[k], &x0));
     PetscCall(VecRestoreArrayRead(a, &x1));
     PetscCall(VecRestoreArrayRead(b, &x2));
@@ -264,7 +264,7 @@ PetscErrorCode VKFitTrajectoryMove(VKFit fit, PetscInt r, Vec gamma, const Petsc
 static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, PetscReal a)
 {
   VKFit              fit = T->fit;
-  const VKLayout    *L   = &fit->mesh->layout;
+  const VKLayout    *L   = VKMeshLayout(fit->mesh);
   KSPConvergedReason reason;
   Vec               *Sn = T->S[1], *Sp = T->S[2], *Snew = T->S[0];
   PetscLogDouble     t0 = VKWallTime();
@@ -284,7 +284,7 @@ static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, 
     PetscCall(VecGetArray(fit->rhs, &b));
     PetscCall(VecGetArrayRead(Sn[j], &sn));
     PetscCall(VecGetArrayRead(Sp[j], &sp));
-    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) b[i] = fit->mesh->mass[L->nStart + i / 3] / (h * h) * ((1 + a + ch) * sn[i] - a * sp[i]) - b[i];
+    for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) b[i] = VKMeshNodeMasses(fit->mesh)[L->nStart + i / 3] / (h * h) * ((1 + a + ch) * sn[i] - a * sp[i]) - b[i];
     PetscCall(VecRestoreArrayRead(Sp[j], &sp));
     PetscCall(VecRestoreArrayRead(Sn[j], &sn));
     PetscCall(VecRestoreArray(fit->rhs, &b));
@@ -329,7 +329,7 @@ static PetscErrorCode AddFrame(VKFitTrajectory T, PetscInt k, PetscInt r, PetscR
 PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r, PetscReal *loss, PetscReal lossf[], PetscReal grad[], PetscReal P[], PetscBool *ok)
 {
   VKFit           fit = T->fit;
-  const VKLayout *L   = &fit->mesh->layout;
+  const VKLayout *L   = VKMeshLayout(fit->mesh);
   PetscReal       dt  = VKFitTrajectoryStep(fit), t = 0, hprev = dt;
   const PetscReal *g  = fit->gravity;
 
@@ -510,7 +510,7 @@ PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory T, PetscInt r, Vec gamma,
   PetscFunctionBegin;
   if (!(fit->traj_prior > 0)) PetscFunctionReturn(0);
   PetscCheck(T->gref, fit->comm, PETSC_ERR_ORDER, "The trajectory prior has no reference material: VKFitTrajectorySetPriorReference() first");
-  c = fit->traj_prior * T->lref / (2.0 * fit->mesh->ne);
+  c = fit->traj_prior * T->lref / (2.0 * VKMeshTetCount(fit->mesh));
   PetscCall(VecGetLocalSize(gamma, &m));
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArrayRead(T->gref, &gr));
@@ -683,7 +683,7 @@ PetscErrorCode VKFitTrajectoryCreateFromData(VKFit fit, VKFitData data, PetscRea
   PetscCheck(nf >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "%s has no frame after the rest frame to fit", data->path);
   PetscCheck(PetscAbsReal(data->time[0]) <= 1e-9 * (data->time[1] - data->time[0]), fit->comm, PETSC_ERR_FILE_UNEXPECTED, "%s starts at t = %g s; the trajectory loss rolls the model out from rest at t = 0, as volknit sim does", data->path, (double)data->time[0]);
   PetscCall(PetscMalloc2(nf, &xhat, nf, &eps));
-  PetscCall(PetscMalloc3(3 * fit->mesh->ny, &xy, 3 * fit->sf->nseg, &n1, 9 * (fit->mesh->layout.eEnd - fit->mesh->layout.eStart) + 1, &Fhat));
+  PetscCall(PetscMalloc3(3 * VKMeshYarnVertexCount(fit->mesh), &xy, 3 * fit->sf->nseg, &n1, 9 * (VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart) + 1, &Fhat));
   for (PetscInt k = 0; k < nf; k++) {
     PetscCall(VKMeshCreateNodeVec(fit->mesh, 3, &xhat[k]));
     PetscCall(VKFitFrameTarget_Private(fit, data, k + 1, xy, n1, Fhat, xhat[k], &eps[k]));
@@ -721,8 +721,8 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   PetscCall(VKMakeDirectory(fit->comm, dir));
   PetscCall(PetscMalloc5(fit->nharm, &stages, fit->nharm, &stage_its, fit->nharm, &why, nf, &frames, nf, &traj));
   for (PetscInt h = 0; h < fit->nharm; h++)
-    if (fit->harm_r[h] < fit->mesh->ne) stages[nst++] = fit->harm_r[h];
-  PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)fit->mesh->ne);
+    if (fit->harm_r[h] < VKMeshTetCount(fit->mesh)) stages[nst++] = fit->harm_r[h];
+  PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)VKMeshTetCount(fit->mesh));
   rmax = stages[nst - 1];
   PetscCall(PetscMalloc5(nf, &eps, nf, &loss0, nf, &loss1, nt, &lossf, nt, &T));
   PetscCall(VKFitCreateGammaVec(fit, &gamma));
@@ -756,7 +756,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   }
   PetscCall(PetscPrintf(fit->comm, "volknit fit: the trajectory of %s", data[0]->path));
   for (PetscInt i = 1; i < nt; i++) PetscCall(PetscPrintf(fit->comm, "%s%s", i == nt - 1 ? " and " : ", ", data[i]->path));
-  PetscCall(PetscPrintf(fit->comm, ", %d frames, rolled out at dt %g s; %d parameters in harmonic stages r =", (int)nf, (double)VKFitTrajectoryStep(fit), (int)(2 * fit->mesh->ne)));
+  PetscCall(PetscPrintf(fit->comm, ", %d frames, rolled out at dt %g s; %d parameters in harmonic stages r =", (int)nf, (double)VKFitTrajectoryStep(fit), (int)(2 * VKMeshTetCount(fit->mesh))));
   for (PetscInt s = 0; s < nst; s++) PetscCall(PetscPrintf(fit->comm, " %d", (int)stages[s]));
   PetscCall(PetscPrintf(fit->comm, "\n"));
   for (PetscInt s = 0; s < nst; s++) {

@@ -23,7 +23,7 @@ PetscErrorCode VKShapeFitCreate(VKMesh mesh, VKShapeFit *out)
 
   PetscFunctionBegin;
   PetscCall(PetscNew(&sf));
-  sf->comm  = mesh->comm;
+  sf->comm  = VKMeshComm(mesh);
   sf->mesh  = mesh;
   sf->alpha = 1e4; /* positions dominate: see docs/FIDELITY.md (0.1 fitted the inconsistent F targets, not the yarns) */
   PetscCall(KSPCreate(sf->comm, &sf->ksp));
@@ -102,9 +102,9 @@ static PetscErrorCode SetUpSegments(VKShapeFit sf)
   PetscInt         nv;
 
   PetscFunctionBegin;
-  PetscCall(VKYarnGetCurves(sf->mesh->yarn, &c));
-  PetscCall(VKYarnGetNormals(sf->mesh->yarn, &normal));
-  PetscCall(VKYarnGetProperties(sf->mesh->yarn, NULL, &density, NULL));
+  PetscCall(VKYarnGetCurves(VKMeshYarn(sf->mesh), &c));
+  PetscCall(VKYarnGetNormals(VKMeshYarn(sf->mesh), &normal));
+  PetscCall(VKYarnGetProperties(VKMeshYarn(sf->mesh), NULL, &density, NULL));
   x  = c->x;
   nv = c->nv;
   PetscCall(VKCurvesGetSegments(c, &sf->nseg, &sf->seg));
@@ -123,23 +123,23 @@ static PetscErrorCode SetUpSegments(VKShapeFit sf)
 static PetscErrorCode SetUpVoxels(VKShapeFit sf)
 {
   VKMesh          m = sf->mesh;
-  VKLayout       *L = &m->layout;
+  const VKLayout       *L = VKMeshLayout(m);
   PetscInt        ne = L->eEnd - L->eStart, *local, n = 0, cap = 0, *pv = NULL, *ps = NULL;
-  PetscReal      *pw = NULL, floor = 1e-6 * m->grid.h;
+  PetscReal      *pw = NULL, floor = 1e-6 * VKMeshGrid(m)->h;
   VKSegmentPieces pieces = {0};
   const PetscReal *x;
   const VKCurves  *c;
 
   PetscFunctionBegin;
-  PetscCall(VKYarnGetCurves(m->yarn, &c));
+  PetscCall(VKYarnGetCurves(VKMeshYarn(m), &c));
   x = c->x;
-  PetscCall(PetscMalloc1(m->nvox, &local));
-  for (PetscInt v = 0; v < m->nvox; v++) local[v] = -1;
+  PetscCall(PetscMalloc1(VKMeshVoxelCount(m), &local));
+  for (PetscInt v = 0; v < VKMeshVoxelCount(m); v++) local[v] = -1;
   PetscCall(PetscMalloc1(ne + 1, &sf->tet_vox));
   sf->nvox = 0;
-  for (PetscInt v = 0; v < m->nvox; v++)
+  for (PetscInt v = 0; v < VKMeshVoxelCount(m); v++)
     for (int p = 0; p < 6; p++) {
-      PetscInt t = m->tet_of_kuhn[6 * v + p];
+      PetscInt t = VKMeshTetOfKuhn(m)[6 * v + p];
       if (t < L->eStart || t >= L->eEnd) continue;
       if (local[v] < 0) local[v] = sf->nvox++;
       sf->tet_vox[t - L->eStart] = local[v];
@@ -179,7 +179,7 @@ static PetscErrorCode SetUpVoxels(VKShapeFit sf)
     }
     PetscCall(PetscFree(at));
   }
-  for (PetscInt v = 0; v < m->nvox; v++)
+  for (PetscInt v = 0; v < VKMeshVoxelCount(m); v++)
     if (local[v] >= 0) sf->vglobal[local[v]] = v;
   for (PetscInt v = 0; v < sf->nvox; v++) PetscCheck(sf->vstart[v + 1] > sf->vstart[v], PETSC_COMM_SELF, PETSC_ERR_PLIB, "Mesh voxel %d has no yarn piece: the mesh does not belong to this yarn model", (int)sf->vglobal[v]);
   PetscCall(PetscFree(pv));
@@ -193,32 +193,32 @@ static PetscErrorCode SetUpVoxels(VKShapeFit sf)
 static PetscErrorCode AssembleA(VKShapeFit sf)
 {
   VKMesh    m = sf->mesh;
-  VKLayout *L = &m->layout;
+  const VKLayout *L = VKMeshLayout(m);
   PetscReal vol = 0, ym = 0, sums[2], mine[2];
 
   PetscFunctionBegin;
-  for (PetscInt e = L->eStart; e < L->eEnd; e++) vol += m->vol[e];
+  for (PetscInt e = L->eStart; e < L->eEnd; e++) vol += VKMeshTetVolumes(m)[e];
   sf->ny = 0;
-  for (PetscInt k = 0; k < m->ny; k++) {
+  for (PetscInt k = 0; k < VKMeshYarnVertexCount(m); k++) {
     ym += sf->ymass[k];
-    if (m->emb_tet[k] >= L->eStart && m->emb_tet[k] < L->eEnd) sf->yv[sf->ny++] = k;
+    if (VKMeshEmbedTets(m)[k] >= L->eStart && VKMeshEmbedTets(m)[k] < L->eEnd) sf->yv[sf->ny++] = k;
   }
   mine[0] = vol;
   mine[1] = 0;
   PetscCallMPI(MPI_Allreduce(mine, sums, 2, MPIU_REAL, MPIU_SUM, sf->comm));
   PetscCheck(ym > 0, sf->comm, PETSC_ERR_ARG_WRONG, "The yarn model has no mass");
-  sf->alpha_n = sf->alpha * sums[0] / (ym * PetscSqr(m->grid.h));
+  sf->alpha_n = sf->alpha * sums[0] / (ym * PetscSqr(VKMeshGrid(m)->h));
   PetscCall(VKMeshCreateNodeMat(m, 1, &sf->A));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    const PetscReal *G = m->G + 12 * (L->eStart + e);
-    PetscReal        w = m->vol[L->eStart + e], Ae[16];
+    const PetscReal *G = VKMeshTetGradients(m) + 12 * (L->eStart + e);
+    PetscReal        w = VKMeshTetVolumes(m)[L->eStart + e], Ae[16];
     for (int a = 0; a < 4; a++)
       for (int b = 0; b < 4; b++) Ae[4 * a + b] = w * (G[a] * G[b] + G[4 + a] * G[4 + b] + G[8 + a] * G[8 + b]);
     PetscCall(MatSetValuesLocal(sf->A, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, Ae, ADD_VALUES));
   }
   for (PetscInt i = 0; i < sf->ny; i++) {
-    PetscInt         k = sf->yv[i], e = m->emb_tet[k] - L->eStart;
-    const PetscReal *wk = m->emb_w + 4 * k;
+    PetscInt         k = sf->yv[i], e = VKMeshEmbedTets(m)[k] - L->eStart;
+    const PetscReal *wk = VKMeshEmbedWeights(m) + 4 * k;
     PetscReal        c = sf->alpha_n * sf->ymass[k], Ae[16];
     for (int a = 0; a < 4; a++)
       for (int b = 0; b < 4; b++) Ae[4 * a + b] = c * wk[a] * wk[b];
@@ -238,7 +238,7 @@ PetscErrorCode VKShapeFitSetUp(VKShapeFit sf)
 
   PetscFunctionBegin;
   if (sf->setup) PetscFunctionReturn(0);
-  if (sf->mesh->yarn) PetscCall(VKYarnGetNormals(sf->mesh->yarn, &normal));
+  if (VKMeshYarn(sf->mesh)) PetscCall(VKYarnGetNormals(VKMeshYarn(sf->mesh), &normal));
   PetscCheck(normal, sf->comm, PETSC_ERR_ORDER, "The mesh has no yarn model with rest frames");
   PetscCall(SetUpSegments(sf));
   PetscCall(SetUpVoxels(sf));
@@ -268,7 +268,7 @@ PetscErrorCode VKShapeFitView(VKShapeFit sf, PetscViewer viewer)
 
 PetscErrorCode VKShapeFitTargets(VKShapeFit sf, const PetscReal xy[], const PetscReal n1[], PetscReal Fhat[])
 {
-  VKLayout *L = &sf->mesh->layout;
+  const VKLayout *L = VKMeshLayout(sf->mesh);
   PetscReal *Rbar, *Sbar;
   PetscInt   bad = -1;
 
@@ -329,7 +329,7 @@ PetscErrorCode VKShapeFitTargets(VKShapeFit sf, const PetscReal xy[], const Pets
 PetscErrorCode VKShapeFitSolve(VKShapeFit sf, const PetscReal Fhat[], const PetscReal xy[], Vec xhat, PetscReal *eps)
 {
   VKMesh             m = sf->mesh;
-  VKLayout          *L = &m->layout;
+  const VKLayout          *L = VKMeshLayout(m);
   Vec                bl;
   PetscScalar       *ba, *Ba, *xa;
   const PetscScalar *Xa;
@@ -342,19 +342,19 @@ PetscErrorCode VKShapeFitSolve(VKShapeFit sf, const PetscReal Fhat[], const Pets
   PetscCall(VecSet(bl, 0));
   PetscCall(VecGetArray(bl, &ba));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    const PetscReal *G = m->G + 12 * (L->eStart + e), *F = Fhat + 9 * e;
-    PetscReal        be[12], V = m->vol[L->eStart + e];
+    const PetscReal *G = VKMeshTetGradients(m) + 12 * (L->eStart + e), *F = Fhat + 9 * e;
+    PetscReal        be[12], V = VKMeshTetVolumes(m)[L->eStart + e];
     for (int a = 0; a < 4; a++)
       for (int r = 0; r < 3; r++) be[3 * a + r] = V * (F[3 * r] * G[a] + F[3 * r + 1] * G[4 + a] + F[3 * r + 2] * G[8 + a]);
     VKLayoutAddTet(L, e, be, ba);
   }
   for (PetscInt i = 0; i < sf->ny; i++) {
     PetscInt         k = sf->yv[i];
-    const PetscReal *wk = m->emb_w + 4 * k;
+    const PetscReal *wk = VKMeshEmbedWeights(m) + 4 * k;
     PetscReal        be[12], c = sf->alpha_n * sf->ymass[k];
     for (int a = 0; a < 4; a++)
       for (int r = 0; r < 3; r++) be[3 * a + r] = c * wk[a] * xy[3 * k + r];
-    VKLayoutAddTet(L, m->emb_tet[k] - L->eStart, be, ba);
+    VKLayoutAddTet(L, VKMeshEmbedTets(m)[k] - L->eStart, be, ba);
   }
   PetscCall(VecRestoreArray(bl, &ba));
   PetscCall(VecGhostRestoreLocalForm(sf->b, &bl));
@@ -382,7 +382,7 @@ PetscErrorCode VKShapeFitSolve(VKShapeFit sf, const PetscReal Fhat[], const Pets
 PetscErrorCode VKShapeFitLoss(VKShapeFit sf, const PetscReal Fhat[], const PetscReal xy[], Vec x, PetscReal *eps)
 {
   VKMesh             m = sf->mesh;
-  VKLayout          *L = &m->layout;
+  const VKLayout          *L = VKMeshLayout(m);
   Vec                local;
   const PetscScalar *a;
   VKSum              sum = {0, 0};
@@ -393,15 +393,15 @@ PetscErrorCode VKShapeFitLoss(VKShapeFit sf, const PetscReal Fhat[], const Petsc
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], F[9], d = 0;
     VKLayoutGatherTet(L, e, a, X);
-    VKTetDeformation(m->G + 12 * (L->eStart + e), X, F);
+    VKTetDeformation(VKMeshTetGradients(m) + 12 * (L->eStart + e), X, F);
     for (int k = 0; k < 9; k++) d += PetscSqr(F[k] - Fhat[9 * e + k]);
-    VKSumAdd(&sum, m->vol[L->eStart + e] * d);
+    VKSumAdd(&sum, VKMeshTetVolumes(m)[L->eStart + e] * d);
   }
   for (PetscInt i = 0; i < sf->ny; i++) {
     PetscInt         k = sf->yv[i];
-    const PetscReal *wk = m->emb_w + 4 * k;
+    const PetscReal *wk = VKMeshEmbedWeights(m) + 4 * k;
     PetscReal        X[12], d = 0;
-    VKLayoutGatherTet(L, m->emb_tet[k] - L->eStart, a, X);
+    VKLayoutGatherTet(L, VKMeshEmbedTets(m)[k] - L->eStart, a, X);
     for (int r = 0; r < 3; r++) d += PetscSqr(wk[0] * X[r] + wk[1] * X[3 + r] + wk[2] * X[6 + r] + wk[3] * X[9 + r] - xy[3 * k + r]);
     VKSumAdd(&sum, sf->alpha_n * sf->ymass[k] * d);
   }

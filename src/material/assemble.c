@@ -15,7 +15,7 @@ PetscErrorCode VKMeshGetRestPositions(VKMesh mesh, Vec x)
 
   PetscFunctionBegin;
   PetscCall(VecGetArray(x, &a));
-  for (PetscInt i = 3 * mesh->layout.nStart; i < 3 * mesh->layout.nEnd; i++) a[i - 3 * mesh->layout.nStart] = mesh->x[i];
+  for (PetscInt i = 3 * VKMeshLayout(mesh)->nStart; i < 3 * VKMeshLayout(mesh)->nEnd; i++) a[i - 3 * VKMeshLayout(mesh)->nStart] = VKMeshRestPositions(mesh)[i];
   PetscCall(VecRestoreArray(x, &a));
   PetscFunctionReturn(0);
 }
@@ -41,7 +41,7 @@ PetscErrorCode VKMeshRestoreLocalPositions(Vec x, Vec *local, const PetscScalar 
 PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
 {
   VKMesh             mesh = m->mesh;
-  VKLayout          *L    = &mesh->layout;
+  const VKLayout          *L    = VKMeshLayout(mesh);
   Vec                local;
   const PetscScalar *a;
   VKSum              sum = {0, 0};
@@ -52,7 +52,7 @@ PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], Ee;
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, &Ee, NULL, NULL, NULL));
+    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, &Ee, NULL, NULL, NULL));
     VKSumAdd(&sum, Ee);
   }
   PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
@@ -64,7 +64,7 @@ PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
 PetscErrorCode VKMaterialGradient(VKMaterial m, Vec x, Vec g)
 {
   VKMesh             mesh = m->mesh;
-  VKLayout          *L    = &mesh->layout;
+  const VKLayout          *L    = VKMeshLayout(mesh);
   Vec                local, glocal;
   const PetscScalar *a;
   PetscScalar       *ga;
@@ -77,7 +77,7 @@ PetscErrorCode VKMaterialGradient(VKMaterial m, Vec x, Vec g)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], ge[12];
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, ge, NULL, NULL));
+    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, ge, NULL, NULL));
     VKLayoutAddTet(L, e, ge, ga);
   }
   PetscCall(VecRestoreArray(glocal, &ga));
@@ -91,7 +91,7 @@ PetscErrorCode VKMaterialGradient(VKMaterial m, Vec x, Vec g)
 PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
 {
   VKMesh             mesh = m->mesh;
-  VKLayout          *L    = &mesh->layout;
+  const VKLayout          *L    = VKMeshLayout(mesh);
   Vec                local;
   const PetscScalar *a;
 
@@ -101,7 +101,7 @@ PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], He[144];
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], psd, NULL, NULL, He, NULL));
+    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], psd, NULL, NULL, He, NULL));
     PetscCall(MatSetValuesBlockedLocal(H, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, He, ADD_VALUES));
   }
   PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
@@ -115,14 +115,14 @@ PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
 PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial m, Mat *J)
 {
   VKMesh    mesh = m->mesh;
-  VKLayout *L    = &mesh->layout;
+  const VKLayout *L    = VKMeshLayout(mesh);
   PetscInt  nown = L->nEnd - L->nStart, *d_nnz, *o_nnz;
 
   PetscFunctionBegin;
   PetscCall(PetscCalloc2(3 * nown + 1, &d_nnz, 3 * nown + 1, &o_nnz));
-  for (PetscInt e = 0; e < mesh->ne; e++)
+  for (PetscInt e = 0; e < VKMeshTetCount(mesh); e++)
     for (int k = 0; k < 4; k++) {
-      PetscInt g = mesh->tet[4 * e + k];
+      PetscInt g = VKMeshTets(mesh)[4 * e + k];
       if (g < L->nStart || g >= L->nEnd) continue;
       for (int r = 0; r < 3; r++) {
         if (e >= L->eStart && e < L->eEnd) d_nnz[3 * (g - L->nStart) + r] += 2;
@@ -130,7 +130,7 @@ PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial m, Mat *J)
       }
     }
   PetscCall(MatCreate(m->comm, J));
-  PetscCall(MatSetSizes(*J, 3 * nown, 2 * (L->eEnd - L->eStart), 3 * mesh->nv, 2 * mesh->ne));
+  PetscCall(MatSetSizes(*J, 3 * nown, 2 * (L->eEnd - L->eStart), 3 * VKMeshNodeCount(mesh), 2 * VKMeshTetCount(mesh)));
   PetscCall(MatSetType(*J, MATAIJ));
   PetscCall(MatSeqAIJSetPreallocation(*J, 0, d_nnz));
   PetscCall(MatMPIAIJSetPreallocation(*J, 0, d_nnz, 0, o_nnz));
@@ -142,7 +142,7 @@ PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial m, Mat *J)
 PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
 {
   VKMesh             mesh = m->mesh;
-  VKLayout          *L    = &mesh->layout;
+  const VKLayout          *L    = VKMeshLayout(mesh);
   Vec                local;
   const PetscScalar *a;
 
@@ -153,10 +153,10 @@ PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
     PetscReal X[12], dgdg[24], vals[24];
     PetscInt  rows[12], cols[2] = {2 * (L->eStart + e), 2 * (L->eStart + e) + 1};
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(mesh->G + 12 * (L->eStart + e), mesh->vol[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
+    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
     for (int k = 0; k < 4; k++)
       for (int r = 0; r < 3; r++) {
-        rows[3 * k + r]         = 3 * mesh->tet[4 * (L->eStart + e) + k] + r;
+        rows[3 * k + r]         = 3 * VKMeshTets(mesh)[4 * (L->eStart + e) + k] + r;
         vals[2 * (3 * k + r)]     = dgdg[3 * k + r];
         vals[2 * (3 * k + r) + 1] = dgdg[12 + 3 * k + r];
       }

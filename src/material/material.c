@@ -20,7 +20,7 @@ PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
 
   PetscFunctionBegin;
   PetscCall(PetscNew(&m));
-  m->comm    = mesh->comm;
+  m->comm    = VKMeshComm(mesh);
   m->mesh    = mesh;
   m->gamma_s = NOMINAL_GAMMA;
   m->gamma_v = NOMINAL_GAMMA;
@@ -126,7 +126,7 @@ PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
 
 PetscErrorCode VKMaterialSetUp(VKMaterial m)
 {
-  VKLayout *L = &m->mesh->layout;
+  const VKLayout *L = VKMeshLayout(m->mesh);
 
   PetscFunctionBegin;
   if (m->setup) PetscFunctionReturn(0);
@@ -138,7 +138,7 @@ PetscErrorCode VKMaterialSetUp(VKMaterial m)
       m->gamma[2 * e]     = m->gamma_s;
       m->gamma[2 * e + 1] = m->gamma_v;
     }
-  if (!m->domain_state) PetscCall(PetscCalloc1(m->mesh->ndomains + 1, &m->domain_state));
+  if (!m->domain_state) PetscCall(PetscCalloc1(VKMeshDomainCount(m->mesh) + 1, &m->domain_state));
   m->state++;
   m->setup = PETSC_TRUE;
   PetscFunctionReturn(0);
@@ -146,16 +146,16 @@ PetscErrorCode VKMaterialSetUp(VKMaterial m)
 
 PetscErrorCode VKMaterialCreateGammaVec(VKMaterial m, Vec *g)
 {
-  const VKLayout *L = &m->mesh->layout;
+  const VKLayout *L = VKMeshLayout(m->mesh);
 
   PetscFunctionBegin;
-  PetscCall(VecCreateMPI(m->comm, 2 * (L->eEnd - L->eStart), 2 * m->mesh->ne, g));
+  PetscCall(VecCreateMPI(m->comm, 2 * (L->eEnd - L->eStart), 2 * VKMeshTetCount(m->mesh), g));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKMaterialGetGamma(VKMaterial m, Vec g)
 {
-  const VKLayout *L = &m->mesh->layout;
+  const VKLayout *L = VKMeshLayout(m->mesh);
   PetscScalar    *a;
 
   PetscFunctionBegin;
@@ -168,7 +168,7 @@ PetscErrorCode VKMaterialGetGamma(VKMaterial m, Vec g)
 
 PetscErrorCode VKMaterialSetGamma(VKMaterial m, Vec g)
 {
-  const VKLayout    *L = &m->mesh->layout;
+  const VKLayout    *L = VKMeshLayout(m->mesh);
   const PetscScalar *a;
   PetscInt           bad = -1, any, changed = 0, anychanged;
 
@@ -182,7 +182,7 @@ PetscErrorCode VKMaterialSetGamma(VKMaterial m, Vec g)
   PetscCheck(any < 0, m->comm, PETSC_ERR_FP, "Material parameter %d (tet %d, %s) is negative, not finite or above %g Pa; the material is left as it was", (int)any, (int)(any / 2), any % 2 ? "g_v" : "g_s", (double)VK_GAMMA_MAX);
   for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) {
     if (a[i] != m->gamma[i]) {
-      m->domain_state[m->mesh->tet_domain[L->eStart + i / 2]]++;
+      m->domain_state[VKMeshTetDomains(m->mesh)[L->eStart + i / 2]]++;
       changed = 1;
     }
     m->gamma[i] = a[i];
@@ -203,14 +203,14 @@ PetscErrorCode VKMaterialGetState(VKMaterial m, PetscObjectState *state)
 PetscErrorCode VKMaterialGetDomainState(VKMaterial m, PetscInt d, PetscObjectState *state)
 {
   PetscFunctionBegin;
-  PetscCheck(d >= 0 && d < m->mesh->ndomains, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "Domain %d of a mesh of %d domains", (int)d, (int)m->mesh->ndomains);
+  PetscCheck(d >= 0 && d < VKMeshDomainCount(m->mesh), m->comm, PETSC_ERR_ARG_OUTOFRANGE, "Domain %d of a mesh of %d domains", (int)d, (int)VKMeshDomainCount(m->mesh));
   *state = m->domain_state ? m->domain_state[d] : 0;
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKMaterialView(VKMaterial m, PetscViewer viewer)
 {
-  VKLayout *L = &m->mesh->layout;
+  const VKLayout *L = VKMeshLayout(m->mesh);
   PetscReal lo[2] = {PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[2] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL}, glo[2], ghi[2];
 
   PetscFunctionBegin;
@@ -233,9 +233,9 @@ PetscErrorCode VKMaterialView(VKMaterial m, PetscViewer viewer)
 static PetscErrorCode TetVoxels(VKMesh mesh, PetscInt voxel[], PetscInt kuhn[])
 {
   PetscFunctionBegin;
-  for (PetscInt k = 0; k < 6 * mesh->nvox; k++) {
-    PetscInt e = mesh->tet_of_kuhn[k];
-    for (int a = 0; a < 3; a++) voxel[3 * e + a] = mesh->vox[3 * (k / 6) + a];
+  for (PetscInt k = 0; k < 6 * VKMeshVoxelCount(mesh); k++) {
+    PetscInt e = VKMeshTetOfKuhn(mesh)[k];
+    for (int a = 0; a < 3; a++) voxel[3 * e + a] = VKMeshVoxels(mesh)[3 * (k / 6) + a];
     kuhn[e] = k % 6;
   }
   PetscFunctionReturn(0);
@@ -255,28 +255,28 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
   PetscErrorCode ierr;
 
   PetscFunctionBegin;
-  PetscCall(PetscMalloc2(3 * w->mesh->ne, &voxel, w->mesh->ne, &kuhn));
+  PetscCall(PetscMalloc2(3 * VKMeshTetCount(w->mesh), &voxel, VKMeshTetCount(w->mesh), &kuhn));
   PetscCall(TetVoxels(w->mesh, voxel, kuhn));
   PetscCall(VKH5Create(out->tmp, &h));
-  ierr = VKH5WriteReal(&h, "/material/gamma", w->mesh->ne, 2, w->gamma);
+  ierr = VKH5WriteReal(&h, "/material/gamma", VKMeshTetCount(w->mesh), 2, w->gamma);
   { /* each column alone as well, for XDMF cell attributes (material.xdmf) */
     PetscReal *col;
-    PetscCall(PetscMalloc1(w->mesh->ne + 1, &col));
+    PetscCall(PetscMalloc1(VKMeshTetCount(w->mesh) + 1, &col));
     for (int c = 0; c < 2 && !ierr; c++) {
-      for (PetscInt e = 0; e < w->mesh->ne; e++) col[e] = w->gamma[2 * e + c];
-      ierr = VKH5WriteReal(&h, c ? "/material/g_v" : "/material/g_s", w->mesh->ne, 1, col);
+      for (PetscInt e = 0; e < VKMeshTetCount(w->mesh); e++) col[e] = w->gamma[2 * e + c];
+      ierr = VKH5WriteReal(&h, c ? "/material/g_v" : "/material/g_s", VKMeshTetCount(w->mesh), 1, col);
     }
     PetscCall(PetscFree(col));
   }
-  if (!ierr) ierr = VKH5WriteInt(&h, "/material/voxel", w->mesh->ne, 3, voxel);
-  if (!ierr) ierr = VKH5WriteInt(&h, "/material/kuhn", w->mesh->ne, 1, kuhn);
+  if (!ierr) ierr = VKH5WriteInt(&h, "/material/voxel", VKMeshTetCount(w->mesh), 3, voxel);
+  if (!ierr) ierr = VKH5WriteInt(&h, "/material/kuhn", VKMeshTetCount(w->mesh), 1, kuhn);
   if (!ierr) {
     PetscReal band[2] = {w->band.lo, w->band.hi};
     ierr              = VKH5WriteReal(&h, "/material/band", 1, 2, band);
   }
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "units", "Pa");
-  if (!ierr) ierr = VKH5WriteAttrReal(&h, "/material", "h", w->mesh->grid.h);
+  if (!ierr) ierr = VKH5WriteAttrReal(&h, "/material", "h", VKMeshGrid(w->mesh)->h);
   {
     PetscErrorCode cerr = VKH5Close(&h);
     if (!ierr) ierr = cerr;
@@ -289,7 +289,7 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
 PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
 {
   VKMesh         mesh = m->mesh;
-  PetscMPIInt    rank, size, *counts = NULL, *displs = NULL, n = (PetscMPIInt)(2 * (mesh->layout.eEnd - mesh->layout.eStart));
+  PetscMPIInt    rank, size, *counts = NULL, *displs = NULL, n = (PetscMPIInt)(2 * (VKMeshLayout(mesh)->eEnd - VKMeshLayout(mesh)->eStart));
   PetscReal     *all  = NULL;
   PetscErrorCode ierr = 0;
 
@@ -298,10 +298,10 @@ PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
   PetscCallMPI(MPI_Comm_size(m->comm, &size));
   if (rank == 0) {
     PetscCall(PetscMalloc2(size, &counts, size, &displs));
-    PetscCall(PetscMalloc1(2 * mesh->ne + 1, &all));
+    PetscCall(PetscMalloc1(2 * VKMeshTetCount(mesh) + 1, &all));
     for (PetscMPIInt r = 0; r < size; r++) {
-      counts[r] = (PetscMPIInt)(2 * (mesh->rank_tet_start[r + 1] - mesh->rank_tet_start[r]));
-      displs[r] = (PetscMPIInt)(2 * mesh->rank_tet_start[r]);
+      counts[r] = (PetscMPIInt)(2 * (VKMeshRankTetStart(mesh)[r + 1] - VKMeshRankTetStart(mesh)[r]));
+      displs[r] = (PetscMPIInt)(2 * VKMeshRankTetStart(mesh)[r]);
     }
   }
   PetscCallMPI(MPI_Gatherv(m->gamma, n, MPIU_REAL, all, counts, displs, MPIU_REAL, 0, m->comm));
@@ -319,7 +319,7 @@ PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
 static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
 {
   VKMesh     mesh = m->mesh;
-  VKLayout  *L    = &mesh->layout;
+  const VKLayout  *L    = VKMeshLayout(mesh);
   VKH5       h;
   PetscInt   n, nv = 0, nk = 0, *voxel = NULL, *kuhn = NULL, *seen = NULL;
   PetscReal *gamma = NULL, *band = NULL;
@@ -349,8 +349,8 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
       m->band.hi = hi;
     }
   }
-  if (!ierr && !(n == mesh->ne && nv == n && nk == n)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s holds %d tets (voxels %d, Kuhn indices %d); the mesh has %d", path, (int)n, (int)nv, (int)nk, (int)mesh->ne);
-  if (!ierr) ierr = PetscCalloc1(mesh->ne, &seen);
+  if (!ierr && !(n == VKMeshTetCount(mesh) && nv == n && nk == n)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s holds %d tets (voxels %d, Kuhn indices %d); the mesh has %d", path, (int)n, (int)nv, (int)nk, (int)VKMeshTetCount(mesh));
+  if (!ierr) ierr = PetscCalloc1(VKMeshTetCount(mesh), &seen);
   for (PetscInt i = 0; i < n && !ierr; i++) {
     PetscInt vi = VKMeshFindVoxel(mesh, voxel + 3 * i), e;
     if (vi < 0 || kuhn[i] < 0 || kuhn[i] > 5) {
@@ -361,7 +361,7 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
       ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d has g_s = %g, g_v = %g; both must be finite and non-negative, at most %g Pa", path, (int)i, (double)gamma[2 * i], (double)gamma[2 * i + 1], (double)VK_GAMMA_MAX);
       break;
     }
-    e = mesh->tet_of_kuhn[6 * vi + kuhn[i]];
+    e = VKMeshTetOfKuhn(mesh)[6 * vi + kuhn[i]];
     if (seen[e]++) {
       ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d repeats a tet", path, (int)i);
       break;
@@ -382,14 +382,14 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
 
 PetscErrorCode VKMaterialLoadH5(VKMaterial m, const char path[])
 {
-  VKLayout *L = &m->mesh->layout;
+  const VKLayout *L = VKMeshLayout(m->mesh);
 
   PetscFunctionBegin;
   if (!m->gamma) PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->gamma));
   VKCallCollective(m->comm, LoadMaterial(m, path));
   PetscCall(PetscStrncpy(m->file, path, sizeof(m->file)));
-  if (!m->domain_state) PetscCall(PetscCalloc1(m->mesh->ndomains + 1, &m->domain_state));
-  for (PetscInt d = 0; d < m->mesh->ndomains; d++) m->domain_state[d]++;
+  if (!m->domain_state) PetscCall(PetscCalloc1(VKMeshDomainCount(m->mesh) + 1, &m->domain_state));
+  for (PetscInt d = 0; d < VKMeshDomainCount(m->mesh); d++) m->domain_state[d]++;
   m->state++;
   m->setup = PETSC_TRUE;
   PetscFunctionReturn(0);

@@ -1,7 +1,47 @@
-/* meshimpl.h: internals of the mesh stage shared by its source files. */
+/* meshimpl.h: internals of the mesh stage shared by its source files: the
+ * mesh's struct (other modules use the getters of vkmesh.h), Kuhn
+ * tetrahedra, grid coordinates. */
 #pragma once
 #include <vkmesh.h>
 #include <vkutil.h>
+
+struct _n_VKMesh {
+  MPI_Comm    comm;
+  PetscMPIInt rank, size;
+  VKYarn      yarn; /* the enclosed yarn model (reference) */
+  VKGrid      grid;
+  PetscBool   h_set, setup;
+  /* voxels (Morton order) */
+  PetscInt  nvox;
+  PetscInt *vox;    /* 3 per voxel: grid coordinates */
+  uint64_t *voxkey; /* sorted Morton keys of the voxels */
+  /* nodes */
+  PetscInt   nv;
+  PetscReal *x;        /* 3 per node: rest position */
+  PetscInt  *node_ijk; /* 3 per node: grid coordinates */
+  PetscReal *mass;     /* lumped mass (Eq. 2) */
+  /* tetrahedra */
+  PetscInt   ne;
+  PetscInt  *tet;   /* 4 per tet, positively oriented */
+  PetscReal *G;     /* 12 per tet: G_e (3 x 4, row-major), F_e = [x_0..x_3] G_e^T */
+  PetscReal *vol;   /* rest volume V_e */
+  PetscInt  *tet_of_kuhn; /* 6 v + p (voxel v, Kuhn tet p) -> tet */
+  /* element dual graph (tets sharing a face), CSR */
+  PetscInt *dual_start, *dual_adj;
+  /* embedding: yarn vertex k lies in tet emb_tet[k] with weights emb_w[4k..] */
+  PetscInt   ny;
+  PetscInt  *emb_tet;
+  PetscReal *emb_w;
+  /* domains (contiguous after renumbering) */
+  PetscInt  ndomains;
+  PetscInt *tet_domain, *node_domain, *node_interface;
+  PetscInt *domain_tet_start, *domain_node_start; /* ndomains+1 */
+  PetscInt *rank_tet_start, *rank_node_start;     /* size+1 */
+  VKLayout  layout;
+  /* summary */
+  PetscReal      yarn_mass, mesh_mass;
+  PetscLogDouble time[8]; /* voxelize, tets, lump, embed, dual, partition, layout, total */
+};
 
 /* Kuhn tetrahedron p (0..5) of a voxel: the points with local coordinates
  * u[perm[0]] >= u[perm[1]] >= u[perm[2]].  Canonical vertices are

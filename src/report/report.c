@@ -246,13 +246,13 @@ static PetscErrorCode FloorSetUp(VKReport r, const VKReportRun *run, Floor *fl)
   PetscCall(PetscMemzero(fl, sizeof(*fl)));
   PetscCall(VKPathJoin(run->dir, "mesh.h5", path, sizeof(path)));
   PetscCall(VKMeshLoadH5(r->comm, path, &fl->mesh, &fl->yarn));
-  PetscCheck(fl->mesh->ny == r->ny, r->comm, PETSC_ERR_ARG_INCOMP, "%s embeds %d yarn vertices, the yarn-level run has %d", path, (int)fl->mesh->ny, (int)r->ny);
+  PetscCheck(VKMeshYarnVertexCount(fl->mesh) == r->ny, r->comm, PETSC_ERR_ARG_INCOMP, "%s embeds %d yarn vertices, the yarn-level run has %d", path, (int)VKMeshYarnVertexCount(fl->mesh), (int)r->ny);
   PetscCall(VKShapeFitCreate(fl->mesh, &fl->sf));
   PetscCall(VKShapeFitSetAlpha(fl->sf, REPORT_FLOOR_ALPHA));
   PetscCall(VKShapeFitSetUp(fl->sf));
   PetscCall(VKMeshCreateNodeVec(fl->mesh, 3, &fl->xhat));
   PetscCall(VecScatterCreateToAll(fl->xhat, &fl->toall, &fl->xall));
-  PetscCall(PetscMalloc1(9 * (fl->mesh->layout.eEnd - fl->mesh->layout.eStart) + 1, &fl->Fhat));
+  PetscCall(PetscMalloc1(9 * (VKMeshLayout(fl->mesh)->eEnd - VKMeshLayout(fl->mesh)->eStart) + 1, &fl->Fhat));
   PetscFunctionReturn(0);
 }
 

@@ -398,16 +398,16 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
 PetscErrorCode VKPDHandleNodesOf(VKScene scene, VKMesh mesh, VKPDHandleNodes rule, PetscInt node_of[], PetscInt held[])
 {
   PetscFunctionBegin;
-  for (PetscInt i = 0; i < mesh->nv; i++) node_of[i] = VKSceneHandleOf(scene, mesh->x + 3 * i);
+  for (PetscInt i = 0; i < VKMeshNodeCount(mesh); i++) node_of[i] = VKSceneHandleOf(scene, VKMeshRestPositions(mesh) + 3 * i);
   if (rule == VK_PD_HANDLE_EMBEDDED) {
-    PetscCheck(mesh->ny > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "-pd_handle_nodes embedded needs the mesh's yarn embedding, and this mesh has none; use -pd_handle_nodes box");
-    for (PetscInt k = 0; k < mesh->ny; k++) {
-      const PetscInt  *t = mesh->tet + 4 * mesh->emb_tet[k];
-      const PetscReal *w = mesh->emb_w + 4 * k;
+    PetscCheck(VKMeshYarnVertexCount(mesh) > 0, VKMeshComm(mesh), PETSC_ERR_ARG_WRONG, "-pd_handle_nodes embedded needs the mesh's yarn embedding, and this mesh has none; use -pd_handle_nodes box");
+    for (PetscInt k = 0; k < VKMeshYarnVertexCount(mesh); k++) {
+      const PetscInt  *t = VKMeshTets(mesh) + 4 * VKMeshEmbedTets(mesh)[k];
+      const PetscReal *w = VKMeshEmbedWeights(mesh) + 4 * k;
       PetscReal        p[3] = {0, 0, 0};
       PetscInt         h;
       for (int a = 0; a < 4; a++)
-        for (int c = 0; c < 3; c++) p[c] += w[a] * mesh->x[3 * t[a] + c];
+        for (int c = 0; c < 3; c++) p[c] += w[a] * VKMeshRestPositions(mesh)[3 * t[a] + c];
       h = VKSceneHandleOf(scene, p);
       if (h < 0) continue;
       held[h]++;
@@ -423,15 +423,15 @@ PetscErrorCode VKPDCheckHandles(VKScene scene, VKMesh mesh, VKPDHandleNodes rule
   PetscInt *node_of, held[VK_SCENE_MAX] = {0}, nodes[VK_SCENE_MAX] = {0}, nhandles;
 
   PetscFunctionBegin;
-  PetscCall(PetscMalloc1(mesh->nv + 1, &node_of));
+  PetscCall(PetscMalloc1(VKMeshNodeCount(mesh) + 1, &node_of));
   PetscCall(VKPDHandleNodesOf(scene, mesh, rule, node_of, held));
-  for (PetscInt i = 0; i < mesh->nv; i++)
+  for (PetscInt i = 0; i < VKMeshNodeCount(mesh); i++)
     if (node_of[i] >= 0) nodes[node_of[i]]++;
   PetscCall(PetscFree(node_of));
   PetscCall(VKSceneGetHandles(scene, &nhandles, NULL));
   for (PetscInt h = 0; h < nhandles; h++) {
-    if (rule == VK_PD_HANDLE_EMBEDDED) PetscCheck(held[h] > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no embedded yarn vertex, so it holds nothing (with -pd_handle_nodes box it would hold the mesh nodes in the box)", (int)h, (int)h);
-    PetscCheck(nodes[h] > 0, mesh->comm, PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node (mesh h = %g m; a smaller -mesh_h, a larger box, or -pd_handle_nodes embedded)", (int)h, (int)h, (double)mesh->grid.h);
+    if (rule == VK_PD_HANDLE_EMBEDDED) PetscCheck(held[h] > 0, VKMeshComm(mesh), PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no embedded yarn vertex, so it holds nothing (with -pd_handle_nodes box it would hold the mesh nodes in the box)", (int)h, (int)h);
+    PetscCheck(nodes[h] > 0, VKMeshComm(mesh), PETSC_ERR_ARG_WRONG, "Scene handle %d (-scene_handle%d_box) contains no mesh node (mesh h = %g m; a smaller -mesh_h, a larger box, or -pd_handle_nodes embedded)", (int)h, (int)h, (double)VKMeshGrid(mesh)->h);
   }
   PetscFunctionReturn(0);
 }
@@ -441,13 +441,13 @@ PetscErrorCode VKPDCheckHandles(VKScene scene, VKMesh mesh, VKPDHandleNodes rule
 static PetscErrorCode FindHandles(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
-  VKLayout *L    = &mesh->layout;
+  const VKLayout *L    = VKMeshLayout(mesh);
   PetscInt  nown = L->nEnd - L->nStart, n = 0, yarn_held[VK_SCENE_MAX] = {0}, *node_of;
 
   PetscFunctionBegin;
   PetscCall(VKPDCheckHandles(pd->scene, mesh, pd->handle_nodes));
   PetscCall(PetscMalloc4(nown + 1, &pd->handle_node, nown + 1, &pd->handle_id, nown + 1, &pd->handle_row, nown + 1, &pd->node_handle));
-  PetscCall(PetscMalloc1(mesh->nv, &node_of));
+  PetscCall(PetscMalloc1(VKMeshNodeCount(mesh), &node_of));
   PetscCall(VKPDHandleNodesOf(pd->scene, mesh, pd->handle_nodes, node_of, yarn_held));
   for (PetscInt i = 0; i < nown; i++) {
     PetscInt h = node_of[L->nStart + i];
@@ -471,7 +471,7 @@ static PetscErrorCode FindHandles(VKPD pd)
  * without gravity, handles or colliders. */
 static PetscErrorCode ForceScales(VKPD pd)
 {
-  const VKLayout *L = &pd->mesh->layout;
+  const VKLayout *L = VKMeshLayout(pd->mesh);
   PetscReal       g2 = 0, sums[2], all[2], dt2 = pd->dt * pd->dt;
   Vec             xr, kx;
 
@@ -483,13 +483,13 @@ static PetscErrorCode ForceScales(VKPD pd)
     const PetscScalar *ka;
     PetscScalar       *xa;
     PetscCall(VecGetArray(xr, &xa));
-    for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) xa[i] = pd->mesh->x[3 * (L->nStart + i) + c];
+    for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) xa[i] = VKMeshRestPositions(pd->mesh)[3 * (L->nStart + i) + c];
     PetscCall(VecRestoreArray(xr, &xa));
     PetscCall(MatMult(pd->K, xr, kx));
     PetscCall(VecGetArrayRead(kx, &ka));
     PetscCall(VecGetArrayRead(xr, (const PetscScalar **)&xa));
     for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
-      PetscReal m = pd->mesh->mass[L->nStart + i];
+      PetscReal m = VKMeshNodeMasses(pd->mesh)[L->nStart + i];
       if (pd->node_handle[i] >= 0) continue;
       if (c == 0) sums[0] += m * m * g2;
       sums[1] += PetscSqr(ka[i] - (VKPDInertiaScale(pd) * m / dt2 + pd->contact_w[i]) * xa[i]);
@@ -510,7 +510,7 @@ static PetscErrorCode ForceScales(VKPD pd)
 static PetscErrorCode SetCMSDomains(VKPD pd)
 {
   VKMesh    mesh = pd->mesh;
-  VKLayout *L    = &mesh->layout;
+  const VKLayout *L    = VKMeshLayout(mesh);
   PC        pc;
   PetscBool iscms;
   IS       *is;
@@ -520,9 +520,9 @@ static PetscErrorCode SetCMSDomains(VKPD pd)
   PetscCall(KSPGetPC(pd->ksp, &pc));
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCMS, &iscms));
   if (!iscms) PetscFunctionReturn(0);
-  PetscCall(PetscMalloc1(mesh->ndomains + 1, &is));
-  for (PetscInt d = 0; d < mesh->ndomains; d++) {
-    PetscInt lo = PetscMax(mesh->domain_node_start[d], L->nStart), hi = PetscMin(mesh->domain_node_start[d + 1], L->nEnd);
+  PetscCall(PetscMalloc1(VKMeshDomainCount(mesh) + 1, &is));
+  for (PetscInt d = 0; d < VKMeshDomainCount(mesh); d++) {
+    PetscInt lo = PetscMax(VKMeshDomainNodeStart(mesh)[d], L->nStart), hi = PetscMin(VKMeshDomainNodeStart(mesh)[d + 1], L->nEnd);
     if (hi > lo) PetscCall(ISCreateStride(PETSC_COMM_SELF, hi - lo, lo, 1, &is[n++]));
   }
   PetscCall(PCCMSSetSubdomains(pc, n, is));
@@ -539,7 +539,7 @@ static PetscErrorCode SetCMSDomains(VKPD pd)
  * MatSetValuesLocal. */
 static PetscErrorCode CreateK(VKPD pd)
 {
-  VKLayout *L    = &pd->mesh->layout;
+  const VKLayout *L    = VKMeshLayout(pd->mesh);
   PetscInt  ne   = L->eEnd - L->eStart, nown = L->nEnd - L->nStart, *ci, *cj;
   PetscCount n   = 16 * ne + nown;
 
@@ -563,24 +563,24 @@ static PetscErrorCode CreateK(VKPD pd)
  * w_i on free nodes when the scene has colliders), then Kel. */
 static PetscErrorCode AssembleK(VKPD pd)
 {
-  VKMesh    mesh = pd->mesh;
-  VKLayout *L    = &pd->mesh->layout;
-  PetscReal dsum = 0, dt2 = pd->dt * pd->dt, kmean;
-  PetscInt  N, ne = L->eEnd - L->eStart;
-  const PetscReal *gamma;
+  VKMesh           mesh = pd->mesh;
+  const VKLayout  *L    = VKMeshLayout(pd->mesh);
+  PetscReal        dsum = 0, dt2 = pd->dt * pd->dt, kmean;
+  PetscInt         N, ne = L->eEnd - L->eStart;
+  const PetscReal *gamma, *Gall = VKMeshTetGradients(mesh), *vol = VKMeshTetVolumes(mesh);
 
   PetscFunctionBegin;
   PetscCall(VKMaterialGetGammaArrayRead(pd->mat, &gamma));
   PetscCall(PetscLogEventBegin(VK_EVENT_PDSetUp, 0, 0, 0, 0));
   if (!pd->K) PetscCall(CreateK(pd));
   for (PetscInt e = 0; e < ne; e++) {
-    const PetscReal *G  = mesh->G + 12 * (L->eStart + e);
-    PetscReal        w  = 2 * mesh->vol[L->eStart + e] * (gamma[2 * e] + gamma[2 * e + 1]);
+    const PetscReal *G  = Gall + 12 * (L->eStart + e);
+    PetscReal        w  = 2 * vol[L->eStart + e] * (gamma[2 * e] + gamma[2 * e + 1]);
     PetscScalar     *Ke = pd->kcoo + 16 * e;
     for (int a = 0; a < 4; a++)
       for (int b = 0; b < 4; b++) Ke[4 * a + b] = w * (G[a] * G[b] + G[4 + a] * G[4 + b] + G[8 + a] * G[8 + b]);
   }
-  for (PetscInt i = L->nStart; i < L->nEnd; i++) pd->kcoo[16 * ne + i - L->nStart] = VKPDInertiaScale(pd) * mesh->mass[i] / dt2;
+  for (PetscInt i = L->nStart; i < L->nEnd; i++) pd->kcoo[16 * ne + i - L->nStart] = VKPDInertiaScale(pd) * VKMeshNodeMasses(mesh)[i] / dt2;
   PetscCall(MatSetValuesCOO(pd->K, pd->kcoo, INSERT_VALUES));
   {
     /* Nodes with neither mass nor stiffness (g = 0 all around, no yarn
@@ -626,7 +626,7 @@ static PetscErrorCode AssembleK(VKPD pd)
   }
   {
     PetscReal L = 0;
-    for (int a = 0; a < 3; a++) L = PetscMax(L, mesh->grid.h * mesh->grid.dims[a]);
+    for (int a = 0; a < 3; a++) L = PetscMax(L, VKMeshGrid(mesh)->h * VKMeshGrid(mesh)->dims[a]);
     pd->res_floor = 1e-12 * pd->kdiag * L;
   }
   PetscCall(ForceScales(pd));
@@ -680,9 +680,9 @@ PetscErrorCode VKPDSetUp(VKPD pd)
     pd->kset    = PETSC_FALSE;
   }
   if (!pd->setup) {
-    PetscInt nown = pd->mesh->layout.nEnd - pd->mesh->layout.nStart;
+    PetscInt nown = VKMeshLayout(pd->mesh)->nEnd - VKMeshLayout(pd->mesh)->nStart;
     PetscCall(FindHandles(pd));
-    PetscInt ne = pd->mesh->layout.eEnd - pd->mesh->layout.eStart;
+    PetscInt ne = VKMeshLayout(pd->mesh)->eEnd - VKMeshLayout(pd->mesh)->eStart;
     PetscCall(PetscCalloc2(nown + 1, &pd->contact, nown + 1, &pd->contact_w));
     PetscCall(PetscCalloc1(9 * ne + 1, &pd->tetW));
     for (PetscInt e = 0; e < ne; e++) pd->tetW[9 * e] = pd->tetW[9 * e + 4] = pd->tetW[9 * e + 8] = 1;

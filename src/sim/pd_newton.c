@@ -30,7 +30,7 @@ static PetscErrorCode NewtonFunction(SNES snes, Vec x, Vec F, void *ctx)
  * by kdiag I. */
 static PetscErrorCode Hessian(VKPD pd, Vec x, PetscBool psd, Mat H)
 {
-  const VKLayout *L    = &pd->mesh->layout;
+  const VKLayout *L    = VKMeshLayout(pd->mesh);
   PetscInt        nown = L->nEnd - L->nStart, n, *rows;
   PetscScalar    *ma;
 
@@ -40,7 +40,7 @@ static PetscErrorCode Hessian(VKPD pd, Vec x, PetscBool psd, Mat H)
   PetscCall(VKMaterialHessian(pd->mat, x, psd, H));
   PetscCall(VecGetArray(pd->hdiag, &ma));
   for (PetscInt i = 0; i < nown; i++)
-    for (int c = 0; c < 3; c++) ma[3 * i + c] = VKPDInertiaScale(pd) * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt);
+    for (int c = 0; c < 3; c++) ma[3 * i + c] = VKPDInertiaScale(pd) * VKMeshNodeMasses(pd->mesh)[L->nStart + i] / (pd->dt * pd->dt);
   PetscCall(VecRestoreArray(pd->hdiag, &ma));
   PetscCall(MatDiagonalSet(H, pd->hdiag, ADD_VALUES));
   if (pd->ncolliders) {

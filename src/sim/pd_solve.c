@@ -28,7 +28,7 @@
 PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inverted)
 {
   VKMesh             mesh = pd->mesh;
-  VKLayout          *L    = &mesh->layout;
+  const VKLayout          *L    = VKMeshLayout(mesh);
   Vec                xl, bl;
   const PetscScalar *a;
   PetscScalar       *ba;
@@ -50,7 +50,7 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
     PetscInt  n = PetscMin(VK_SVD3_BATCH, L->eEnd - L->eStart - e0);
     PetscReal X[12 * VK_SVD3_BATCH], rhs[12 * VK_SVD3_BATCH], Ee[VK_SVD3_BATCH], det[VK_SVD3_BATCH];
     for (PetscInt l = 0; l < n; l++) VKLayoutGatherTet(L, e0 + l, a, X + 12 * l);
-    PetscCall(VKTetProject(n, mesh->G + 12 * (L->eStart + e0), mesh->vol + L->eStart + e0, X, &band, gamma + 2 * e0, pd->tetW + 9 * e0, Ee, rhs, det));
+    PetscCall(VKTetProject(n, VKMeshTetGradients(mesh) + 12 * (L->eStart + e0), VKMeshTetVolumes(mesh) + L->eStart + e0, X, &band, gamma + 2 * e0, pd->tetW + 9 * e0, Ee, rhs, det));
     for (PetscInt l = 0; l < n; l++) {
       VKSumAdd(&sum, Ee[l]);
       if (!(det[l] > 0)) ninv++;
@@ -75,14 +75,15 @@ static PetscErrorCode InertialTarget(VKPD pd, Vec y)
 {
   const PetscScalar *ya, *fa = NULL;
   PetscScalar       *m;
-  const VKLayout    *L = &pd->mesh->layout;
+  const VKLayout    *L    = VKMeshLayout(pd->mesh);
+  const PetscReal   *mass = VKMeshNodeMasses(pd->mesh);
 
   PetscFunctionBegin;
   PetscCall(VecGetArrayRead(y, &ya));
   if (pd->fconst) PetscCall(VecGetArrayRead(pd->fconst, &fa));
   PetscCall(VecGetArray(pd->My, &m));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) m[3 * i + r] = VKPDInertiaScale(pd) * pd->mesh->mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r] + (fa ? fa[3 * i + r] : 0);
+    for (int r = 0; r < 3; r++) m[3 * i + r] = VKPDInertiaScale(pd) * mass[L->nStart + i] / (pd->dt * pd->dt) * ya[3 * i + r] + (fa ? fa[3 * i + r] : 0);
   {
     PetscReal f2 = 0;
     for (PetscInt i = 0; fa && i < L->nEnd - L->nStart; i++)
@@ -100,8 +101,9 @@ static PetscErrorCode InertialTarget(VKPD pd, Vec y)
 static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
 {
   const PetscScalar *xa, *ya, *fa = NULL;
-  const VKLayout    *L   = &pd->mesh->layout;
-  VKSum              sum = {0, 0};
+  const VKLayout    *L    = VKMeshLayout(pd->mesh);
+  const PetscReal   *mass = VKMeshNodeMasses(pd->mesh);
+  VKSum              sum  = {0, 0};
   PetscReal          mine;
 
   PetscFunctionBegin;
@@ -114,7 +116,7 @@ static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
       d2 += PetscSqr(xa[3 * i + r] - ya[3 * i + r]);
       if (fa) fx += fa[3 * i + r] * xa[3 * i + r];
     }
-    VKSumAdd(&sum, 0.5 * VKPDInertiaScale(pd) * pd->mesh->mass[L->nStart + i] * d2 / (pd->dt * pd->dt) - fx);
+    VKSumAdd(&sum, 0.5 * VKPDInertiaScale(pd) * mass[L->nStart + i] * d2 / (pd->dt * pd->dt) - fx);
   }
   if (pd->fconst) PetscCall(VecRestoreArrayRead(pd->fconst, &fa));
   PetscCall(VecRestoreArrayRead(y, &ya));
@@ -176,7 +178,7 @@ static PetscErrorCode Residual(VKPD pd, Vec x, Vec b, Vec r, PetscReal *norm, Pe
 PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
 {
   PetscScalar    *xa, *d[3];
-  const VKLayout *L = &pd->mesh->layout;
+  const VKLayout *L = VKMeshLayout(pd->mesh);
 
   PetscFunctionBegin;
   PetscCall(VKPDSetUp(pd));
@@ -188,7 +190,7 @@ PetscErrorCode VKPDApplyHandles(VKPD pd, PetscReal t, Vec x)
   for (PetscInt i = 0; i < pd->nhandle; i++) {
     PetscInt  n = pd->handle_node[i];
     PetscReal p[3] = {xa[3 * n], xa[3 * n + 1], xa[3 * n + 2]}; /* frozen nodes stay */
-    if (pd->handle_id[i] >= 0) VKSceneHandlePosition(pd->scene, pd->handle_id[i], pd->mesh->x + 3 * (L->nStart + n), t, p);
+    if (pd->handle_id[i] >= 0) VKSceneHandlePosition(pd->scene, pd->handle_id[i], VKMeshRestPositions(pd->mesh) + 3 * (L->nStart + n), t, p);
     for (int c = 0; c < 3; c++) xa[3 * n + c] = d[c][n] = p[c];
   }
   for (int c = 0; c < 3; c++) PetscCall(VecRestoreArray(pd->xd[c], &d[c]));
@@ -269,7 +271,7 @@ static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt
 {
   const PetscScalar *xa, *pa = NULL;
   PetscScalar       *ba;
-  const VKLayout    *L   = &pd->mesh->layout;
+  const VKLayout    *L   = VKMeshLayout(pd->mesh);
   VKSum              sum = {0, 0};
   PetscReal          mine[3], all[3], dmax = 0, f2 = 0;
   PetscInt           n = 0;

@@ -109,7 +109,7 @@ PetscErrorCode VKSimSetUp(VKSim sim)
   PetscFunctionBegin;
   if (sim->setup) PetscFunctionReturn(0);
   PetscCall(PetscLogStagePush(VK_STAGE_SIM)); /* the PD set-up (assembly, factorization) is the sim's */
-  PetscCall(VKYarnGetBoundingBox(sim->mesh->yarn, lo, hi));
+  PetscCall(VKYarnGetBoundingBox(VKMeshYarn(sim->mesh), lo, hi));
   PetscCall(VKSceneSetUp(sim->scene, lo, hi));
   PetscCall(TSGetTimeStep(sim->ts, &dt));
   {
@@ -155,7 +155,7 @@ PetscErrorCode VKSimView(VKSim sim, PetscViewer viewer)
 
 PetscErrorCode VKSimEnergies(VKSim sim, Vec x, Vec v, PetscReal e[3])
 {
-  const VKLayout    *L = &sim->mesh->layout;
+  const VKLayout    *L = VKMeshLayout(sim->mesh);
   const PetscScalar *xa, *va;
   PetscReal          g[3];
   PetscReal          mine[2] = {0, 0}, all[2];
@@ -166,7 +166,7 @@ PetscErrorCode VKSimEnergies(VKSim sim, Vec x, Vec v, PetscReal e[3])
   PetscCall(VecGetArrayRead(x, &xa));
   PetscCall(VecGetArrayRead(v, &va));
   for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
-    PetscReal m = sim->mesh->mass[L->nStart + i];
+    PetscReal m = VKMeshNodeMasses(sim->mesh)[L->nStart + i];
     for (int c = 0; c < 3; c++) {
       mine[0] += 0.5 * m * va[3 * i + c] * va[3 * i + c];
       mine[1] -= m * g[c] * xa[3 * i + c];

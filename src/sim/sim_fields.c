@@ -11,17 +11,17 @@
 
 PetscErrorCode VKSimCreateTetFieldVec(VKSim sim, PetscInt per, Vec *f)
 {
-  const VKLayout *L = &sim->mesh->layout;
+  const VKLayout *L = VKMeshLayout(sim->mesh);
 
   PetscFunctionBegin;
-  PetscCall(VecCreateMPI(sim->comm, per * (L->eEnd - L->eStart), per * sim->mesh->ne, f));
+  PetscCall(VecCreateMPI(sim->comm, per * (L->eEnd - L->eStart), per * VKMeshTetCount(sim->mesh), f));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
 {
   VKMesh             m = sim->mesh;
-  const VKLayout    *L = &m->layout;
+  const VKLayout    *L = VKMeshLayout(m);
   const PetscScalar *a;
   PetscScalar       *fa;
   Vec                loc;
@@ -34,7 +34,7 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
   PetscCall(VKMeshGetLocalPositions(x, &loc, &a));
   PetscCall(VecGetArray(f, &fa));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    const PetscReal *G = m->G + 12 * (L->eStart + e);
+    const PetscReal *G = VKMeshTetGradients(m) + 12 * (L->eStart + e);
     PetscReal        X[12], F[9], J;
     VKPsiState       st;
     VKLayoutGatherTet(L, e, a, X);
@@ -55,7 +55,7 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
 PetscErrorCode VKSimTetMaterial(VKSim sim, Vec f)
 {
   VKMesh          m = sim->mesh;
-  const VKLayout *L = &m->layout;
+  const VKLayout *L = VKMeshLayout(m);
   PetscScalar    *fa;
   const PetscReal *gamma;
 
@@ -65,7 +65,7 @@ PetscErrorCode VKSimTetMaterial(VKSim sim, Vec f)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     fa[3 * e + 0] = gamma[2 * e];
     fa[3 * e + 1] = gamma[2 * e + 1];
-    fa[3 * e + 2] = m->tet_domain[L->eStart + e];
+    fa[3 * e + 2] = VKMeshTetDomains(m)[L->eStart + e];
   }
   PetscCall(VecRestoreArray(f, &fa));
   PetscFunctionReturn(0);

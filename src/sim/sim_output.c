@@ -46,10 +46,10 @@ static PetscErrorCode WriteStatic(VKSim sim, SimOutput *o)
 
   PetscFunctionBegin;
   PetscCall(VKSceneGetName(sim->scene, &scene_name));
-  PetscCall(VKRunFileOpen(&o->rf, sim->dir, "sim", SIM_FORMAT, m->yarn, scene_name, VKSceneFrameCount(sim->scene)));
-  PetscCall(VKH5WriteInt(&o->rf.h5, "/mesh/tets", m->ne, 4, m->tet));
-  PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/node_mass", m->nv, 1, m->mass));
-  PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/x_rest", m->nv, 3, m->x));
+  PetscCall(VKRunFileOpen(&o->rf, sim->dir, "sim", SIM_FORMAT, VKMeshYarn(m), scene_name, VKSceneFrameCount(sim->scene)));
+  PetscCall(VKH5WriteInt(&o->rf.h5, "/mesh/tets", VKMeshTetCount(m), 4, VKMeshTets(m)));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/node_mass", VKMeshNodeCount(m), 1, VKMeshNodeMasses(m)));
+  PetscCall(VKH5WriteReal(&o->rf.h5, "/mesh/x_rest", VKMeshNodeCount(m), 3, VKMeshRestPositions(m)));
   PetscFunctionReturn(0);
 }
 
@@ -92,7 +92,7 @@ PetscErrorCode VKSimOutputOpen(VKSim sim)
   PetscCallMPI(MPI_Comm_rank(sim->comm, &rank));
   if (rank == 0) {
     ierr = WriteStatic(sim, o);
-    if (!ierr) ierr = PetscMalloc4(3 * sim->mesh->ny + 1, &o->xy, 3 * sim->mesh->ny + 1, &o->vy, sim->mesh->ny + 1, &o->ystretch, sim->mesh->ny + 1, &o->ycurv);
+    if (!ierr) ierr = PetscMalloc4(3 * VKMeshYarnVertexCount(sim->mesh) + 1, &o->xy, 3 * VKMeshYarnVertexCount(sim->mesh) + 1, &o->vy, VKMeshYarnVertexCount(sim->mesh) + 1, &o->ystretch, VKMeshYarnVertexCount(sim->mesh) + 1, &o->ycurv);
   }
   PetscCall(VKCollective(sim->comm, ierr, "Creating sim.h5"));
   PetscCall(VecScatterCreateToZero(sim->x, &o->scatter, &o->xseq));
@@ -106,8 +106,8 @@ PetscErrorCode VKSimOutputOpen(VKSim sim)
     PetscCall(VecScatterBegin(ms, mf, mfseq, INSERT_VALUES, SCATTER_FORWARD));
     PetscCall(VecScatterEnd(ms, mf, mfseq, INSERT_VALUES, SCATTER_FORWARD));
     if (rank == 0) {
-      PetscCall(PetscMalloc1(sim->mesh->ne + 1, &o->col));
-      ierr = WriteTetColumns(o, PETSC_TRUE, mfseq, 3, (const char *const[]){"/material/g_s", "/material/g_v", "/mesh/tet_domain"}, (const PetscBool[]){PETSC_FALSE, PETSC_FALSE, PETSC_TRUE}, sim->mesh->ne);
+      PetscCall(PetscMalloc1(VKMeshTetCount(sim->mesh) + 1, &o->col));
+      ierr = WriteTetColumns(o, PETSC_TRUE, mfseq, 3, (const char *const[]){"/material/g_s", "/material/g_v", "/mesh/tet_domain"}, (const PetscBool[]){PETSC_FALSE, PETSC_FALSE, PETSC_TRUE}, VKMeshTetCount(sim->mesh));
     }
     PetscCall(VKCollective(sim->comm, ierr, "Writing the material to sim.h5"));
     PetscCall(VecScatterDestroy(&ms));
@@ -155,18 +155,18 @@ PetscErrorCode VKSimOutputFrame(VKSim sim, PetscReal t, Vec x)
     PetscCall(VecGetArrayRead(o->vseq, &va));
     PetscCall(VKMeshApplyEmbedding(sim->mesh, xa, o->xy));
     PetscCall(VKMeshApplyEmbedding(sim->mesh, va, o->vy)); /* the embedding is linear: v^Y = N v^V */
-    PetscCall(VKYarnGetCurves(sim->mesh->yarn, &rest));
+    PetscCall(VKYarnGetCurves(VKMeshYarn(sim->mesh), &rest));
     PetscCall(VKCurvesVertexFields(rest, o->xy, o->ystretch, o->ycurv));
-    ierr = VKRunFileWriteReal(&o->rf, "x", sim->mesh->nv, 3, xa);
-    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn", sim->mesh->ny, 3, o->xy);
-    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "velocity", sim->mesh->nv, 3, va);
-    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_velocity", sim->mesh->ny, 3, o->vy);
-    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_stretch", sim->mesh->ny, 1, o->ystretch);
-    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_curvature", sim->mesh->ny, 1, o->ycurv);
+    ierr = VKRunFileWriteReal(&o->rf, "x", VKMeshNodeCount(sim->mesh), 3, xa);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn", VKMeshYarnVertexCount(sim->mesh), 3, o->xy);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "velocity", VKMeshNodeCount(sim->mesh), 3, va);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_velocity", VKMeshYarnVertexCount(sim->mesh), 3, o->vy);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_stretch", VKMeshYarnVertexCount(sim->mesh), 1, o->ystretch);
+    if (!ierr) ierr = VKRunFileWriteReal(&o->rf, "yarn_curvature", VKMeshYarnVertexCount(sim->mesh), 1, o->ycurv);
     if (!ierr) {
       const PetscBool   isint[VK_SIM_TET_FIELDS] = {PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE, PETSC_TRUE};
       const char *const field[VK_SIM_TET_FIELDS] = {"J", "psi", "stretch_max", "stretch_min", "inverted"};
-      ierr = WriteTetColumns(o, PETSC_FALSE, o->tfseq, VK_SIM_TET_FIELDS, field, isint, sim->mesh->ne);
+      ierr = WriteTetColumns(o, PETSC_FALSE, o->tfseq, VK_SIM_TET_FIELDS, field, isint, VKMeshTetCount(sim->mesh));
     }
     if (!ierr) ierr = VKRunFileEndFrame(&o->rf, t, o->xy);
     PetscCall(VecRestoreArrayRead(o->vseq, &va));
@@ -202,7 +202,7 @@ static PetscErrorCode MeshAttributes(FILE *fp, VKMesh m, PetscInt f)
   for (size_t k = 0; k < sizeof(a) / sizeof(a[0]); k++) {
     if (a[k].perframe) PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, a[k].dataset));
     else PetscCall(PetscStrncpy(ds, a[k].dataset, sizeof(ds)));
-    PetscCall(VKXdmfAttribute(fp, a[k].name, a[k].center, a[k].center[0] == 'N' ? m->nv : m->ne, a[k].ncomp, a[k].isint, "sim.h5", ds));
+    PetscCall(VKXdmfAttribute(fp, a[k].name, a[k].center, a[k].center[0] == 'N' ? VKMeshNodeCount(m) : VKMeshTetCount(m), a[k].ncomp, a[k].isint, "sim.h5", ds));
   }
   PetscFunctionReturn(0);
 }
@@ -217,7 +217,7 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   const VKCurves *rest;
 
   PetscFunctionBegin;
-  PetscCall(VKYarnGetCurves(sim->mesh->yarn, &rest));
+  PetscCall(VKYarnGetCurves(VKMeshYarn(sim->mesh), &rest));
   npoly = VKCurvesPolylineLength(rest);
   PetscCall(VKXdmfBegin(fp));
   for (int part = 0; part < 2; part++) {
@@ -226,11 +226,11 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
       PetscCall(VKXdmfGridBegin(fp, part ? "yarn" : "mesh"));
       PetscCall(VKXdmfTime(fp, o->time[f]));
       if (part) PetscCall(VKXdmfTopologyMixed(fp, rest->n, npoly, "sim.h5", "/yarn/polylines")); /* one polyline per curve */
-      else PetscCall(VKXdmfTopology(fp, "Tetrahedron", sim->mesh->ne, 4, "sim.h5", "/mesh/tets"));
+      else PetscCall(VKXdmfTopology(fp, "Tetrahedron", VKMeshTetCount(sim->mesh), 4, "sim.h5", "/mesh/tets"));
       PetscCall(PetscSNPrintf(ds, sizeof(ds), "/frames/%06d/%s", (int)f, part ? "yarn" : "x"));
-      PetscCall(VKXdmfGeometry(fp, part ? sim->mesh->ny : sim->mesh->nv, "sim.h5", ds));
+      PetscCall(VKXdmfGeometry(fp, part ? VKMeshYarnVertexCount(sim->mesh) : VKMeshNodeCount(sim->mesh), "sim.h5", ds));
       if (!part) PetscCall(MeshAttributes(fp, sim->mesh, f));
-      else PetscCall(VKRunFileYarnAttributes(fp, "sim.h5", f, sim->mesh->ny, "yarn_", PETSC_FALSE));
+      else PetscCall(VKRunFileYarnAttributes(fp, "sim.h5", f, VKMeshYarnVertexCount(sim->mesh), "yarn_", PETSC_FALSE));
       PetscCall(VKXdmfGridEnd(fp));
     }
     PetscCall(VKXdmfCollectionEnd(fp));
@@ -279,10 +279,10 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   if (c->failure) PetscCall(VKJSONString(&j, "failure", c->failure));
   if (((SimOutput *)sim->out)->rf.has_preview) PetscCall(VKJSONString(&j, "preview", "sim_preview.png"));
   PetscCall(VKJSONInt(&j, "ranks", size));
-  PetscCall(VKJSONInt(&j, "nodes", sim->mesh->nv));
-  PetscCall(VKJSONInt(&j, "tets", sim->mesh->ne));
-  PetscCall(VKJSONInt(&j, "yarn_vertices", sim->mesh->ny));
-  PetscCall(VKYarnGetProperties(sim->mesh->yarn, &radius, NULL, NULL));
+  PetscCall(VKJSONInt(&j, "nodes", VKMeshNodeCount(sim->mesh)));
+  PetscCall(VKJSONInt(&j, "tets", VKMeshTetCount(sim->mesh)));
+  PetscCall(VKJSONInt(&j, "yarn_vertices", VKMeshYarnVertexCount(sim->mesh)));
+  PetscCall(VKYarnGetProperties(VKMeshYarn(sim->mesh), &radius, NULL, NULL));
   PetscCall(VKJSONReal(&j, "yarn_radius_m", radius));
   PetscCall(VKJSONReal(&j, "dt", dt));
   PetscCall(VKJSONReal(&j, "time_reached", t));

@@ -67,9 +67,11 @@ int main(int argc, char **argv)
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"));
   }
   {
-    char wcol[32] = "-";
+    char                  wcol[32] = "-";
+    const PetscLogDouble *tm;
+    VKMeshGetSummary(m, NULL, NULL, &tm);
     if (write) PetscCall(PetscSNPrintf(wcol, sizeof(wcol), "%.2f", twrite));
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| %s | %dx%d | %d | %d | %d | %.3f | %d | %.2f | **%.2f** | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %.0f |\n", pattern, (int)side, (int)side, (int)m->ny, (int)m->nv, (int)m->ne, (double)m->nv / (double)m->ny, (int)m->ndomains, tyarn, tmesh, m->time[0], m->time[1], m->time[2], m->time[3], m->time[4], m->time[5], m->time[6], wcol, mem / 1048576.0));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| %s | %dx%d | %d | %d | %d | %.3f | %d | %.2f | **%.2f** | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %.0f |\n", pattern, (int)side, (int)side, (int)VKMeshYarnVertexCount(m), (int)VKMeshNodeCount(m), (int)VKMeshTetCount(m), (double)VKMeshNodeCount(m) / (double)VKMeshYarnVertexCount(m), (int)VKMeshDomainCount(m), tyarn, tmesh, tm[0], tm[1], tm[2], tm[3], tm[4], tm[5], tm[6], wcol, mem / 1048576.0));
   }
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));

@@ -25,7 +25,7 @@ static PetscErrorCode TimeMaterialChanges(VKMesh mesh, VKMaterial mat, VKSim sim
 {
   VKPD           pd;
   KSP            ksp;
-  const VKLayout *L   = &mesh->layout;
+  const VKLayout *L   = VKMeshLayout(mesh);
   Vec            g;
   PetscLogDouble t[2] = {0, 0};
   PetscInt       rebuilt = -1;
@@ -50,7 +50,7 @@ static PetscErrorCode TimeMaterialChanges(VKMesh mesh, VKMaterial mat, VKSim sim
       PetscCall(VKMaterialGetGamma(mat, g));
       PetscCall(VecGetArray(g, &a));
       for (PetscInt e = 0; e < L->eEnd - L->eStart; e++)
-        if (all || mesh->tet_domain[L->eStart + e] == 0) a[2 * e] *= f, a[2 * e + 1] *= f;
+        if (all || VKMeshTetDomains(mesh)[L->eStart + e] == 0) a[2 * e] *= f, a[2 * e + 1] *= f;
       PetscCall(VecRestoreArray(g, &a));
       PetscCall(VKMaterialSetGamma(mat, g));
       PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
@@ -65,7 +65,7 @@ static PetscErrorCode TimeMaterialChanges(VKMesh mesh, VKMaterial mat, VKSim sim
     char one[64];
     if (cms) PetscCall(PetscSNPrintf(one, sizeof(one), "%.3f (%d)", t[0] / n, (int)rebuilt));
     else PetscCall(PetscSNPrintf(one, sizeof(one), "%.3f", t[0] / n));
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 | %d | %d | %d | %s | %.2f | %s | %.3f | %.1f |\n", (int)(3 * mesh->nv), (int)mesh->ndomains, (int)size, pctype, (double)tfirst, one, t[1] / n, t[1] / t[0]));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 | %d | %d | %d | %s | %.2f | %s | %.3f | %.1f |\n", (int)(3 * VKMeshNodeCount(mesh)), (int)VKMeshDomainCount(mesh), (int)size, pctype, (double)tfirst, one, t[1] / n, t[1] / t[0]));
   }
   PetscFunctionReturn(0);
 }
@@ -119,14 +119,14 @@ static PetscErrorCode TimeSteps(VKMesh mesh, VKSim sim, PetscInt wales, PetscInt
   {
     PetscReal its = (PetscReal)st.iterations / PetscMax(st.steps, 1), n = PetscMax(st.steps, 1);
     /* local steps per step: one per iteration plus the final evaluation, none with -pd_fixed_its (plain PD) */
-    PetscReal nlocal = (its + (fixed && type == VK_PD_TYPE_PD ? 0 : 1)) * mesh->ne;
+    PetscReal nlocal = (its + (fixed && type == VK_PD_TYPE_PD ? 0 : 1)) * VKMeshTetCount(mesh);
     char      res[32];
     if (st.unmeasured_steps == st.steps) PetscCall(PetscSNPrintf(res, sizeof(res), "not measured"));
     else PetscCall(PetscSNPrintf(res, sizeof(res), "%.1e%s", (double)st.residual_force_max, st.unconverged_steps ? " (unconverged)" : ""));
     PetscLogDouble peak, peak_max;
     PetscCall(VKPeakMemory(&peak));
     PetscCallMPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_DOUBLE, MPI_MAX, PETSC_COMM_WORLD));
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f | %.0f |\n", (int)wales, (int)courses, (int)mesh->nv, (int)(3 * mesh->nv), (int)mesh->ne, (int)size, name, (double)its, res, 1e3 * trun / n, 1e3 * st.time_local / n,
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| rib1x1 %dx%d | %d | %d | %d | %d | %s | %.1f | %s | %.0f | %.0f | %.0f | %.0f | %.2f | %.0f |\n", (int)wales, (int)courses, (int)VKMeshNodeCount(mesh), (int)(3 * VKMeshNodeCount(mesh)), (int)VKMeshTetCount(mesh), (int)size, name, (double)its, res, 1e3 * trun / n, 1e3 * st.time_local / n,
                           1e3 * st.time_global / n, 1e9 * st.time_local / n / nlocal * size, (double)tsetup, peak_max / 1048576.0));
   }
   PetscFunctionReturn(0);
