@@ -85,6 +85,11 @@ typedef struct {
 PETSC_EXTERN PetscErrorCode VKPypParse(const char buf[], size_t len, const char fname[], VKPyp *);
 PETSC_EXTERN PetscErrorCode VKPypWrite(const char path[], const VKPyp *);
 PETSC_EXTERN PetscErrorCode VKPypFree(VKPyp *);
+PETSC_EXTERN PetscErrorCode VKPypCopy(const VKPyp *, VKPyp *);
+/* Every edge split into equal pieces no longer than maxlen (the new
+ * vertices in the tile of the edge's first one); the extra sections are
+ * dropped. */
+PETSC_EXTERN PetscErrorCode VKPypRefine(VKPyp *, PetscReal maxlen);
 /* Tile m x n copies; origin (optional, 2 per vertex: tile i + m*j, pattern vertex). */
 PETSC_EXTERN PetscErrorCode VKPypTile(const VKPyp *, PetscInt m, PetscInt n, VKCurves *, PetscInt **origin);
 
@@ -112,6 +117,12 @@ PETSC_EXTERN PetscErrorCode VKYarnSetRadius(VKYarn, PetscReal);
 /* Take ownership-free copies of given polylines as the model (tests, tools) */
 PETSC_EXTERN PetscErrorCode VKYarnSetCurves(VKYarn, const VKCurves *);
 
+/* The pyp cell to tile at set-up (-yarn_tiles) instead of -yarn_pyp's
+ * file, which it stands for (a copy is kept; a periodic relaxation's
+ * result: VKYLSRelaxPeriodic).  With exact, the tiled polylines are the
+ * model as they are (the cell already at the segment length), not
+ * resampled.  VKYarnWriteOutputs writes it as cell.pyp. */
+PETSC_EXTERN PetscErrorCode VKYarnSetPypCell(VKYarn, const VKPyp *, PetscBool exact, const char description[]);
 /* A yarn.h5 (or the /yarn group of a mesh.h5) to read at set-up (-yarn_h5). */
 PETSC_EXTERN PetscErrorCode VKYarnSetH5File(VKYarn, const char path[]);
 /* Read the /yarn group of an open file as the set-up model (mesh.h5). */

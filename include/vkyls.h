@@ -78,6 +78,38 @@ PETSC_EXTERN PetscErrorCode VKYLSRelax(VKYLS);
  * yarn -yarn_relax); afterwards yarn->contact_radius > 0 and VKYLSRun does
  * not relax it again. */
 PETSC_EXTERN PetscErrorCode VKYLSRelaxYarn(VKYarn);
+/* Take the yarn's geometry as its relaxed rest state without relaxing it
+ * (a patch tiled from a periodically relaxed cell): the contact radius it
+ * honours, at most r, and the closest approach of two admissible segment
+ * axes over 2r (1e308 if none is within 2r). */
+PETSC_EXTERN PetscErrorCode VKYLSKeepRest(VKYarn, PetscReal *dmin_over_2r);
+
+/* Periodic relaxation of a pyp cell (periodic.c, issue 23): the cell's
+ * vertices and both periods relaxed as one cell of an infinite patch of
+ * straight, untwisted rods (stretch, bending, contact with the images in
+ * the neighbouring tiles), the contact radius grown in stages from what
+ * the given geometry allows to `radius` and on until the closest axes are
+ * 2 radius apart, by Newton to a largest force of ftol k_b / r^2 on any
+ * vertex or period.  In place: positions, periods and
+ * radius; the rest-data sections of the file are dropped.  Every rank
+ * computes the same result. */
+typedef struct {
+  PetscReal ks, kb, kc; /* N, N m^2, N/m (-yls_ks, -yls_kb, -yls_kc) */
+  PetscInt  nq;         /* contact quadrature points per segment (-yls_nq) */
+  PetscReal radius;     /* m: the contact radius to reach */
+  PetscReal radius_start; /* of radius: the first stage's, when the geometry overlaps at radius (-yls_relax_radius_start) */
+  PetscInt  stages, max_it; /* -yls_relax_stages; Newton iterations per stage (-yarn_periodic_max_it) */
+  PetscReal ftol;         /* -yarn_periodic_ftol */
+} VKYLSPeriodicParams;
+typedef struct {
+  PetscInt       stages, iterations, factor_shifts;
+  PetscReal      radius_start, contact_radius;         /* the first and the last stage's contact radius (m), the last a little above r */
+  PetscReal      dmin_over_2r, residual;               /* closest axes / 2r after; largest force (N) */
+  PetscReal      period0[2], period[2];                /* before and after (m) */
+  PetscLogDouble time;
+} VKYLSPeriodicStats;
+PETSC_EXTERN PetscErrorCode VKYLSPeriodicParamsFromOptions(MPI_Comm, PetscReal radius, VKYLSPeriodicParams *);
+PETSC_EXTERN PetscErrorCode VKYLSRelaxPeriodic(VKPyp *, const VKYLSPeriodicParams *, VKYLSPeriodicStats *);
 /* One implicit Euler step of dt from the current state. */
 PETSC_EXTERN PetscErrorCode VKYLSStep(VKYLS);
 /* Steps over the scene's duration, frames at its output interval. */

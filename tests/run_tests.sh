@@ -107,6 +107,19 @@ if ! timeout 120 bin/volknit yarn -o "$out/traceback" -yarn_wales 0 -error_trace
    && grep -q 'PETSC ERROR: #1 ' "$log" && grep -q -- '-yarn_wales 0 is out of range' "$log"; then ok
 else not_ok "volknit yarn -yarn_wales 0 -error_traceback: expected a non-zero exit with the PETSc traceback (see $log)"; fi
 
+# a pyp cell relaxed periodically (issue 23): the patch tiled from it keeps
+# the full contact radius as it is (no second relaxation), the relaxed cell
+# is written, and 1 and 2 ranks relax the same cell
+for n in 1 2; do
+  log="$out/periodic.n$n.log"
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$out/periodic.n$n" -yarn_pyp meshes/stockinette.pyp -yarn_relax_periodic -yarn_tiles 4,3 > "$log" 2>&1 \
+     && [ -s "$out/periodic.n$n/cell.pyp" ] && grep -q '"relaxed": true' "$out/periodic.n$n/yarn.json" \
+     && grep -q 'the tiled patch is the relaxed rest state (not relaxed again): contact radius 1.0000 r' "$log"; then ok
+  else not_ok "volknit yarn -yarn_relax_periodic (-n $n): expected cell.pyp, a relaxed yarn at contact radius 1.0000 r (see $log)"; fi
+done
+if cmp -s "$out/periodic.n1/cell.pyp" "$out/periodic.n2/cell.pyp"; then ok
+else not_ok "the periodically relaxed cell differs between 1 and 2 ranks ($out/periodic.n1/cell.pyp, $out/periodic.n2/cell.pyp)"; fi
+
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed
 cmp_failed=$failed

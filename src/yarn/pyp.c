@@ -29,6 +29,87 @@ PetscErrorCode VKPypFree(VKPyp *p)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKPypCopy(const VKPyp *a, VKPyp *b)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(b, sizeof(*b)));
+  b->period[0] = a->period[0];
+  b->period[1] = a->period[1];
+  b->radius    = a->radius;
+  b->nv        = a->nv;
+  b->ne        = a->ne;
+  PetscCall(PetscMalloc1(4 * a->nv, &b->q)); /* apart: VKPypFree frees them apart */
+  PetscCall(PetscMalloc1(4 * a->ne, &b->e));
+  PetscCall(PetscArraycpy(b->q, a->q, 4 * a->nv));
+  PetscCall(PetscArraycpy(b->e, a->e, 4 * a->ne));
+  if (a->nextra) {
+    PetscCall(PetscCalloc1(32, &b->extra));
+    b->nextra = a->nextra;
+    for (PetscInt i = 0; i < a->nextra; i++) {
+      b->extra[i] = a->extra[i];
+      PetscCall(PetscMalloc1((size_t)a->extra[i].rows * a->extra[i].cols + 1, &b->extra[i].v));
+      PetscCall(PetscArraycpy(b->extra[i].v, a->extra[i].v, (size_t)a->extra[i].rows * a->extra[i].cols));
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
+{
+  PetscInt  nv = p->nv, ne = 0, *e;
+  PetscReal *q;
+
+  PetscFunctionBegin;
+  PetscCheck(maxlen > 0 && isfinite(maxlen), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypRefine: the longest segment must be positive, got %g", (double)maxlen);
+  for (PetscInt k = 0; k < p->ne; k++) { /* count */
+    const PetscInt  *ed = p->e + 4 * k;
+    const PetscReal *a = p->q + 4 * ed[0], *b = p->q + 4 * ed[1];
+    PetscReal        d[3] = {b[0] + ed[2] * p->period[0] - a[0], b[1] + ed[3] * p->period[1] - a[1], b[2] - a[2]};
+    PetscReal        L    = PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    PetscInt         n    = (PetscInt)PetscCeilReal(L / maxlen * (1 - 1e-12));
+    PetscCheck(n < 100000, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypRefine: edge %d would need %d pieces", (int)k, (int)n);
+    n = PetscMax(n, 1);
+    nv += n - 1;
+    ne += n;
+  }
+  PetscCall(PetscMalloc1(4 * nv, &q));
+  PetscCall(PetscMalloc1(4 * ne, &e));
+  PetscCall(PetscArraycpy(q, p->q, 4 * p->nv));
+  nv = p->nv;
+  ne = 0;
+  for (PetscInt k = 0; k < p->ne; k++) {
+    const PetscInt  *ed = p->e + 4 * k;
+    const PetscReal *a = p->q + 4 * ed[0], *b = p->q + 4 * ed[1];
+    PetscReal        d[3] = {b[0] + ed[2] * p->period[0] - a[0], b[1] + ed[3] * p->period[1] - a[1], b[2] - a[2]};
+    PetscReal        L    = PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    PetscInt         n    = PetscMax((PetscInt)PetscCeilReal(L / maxlen * (1 - 1e-12)), 1), prev = ed[0];
+    for (PetscInt i = 1; i < n; i++) { /* new vertices in the first vertex's tile */
+      for (int c = 0; c < 3; c++) q[4 * nv + c] = a[c] + d[c] * (PetscReal)i / (PetscReal)n;
+      q[4 * nv + 3] = a[3] + (b[3] - a[3]) * (PetscReal)i / (PetscReal)n;
+      e[4 * ne]     = prev;
+      e[4 * ne + 1] = nv;
+      e[4 * ne + 2] = e[4 * ne + 3] = 0;
+      prev          = nv++;
+      ne++;
+    }
+    e[4 * ne]     = prev;
+    e[4 * ne + 1] = ed[1];
+    e[4 * ne + 2] = ed[2];
+    e[4 * ne + 3] = ed[3];
+    ne++;
+  }
+  PetscCall(PetscFree(p->q));
+  PetscCall(PetscFree(p->e));
+  p->q  = q;
+  p->e  = e;
+  p->nv = nv;
+  p->ne = ne;
+  for (PetscInt i = 0; i < p->nextra; i++) PetscCall(PetscFree(p->extra[i].v)); /* per-vertex rest data no longer matches */
+  PetscCall(PetscFree(p->extra));
+  p->nextra = 0;
+  PetscFunctionReturn(0);
+}
+
 /* Append `cols` values to a growing rows x cols array. */
 static PetscErrorCode AppendRow(PetscReal **v, PetscInt *rows, PetscInt *cap, PetscInt cols, const PetscReal row[])
 {

@@ -28,11 +28,25 @@ PetscErrorCode VKYarnCreate(MPI_Comm comm, VKYarn *yarn)
   y->radius  = DEFAULT_RADIUS;
   y->density = DEFAULT_DENSITY;
   y->tiles[0] = y->tiles[1] = 1;
+  y->pyp_min_length = -1;
   y->weave.warps = y->weave.wefts = 10;
   PetscCall(PetscStrncpy(y->pattern, "stockinette", sizeof(y->pattern)));
   PetscCall(VKKnitParamsDefault(y->radius, &y->knit));
   PetscCall(VKCurvesInit(&y->curves));
   *yarn = y;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnSetPypCell(VKYarn y, const VKPyp *cell, PetscBool exact, const char description[])
+{
+  PetscFunctionBegin;
+  PetscCheck(!y->setup, y->comm, PETSC_ERR_ORDER, "VKYarnSetPypCell() after VKYarnSetUp()");
+  PetscCheck(y->source == VK_YARN_PYP, y->comm, PETSC_ERR_ARG_WRONG, "VKYarnSetPypCell() stands for a pyp file: give -yarn_pyp first");
+  if (y->cell) PetscCall(VKPypFree(y->cell));
+  else PetscCall(PetscNew(&y->cell));
+  PetscCall(VKPypCopy(cell, y->cell));
+  y->cell_exact = exact;
+  PetscCall(PetscStrncpy(y->cell_description, description ? description : "", sizeof(y->cell_description)));
   PetscFunctionReturn(0);
 }
 
@@ -143,6 +157,8 @@ PetscErrorCode VKYarnDestroy(VKYarn *yarn)
   PetscCall(VKCurvesFree(&(*yarn)->curves));
   PetscCall(PetscFree((*yarn)->normal));
   PetscCall(PetscFree((*yarn)->bind));
+  if ((*yarn)->cell) PetscCall(VKPypFree((*yarn)->cell));
+  PetscCall(PetscFree((*yarn)->cell));
   PetscCall(PetscFree(*yarn));
   PetscFunctionReturn(0);
 }
@@ -203,6 +219,7 @@ static PetscErrorCode CheckSourceOptions(VKYarn y)
     {"-yarn_weave_depth", 1u << VK_YARN_WOVEN},
     {"-yarn_weave_params", 1u << VK_YARN_WOVEN},
     {"-yarn_tiles", 1u << VK_YARN_PYP},
+    {"-yarn_pyp_min_length", 1u << VK_YARN_PYP},
     {"-yarn_scale", 1u << VK_YARN_BCC | 1u << VK_YARN_PYP},
   };
   static const char *const what[] = {"a knit pattern or chart (-yarn_pattern, -yarn_chart)", "a weave (-yarn_weave, -yarn_weave_file)", "a BCC file (-yarn_bcc)", "a pyp file (-yarn_pyp)", "a yarn.h5 (-yarn_h5)", "given curves"};
@@ -301,6 +318,8 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   PetscCall(PetscOptionsIntArray("-yarn_tiles", "pyp tiling m,n (one number: m = n)", "VKPypTile", y->tiles, &n, &set));
   if (set && n == 1) y->tiles[1] = y->tiles[0];
   PetscCheck(!set || (n >= 1 && y->tiles[0] >= 1 && y->tiles[1] >= 1), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_tiles needs one or two positive counts");
+  PetscCall(PetscOptionsReal("-yarn_pyp_min_length", "Tiled pyp: open yarn pieces shorter than this are dropped (file units; default: the smaller period; 0 keeps all), so no fragment frays at the patch's edges", "VKYarnSetUp", y->pyp_min_length, &y->pyp_min_length, &set));
+  PetscCheck(!set || (y->pyp_min_length >= 0 && isfinite(y->pyp_min_length)), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_pyp_min_length must be >= 0 and finite, got %g", (double)y->pyp_min_length);
   PetscCall(PetscOptionsReal("-yarn_scale", "Scale applied to file coordinates to get metres", "VKYarnSetUp", y->scale, &y->scale, NULL));
   PetscCall(PetscOptionsReal("-yarn_radius", "Yarn radius r, m (default 1e-3; BCC: estimated; pyp: from the file)", "VKYarnSetRadius", y->radius, &y->radius, &set));
   if (set) y->radius_set = PETSC_TRUE;
@@ -507,6 +526,33 @@ static PetscErrorCode ReadBCC(VKYarn y, VKCurves *dense)
   PetscFunctionReturn(0);
 }
 
+/* Open yarn pieces of a tiled patch shorter than -yarn_pyp_min_length
+ * (default: the smaller period) removed: a yarn cut by two near patch
+ * edges holds no whole loop and would fray in a yarn-level run. */
+static PetscErrorCode DropFragments(VKYarn y, PetscReal period, VKCurves *c)
+{
+  PetscReal min = y->pyp_min_length < 0 ? period : y->pyp_min_length;
+  VKCurves  kept;
+
+  PetscFunctionBegin;
+  y->pyp_dropped = 0;
+  if (!(min > 0)) PetscFunctionReturn(0);
+  PetscCall(VKCurvesInit(&kept));
+  for (PetscInt i = 0; i < c->n; i++) {
+    PetscReal L = 0;
+    for (PetscInt v = c->start[i]; v + 1 < c->start[i + 1]; v++) L += PetscSqrtReal(PetscSqr(c->x[3 * v + 3] - c->x[3 * v]) + PetscSqr(c->x[3 * v + 4] - c->x[3 * v + 1]) + PetscSqr(c->x[3 * v + 5] - c->x[3 * v + 2]));
+    if (!c->closed[i] && L < min) {
+      y->pyp_dropped++;
+      continue;
+    }
+    PetscCall(VKCurvesAdd(&kept, VKCurveSize(c, i), c->x + 3 * c->start[i], c->closed[i]));
+  }
+  PetscCheck(kept.n > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Every yarn of the tiled pyp patch is shorter than %g (-yarn_pyp_min_length): tile more (-yarn_tiles) or give a smaller length", (double)min);
+  PetscCall(VKCurvesFree(c));
+  *c = kept;
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
 {
   char          *buf;
@@ -516,10 +562,16 @@ static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
   PetscErrorCode ierr;
 
   PetscFunctionBegin;
-  PetscCall(VKReadFileBroadcast(y->comm, y->file, &buf, &len));
-  ierr = VKPypParse(buf, len, y->file, &pyp);
-  PetscCall(PetscFree(buf));
+  if (y->cell) {
+    PetscCall(VKPypCopy(y->cell, &pyp));
+    ierr = 0;
+  } else {
+    PetscCall(VKReadFileBroadcast(y->comm, y->file, &buf, &len));
+    ierr = VKPypParse(buf, len, y->file, &pyp);
+    PetscCall(PetscFree(buf));
+  }
   if (!ierr) ierr = VKPypTile(&pyp, y->tiles[0], y->tiles[1], &tiled, NULL);
+  if (!ierr) ierr = DropFragments(y, PetscMin(pyp.period[0], pyp.period[1]), &tiled);
   if (!ierr && !y->radius_set) {
     y->radius     = pyp.radius * y->scale;
     y->radius_set = PETSC_TRUE;
@@ -528,7 +580,8 @@ static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
   if (!ierr) ierr = DenseFromControl(y, &tiled, VK_CURVE_POLYLINE, dense);
   PetscCall(VKCurvesFree(&tiled));
   PetscCall(ierr);
-  PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "pyp file %s tiled %d x %d (scale %g)", y->file, (int)y->tiles[0], (int)y->tiles[1], (double)y->scale));
+  PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "pyp file %s%s%s tiled %d x %d (scale %g)%s", y->file, y->cell_description[0] ? ", " : "", y->cell_description, (int)y->tiles[0], (int)y->tiles[1], (double)y->scale, y->pyp_dropped ? ", edge fragments dropped" : ""));
+  if (y->pyp_dropped) PetscCall(PetscInfo(NULL, "%d open yarn pieces shorter than the minimum length dropped from the tiled patch\n", (int)y->pyp_dropped));
   PetscFunctionReturn(0);
 }
 
@@ -575,7 +628,7 @@ static PetscErrorCode SetUpModel(VKYarn y)
     PetscCall(PetscLogEventBegin(VK_EVENT_YarnResample, 0, 0, 0, 0));
     PetscCall(VKCurvesFree(&y->curves));
     {
-      PetscErrorCode ierr = VKCurvesResample(&dense, y->seglen, &y->curves);
+      PetscErrorCode ierr = y->cell && y->cell_exact ? VKCurvesCopy(&dense, &y->curves) : VKCurvesResample(&dense, y->seglen, &y->curves);
       PetscCall(VKCurvesFree(&dense));
       PetscCall(ierr);
     }

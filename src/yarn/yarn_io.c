@@ -185,6 +185,14 @@ PetscErrorCode VKYarnWriteOutputs(VKYarn y, const char dir[])
   PetscCall(Rank0Output(y, path, PETSC_TRUE, WriteXdmfOutput, path));
   PetscCall(VKPathJoin(dir, "yarn.json", path, sizeof(path)));
   PetscCall(Rank0Output(y, path, PETSC_TRUE, WriteJSONOutput, path));
+  if (y->cell) { /* the cell the patch was tiled from: -yarn_pyp DIR/cell.pyp tiles it again */
+    PetscMPIInt    rank;
+    PetscErrorCode ierr = 0;
+    PetscCall(VKPathJoin(dir, "cell.pyp", path, sizeof(path)));
+    PetscCallMPI(MPI_Comm_rank(y->comm, &rank));
+    if (rank == 0) ierr = VKPypWrite(path, y->cell);
+    PetscCall(VKCollective(y->comm, ierr, path));
+  }
   PetscCall(PetscLogEventEnd(VK_EVENT_Write, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }

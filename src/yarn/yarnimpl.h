@@ -14,6 +14,8 @@ struct _n_VKYarn {
   VKWeaveParams weave;
   PetscInt      weave_param[2];
   PetscInt      tiles[2];
+  PetscReal     pyp_min_length; /* tiled open yarns shorter than this (file units; < 0: the smaller period) are dropped */
+  PetscInt      pyp_dropped;
   PetscReal     scale, radius, density, seglen;
   PetscReal     contact_radius; /* > 0: the rest state is relaxed (VKYLSRelax) and honours this contact radius (<= radius) */
   PetscBool     radius_set, radius_estimated, seglen_set, knit_set[5], weave_set[2], weave_param_set;
@@ -24,4 +26,7 @@ struct _n_VKYarn {
   PetscInt   nbind;
   PetscInt  *bind;   /* 2 per glued vertex pair */
   PetscLogDouble time_build;
+  VKPyp         *cell; /* the pyp cell to tile instead of the file's (VKYarnSetPypCell), or NULL */
+  char           cell_description[256];
+  PetscBool      cell_exact; /* tile it without resampling */
 };

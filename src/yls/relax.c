@@ -124,6 +124,34 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKYLSKeepRest(VKYarn yarn, PetscReal *dmin_over_2r)
+{
+  VKRodModel      m;
+  VKRodParams     par;
+  const VKCurves *c;
+  PetscReal       r, density, dmin = PETSC_MAX_REAL;
+  PetscInt        np, *pairs;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(&par, sizeof(par)));
+  PetscCall(VKYarnGetCurves(yarn, &c));
+  PetscCall(VKYarnGetProperties(yarn, &r, &density, NULL));
+  par.radius = r;
+  par.nq     = 1;
+  PetscCall(VKRodModelCreate(c, &par, density, &m));
+  PetscCall(VKRodModelFindPairs(&m, c->x, 0, 0, m.nseg, &np, &pairs)); /* every admissible pair closer than 2r */
+  for (PetscInt k = 0; k < np; k++) {
+    const PetscInt *s = m.seg;
+    PetscInt        a = pairs[2 * k], b = pairs[2 * k + 1];
+    dmin              = PetscMin(dmin, VKRodSegmentDistance(c->x + 3 * s[2 * a], c->x + 3 * s[2 * a + 1], c->x + 3 * s[2 * b], c->x + 3 * s[2 * b + 1]));
+  }
+  PetscCall(PetscFree(pairs));
+  PetscCall(VKRodModelDestroy(&m));
+  *dmin_over_2r = dmin / (2 * r);
+  PetscCall(VKYarnSetRelaxed(yarn, c->x, PetscMin(r, 0.5 * dmin * (1 - 1e-9))));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKYLSRelaxYarn(VKYarn yarn)
 {
   VKScene  scene;

@@ -5,11 +5,7 @@
 #include "ylsimpl.h"
 #include <vkio.h>
 
-/* Defaults for the default yarn (r = 1 mm, 3e-4 kg/m, a worsted wool). */
-#define YLS_KS  100.0  /* N: tension per unit strain */
-#define YLS_KB  2.0e-7 /* N m^2: flexural rigidity EI, bending length (k_b / (rho g))^(1/3) about 4 cm */
-#define YLS_KT  1.6e-7 /* N m^2: torsional rigidity GJ = 0.8 EI (the ratio of the yarns of Sperl's thesis, Table 4.1) */
-#define YLS_KC  1.0e3  /* N/m */
+/* Defaults for the default yarn: YLS_KS, YLS_KB, YLS_KT, YLS_KC in ylsimpl.h. */
 #define YLS_KW  1.0e3  /* N/m */
 #define YLS_CS  1.0e-3 /* N s */
 #define YLS_CAP 0.25   /* of r */

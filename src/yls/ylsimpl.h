@@ -6,6 +6,12 @@
 #include <vkutil.h>
 #include <vklog.h>
 
+/* Defaults for the default yarn (r = 1 mm, 3e-4 kg/m, a worsted wool). */
+#define YLS_KS 100.0  /* N: tension per unit strain */
+#define YLS_KB 2.0e-7 /* N m^2: flexural rigidity EI, bending length (k_b / (rho g))^(1/3) about 4 cm */
+#define YLS_KT 1.6e-7 /* N m^2: torsional rigidity GJ = 0.8 EI (the ratio of the yarns of Sperl's thesis, Table 4.1) */
+#define YLS_KC 1.0e3  /* N/m */
+
 /* The yarn-level simulator (DESIGN §4-5). */
 struct _n_VKYLS {
   MPI_Comm   comm;
@@ -116,3 +122,9 @@ PETSC_INTERN PetscErrorCode VKYLSOutputOpen(VKYLS);
 PETSC_INTERN PetscErrorCode VKYLSOutputFrame(VKYLS);
 PETSC_INTERN PetscErrorCode VKYLSOutputClose(VKYLS, const char failure[]);
 PETSC_INTERN PetscErrorCode VKYLSOutputDestroy(VKYLS);
+
+/* The periodic cell's energy at q (3 nv positions, then Lx, Ly) with the
+ * rest lengths of the cell as given and the contact pairs within 2 r at q,
+ * its gradient (vertex 0 held: zero) and, optionally, its exact Hessian
+ * (identity on vertex 0), for the tests (periodic.c). */
+PETSC_INTERN PetscErrorCode VKYLSPeriodicEvaluate(VKPyp *, const VKYLSPeriodicParams *, const PetscReal q[], PetscReal *E, PetscReal g[], Mat *H);

@@ -1,0 +1,321 @@
+/* test_periodic.c: periodic relaxation of a pyp cell (issue 23,
+ * src/yls/periodic.c), on the stockinette tile of meshes/:
+ *  - Taylor tests of the periodic energy -> gradient -> Hessian in the
+ *    vertex positions and both periods: on the cell as given and perturbed
+ *    (stretch and bending), and relaxed (contacts with its copies active);
+ *  - the relaxation converges to its force tolerance at the full contact
+ *    radius, lowers the energy, and changes the periods;
+ *  - a 2 x 2 supercell of the unrelaxed cell, relaxed periodically, equals
+ *    the relaxed cell tiled 2 x 2 (a tiled patch relaxed as a whole keeps
+ *    the cell's equilibrium), periods twice the cell's;
+ *  - every rank computes the same cell;
+ *  - cells that cannot be relaxed are refused with a message;
+ *  - VKPypRefine keeps the yarn; a tiled diagonal yarn's corner fragments
+ *    are dropped (-yarn_pyp_min_length).
+ * ranks: 1 2
+ */
+#include <string.h>
+#include "../src/yls/ylsimpl.h" /* white-box: VKYLSPeriodicEvaluate */
+#include <vkio.h>
+#include "vktest.h"
+
+static PetscErrorCode LoadCell(VKPyp *cell)
+{
+  char  *buf;
+  size_t len;
+
+  PetscFunctionBegin;
+  PetscCall(VKReadFileBroadcast(PETSC_COMM_WORLD, "meshes/stockinette.pyp", &buf, &len));
+  PetscCall(VKPypParse(buf, len, "meshes/stockinette.pyp", cell));
+  PetscCall(PetscFree(buf));
+  PetscFunctionReturn(0);
+}
+
+/* The unknowns of a cell: positions, then the periods. */
+static PetscErrorCode Unknowns(const VKPyp *c, PetscReal **q)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(3 * c->nv + 2, q));
+  for (PetscInt v = 0; v < c->nv; v++)
+    for (int k = 0; k < 3; k++) (*q)[3 * v + k] = c->q[4 * v + k];
+  (*q)[3 * c->nv]     = c->period[0];
+  (*q)[3 * c->nv + 1] = c->period[1];
+  PetscFunctionReturn(0);
+}
+
+/* A deterministic direction, zero on the held vertex 0. */
+static void Direction(PetscInt n, PetscReal scale, PetscReal d[])
+{
+  for (PetscInt i = 0; i < n; i++) d[i] = i < 3 ? 0 : scale * PetscSinReal(1.7 * i + 0.3);
+}
+
+/* Taylor: E(q + h d) - E(q) - h g.d = O(h^2) and g(q + h d) - g(q) - h H d
+ * = O(h^2), from the rates between h and h/2 (h small enough that no
+ * contact quadrature pair crosses 2r, where the energy's second derivative
+ * jumps). */
+static PetscErrorCode Taylor(VKPyp *cell, const VKYLSPeriodicParams *p, const PetscReal q[], PetscReal h, const char what[])
+{
+  PetscInt   n = 3 * cell->nv + 2;
+  PetscReal *d, *qh, *g, *gh, *Hd, E, Eh, r1[2], r2[2];
+  Mat        H;
+  Vec        vd, vHd;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc5(n, &d, n, &qh, n, &g, n, &gh, n, &Hd));
+  Direction(n, 1, d);
+  d[n - 2] *= 3; /* the periods move as well */
+  d[n - 1] *= 3;
+  PetscCall(VKYLSPeriodicEvaluate(cell, p, q, &E, g, &H));
+  PetscCall(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, n, d, &vd));
+  PetscCall(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, n, Hd, &vHd));
+  PetscCall(MatMult(H, vd, vHd));
+  for (int k = 0; k < 2; k++, h *= 0.5) {
+    PetscReal gd = 0, e2 = 0;
+    for (PetscInt i = 0; i < n; i++) qh[i] = q[i] + h * d[i];
+    PetscCall(VKYLSPeriodicEvaluate(cell, p, qh, &Eh, gh, NULL));
+    for (PetscInt i = 0; i < n; i++) gd += g[i] * d[i];
+    for (PetscInt i = 3; i < n; i++) e2 += PetscSqr(gh[i] - g[i] - h * Hd[i]);
+    r1[k] = PetscAbsReal(Eh - E - h * gd);
+    r2[k] = PetscSqrtReal(e2);
+  }
+  PetscCall(VKTestCheck((PetscBool)(r1[0] / r1[1] > 3.5 && r1[0] / r1[1] < 4.5), NULL, "%s: energy -> gradient Taylor remainder falls as h^2 (ratio %.3f, 4 expected; remainders %.2e, %.2e J)", what, (double)(r1[0] / r1[1]), (double)r1[0], (double)r1[1]));
+  PetscCall(VKTestCheck((PetscBool)(r2[0] / r2[1] > 3.5 && r2[0] / r2[1] < 4.5), NULL, "%s: gradient -> Hessian Taylor remainder falls as h^2 (ratio %.3f, 4 expected)", what, (double)(r2[0] / r2[1])));
+  PetscCall(VecDestroy(&vd));
+  PetscCall(VecDestroy(&vHd));
+  PetscCall(MatDestroy(&H));
+  PetscCall(PetscFree5(d, qh, g, gh, Hd));
+  PetscFunctionReturn(0);
+}
+
+/* The m x n supercell of c: its vertices repeated in every tile (tile i +
+ * m j, vertex v -> (i + m j) nv + v), each edge joined to the copy it
+ * reaches, wrapping around the supercell. */
+static PetscErrorCode Supercell(const VKPyp *c, PetscInt m, PetscInt n, VKPyp *s)
+{
+  PetscFunctionBegin;
+  PetscCall(PetscMemzero(s, sizeof(*s)));
+  s->period[0] = m * c->period[0];
+  s->period[1] = n * c->period[1];
+  s->radius    = c->radius;
+  s->nv        = m * n * c->nv;
+  s->ne        = m * n * c->ne;
+  PetscCall(PetscMalloc1(4 * s->nv, &s->q));
+  PetscCall(PetscMalloc1(4 * s->ne, &s->e));
+  for (PetscInt j = 0; j < n; j++)
+    for (PetscInt i = 0; i < m; i++) {
+      PetscInt t = i + m * j;
+      for (PetscInt v = 0; v < c->nv; v++) {
+        PetscReal *q = s->q + 4 * (t * c->nv + v);
+        q[0]         = c->q[4 * v] + i * c->period[0];
+        q[1]         = c->q[4 * v + 1] + j * c->period[1];
+        q[2]         = c->q[4 * v + 2];
+        q[3]         = 0;
+      }
+      for (PetscInt k = 0; k < c->ne; k++) {
+        const PetscInt *e = c->e + 4 * k;
+        PetscInt       *f = s->e + 4 * (t * c->ne + k), ui = i + e[2], uj = j + e[3];
+        f[0]              = t * c->nv + e[0];
+        f[1]              = (((ui % m) + m) % m + m * (((uj % n) + n) % n)) * c->nv + e[1];
+        f[2]              = ui < 0 ? -1 : ui >= m ? 1 : 0;
+        f[3]              = uj < 0 ? -1 : uj >= n ? 1 : 0;
+      }
+    }
+  PetscFunctionReturn(0);
+}
+
+/* Total yarn length of a cell (its edges, offsets included). */
+static PetscReal CellLength(const VKPyp *c)
+{
+  PetscReal L = 0;
+  for (PetscInt k = 0; k < c->ne; k++) {
+    const PetscInt  *e = c->e + 4 * k;
+    const PetscReal *a = c->q + 4 * e[0], *b = c->q + 4 * e[1];
+    L += PetscSqrtReal(PetscSqr(b[0] + e[2] * c->period[0] - a[0]) + PetscSqr(b[1] + e[3] * c->period[1] - a[1]) + PetscSqr(b[2] - a[2]));
+  }
+  return L;
+}
+
+/* VKPypRefine keeps the yarn (its length, to round-off) with edges no
+ * longer than asked; a diagonal yarn tiled 3 x 3 leaves pieces shorter
+ * than a period at two corners, which the yarn drops by default
+ * (-yarn_pyp_min_length) and keeps with 0. */
+static PetscErrorCode TestRefineAndFragments(const VKPyp *cell, const char dir[])
+{
+  VKPyp     fine;
+  PetscReal longest = 0;
+  char      path[PETSC_MAX_PATH_LEN];
+  PetscInt  counts[2];
+
+  PetscFunctionBegin;
+  PetscCall(VKPypCopy(cell, &fine));
+  PetscCall(VKPypRefine(&fine, 0.4 * cell->radius));
+  for (PetscInt k = 0; k < fine.ne; k++) {
+    const PetscInt  *e = fine.e + 4 * k;
+    const PetscReal *a = fine.q + 4 * e[0], *b = fine.q + 4 * e[1];
+    longest            = PetscMax(longest, PetscSqrtReal(PetscSqr(b[0] + e[2] * fine.period[0] - a[0]) + PetscSqr(b[1] + e[3] * fine.period[1] - a[1]) + PetscSqr(b[2] - a[2])));
+  }
+  PetscCall(VKTestCheck((PetscBool)(longest <= 0.4 * cell->radius * (1 + 1e-12) && PetscAbsReal(CellLength(&fine) - CellLength(cell)) <= 1e-12 * CellLength(cell) && fine.nv > cell->nv), NULL, "VKPypRefine: %d -> %d vertices, longest edge %.3f r (<= 0.4 r), yarn length kept (%.6e m)", (int)cell->nv, (int)fine.nv, (double)(longest / cell->radius), (double)CellLength(&fine)));
+  PetscCall(VKPypFree(&fine));
+
+  PetscCall(VKPathJoin(dir, "diagonal.pyp", path, sizeof(path)));
+  {
+    PetscMPIInt    rank;
+    PetscErrorCode ierr = 0;
+    PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+    if (rank == 0) {
+      FILE *fp = fopen(path, "w");
+      ierr     = fp ? 0 : PETSC_ERR_FILE_OPEN;
+      if (fp) { /* one straight yarn from corner to corner, on into the next tile up and right */
+        fprintf(fp, "*pattern\n0.01 0.01 0.0005 2\n*Q\n0 0 0 0\n0.005 0.005 0 0\n*E\n0 1 0 0\n1 0 1 1\n");
+        fclose(fp);
+      }
+    }
+    PetscCall(VKCollective(PETSC_COMM_WORLD, ierr, path));
+  }
+  for (int k = 0; k < 2; k++) {
+    VKYarn          y;
+    const VKCurves *c;
+    PetscCall(PetscOptionsSetValue(NULL, "-yarn_pyp", path));
+    PetscCall(PetscOptionsSetValue(NULL, "-yarn_tiles", "3,3"));
+    if (k) PetscCall(PetscOptionsSetValue(NULL, "-yarn_pyp_min_length", "0"));
+    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &y));
+    PetscCall(VKYarnSetFromOptions(y));
+    PetscCall(VKYarnSetUp(y));
+    PetscCall(VKYarnGetCurves(y, &c));
+    counts[k] = c->n;
+    PetscCall(VKYarnDestroy(&y));
+    PetscCall(PetscOptionsClearValue(NULL, "-yarn_pyp"));
+    PetscCall(PetscOptionsClearValue(NULL, "-yarn_tiles"));
+    PetscCall(PetscOptionsClearValue(NULL, "-yarn_pyp_min_length"));
+  }
+  /* the 3 x 3 tiling of the diagonal: 5 pieces, the two at the corners one
+   * edge long (half the tile's diagonal, 0.71 periods) */
+  PetscCall(VKTestCheck((PetscBool)(counts[1] == 5 && counts[0] == 3), NULL, "a diagonal yarn tiled 3 x 3: %d pieces kept of %d (3 of 5: the two corner pieces shorter than a period dropped; -yarn_pyp_min_length 0 keeps all)", (int)counts[0], (int)counts[1]));
+  PetscFunctionReturn(0);
+}
+
+int main(int argc, char **argv)
+{
+  VKPyp               cell, relaxed, super;
+  VKYLSPeriodicParams p;
+  VKYLSPeriodicStats  st, sst;
+  PetscReal          *q, *qr, E0, E1, tol;
+  PetscInt            n;
+  char                dir[PETSC_MAX_PATH_LEN] = "tests/out/periodic";
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
+  VKTestInit(PETSC_COMM_WORLD);
+  PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
+  PetscCall(VKMakeDirectory(PETSC_COMM_WORLD, dir));
+  PetscCall(LoadCell(&cell));
+  PetscCall(TestRefineAndFragments(&cell, dir));
+  PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, cell.radius, &p));
+  p.ftol = 1e-7; /* tighter than the default, so that two relaxations can be compared to 1e-3 r */
+  n = 3 * cell.nv + 2;
+  PetscCall(Unknowns(&cell, &q));
+  PetscCall(Taylor(&cell, &p, q, 1e-3 * p.radius, "the stockinette cell as given"));
+  {
+    PetscReal *qp;
+    PetscCall(PetscMalloc1(n, &qp));
+    Direction(n, 0.05 * p.radius, qp);
+    for (PetscInt i = 0; i < n; i++) qp[i] += q[i];
+    PetscCall(Taylor(&cell, &p, qp, 1e-3 * p.radius, "the cell perturbed by 0.05 r"));
+    PetscCall(PetscFree(qp));
+  }
+
+  /* the relaxation */
+  PetscCall(VKPypCopy(&cell, &relaxed));
+  PetscCall(VKYLSRelaxPeriodic(&relaxed, &p, &st));
+  tol = p.ftol * p.kb / PetscSqr(p.radius);
+  PetscCall(Unknowns(&relaxed, &qr));
+  {
+    PetscReal *g;
+    PetscCall(PetscMalloc1(n, &g));
+    PetscCall(VKYLSPeriodicEvaluate(&cell, &p, q, &E0, g, NULL));
+    PetscCall(VKYLSPeriodicEvaluate(&cell, &p, qr, &E1, g, NULL)); /* the same rest lengths: the cell as given */
+    PetscCall(PetscFree(g));
+  }
+  PetscCall(VKTestCheck((PetscBool)(st.residual <= tol && st.dmin_over_2r >= 1 - 1e-4 && E1 < E0), NULL, "stockinette cell relaxed periodically in %d Newton iterations, %d stages from %.3f r (contact radius at the end %.4f r): largest force %.2e N <= %.2e N, closest axes %.4f x 2r (>= 1 - 1e-4), energy %.4e -> %.4e J", (int)st.iterations, (int)st.stages, (double)(st.radius_start / p.radius), (double)(st.contact_radius / p.radius), (double)st.residual, (double)tol, (double)st.dmin_over_2r, (double)E0, (double)E1));
+  PetscCall(Taylor(&cell, &p, qr, 1e-6 * p.radius, "the relaxed cell (contacts active)"));
+  PetscCall(VKTestCheck((PetscBool)(st.period[0] > 0 && st.period[1] > 0 && (PetscAbsReal(st.period[0] - st.period0[0]) > 1e-3 * p.radius || PetscAbsReal(st.period[1] - st.period0[1]) > 1e-3 * p.radius)), NULL, "the periods relax too: %.5g x %.5g -> %.5g x %.5g mm", (double)(1e3 * st.period0[0]), (double)(1e3 * st.period0[1]), (double)(1e3 * st.period[0]), (double)(1e3 * st.period[1])));
+  {
+    PetscReal   dmax = 0;
+    PetscMPIInt size;
+    PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+    for (PetscInt i = 0; i < 4 * relaxed.nv; i++) {
+      PetscReal mine = relaxed.q[i], lo, hi;
+      PetscCallMPI(MPI_Allreduce(&mine, &lo, 1, MPIU_REAL, MPIU_MIN, PETSC_COMM_WORLD));
+      PetscCallMPI(MPI_Allreduce(&mine, &hi, 1, MPIU_REAL, MPIU_MAX, PETSC_COMM_WORLD));
+      dmax = PetscMax(dmax, hi - lo);
+    }
+    PetscCall(VKTestCheck((PetscBool)(dmax == 0), NULL, "every one of %d ranks relaxes the same cell (largest difference %g m)", (int)size, (double)dmax));
+  }
+
+  /* the relaxed cell tiled 2 x 2 is an equilibrium of the 2 x 2 supercell,
+   * with four times the cell's energy (the rest lengths: the cell's as
+   * given, tiled), to the tolerance: within 10 x, as the copies of vertex
+   * 0 now carry the force its hold absorbs in the cell */
+  {
+    VKPyp      tiled0, tiled;
+    PetscReal *qt, *g, Et, Ec, gmax = 0;
+    PetscInt   nt;
+    PetscCall(Supercell(&cell, 2, 2, &tiled0));
+    PetscCall(Supercell(&relaxed, 2, 2, &tiled));
+    PetscCall(Unknowns(&tiled, &qt));
+    nt = 3 * tiled.nv + 2;
+    PetscCall(PetscMalloc1(nt, &g));
+    VKYLSPeriodicParams pe = p;
+    pe.radius              = st.contact_radius; /* the equilibrium's: a little above r */
+    PetscCall(VKYLSPeriodicEvaluate(&tiled0, &pe, qt, &Et, g, NULL));
+    for (PetscInt v = 1; v < tiled.nv; v++) gmax = PetscMax(gmax, PetscSqrtReal(PetscSqr(g[3 * v]) + PetscSqr(g[3 * v + 1]) + PetscSqr(g[3 * v + 2])));
+    gmax = PetscMax(gmax, PetscMax(PetscAbsReal(g[nt - 2]), PetscAbsReal(g[nt - 1])));
+    PetscCall(VKYLSPeriodicEvaluate(&cell, &pe, qr, &Ec, NULL, NULL));
+    PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(Et - 4 * Ec) <= 1e-10 * Et && gmax <= 10 * tol), NULL, "the relaxed cell tiled 2 x 2 is an equilibrium of the 2 x 2 supercell: energy %.10e J = 4 x %.10e J, largest force %.2e N", (double)Et, (double)Ec, (double)gmax));
+    PetscCall(PetscFree(qt));
+    PetscCall(PetscFree(g));
+    PetscCall(VKPypFree(&tiled0));
+    PetscCall(VKPypFree(&tiled));
+  }
+
+  /* the 2 x 2 supercell relaxed as a whole against the relaxed cell tiled */
+  PetscCall(Supercell(&cell, 2, 2, &super));
+  PetscCall(VKYLSRelaxPeriodic(&super, &p, &sst));
+  {
+    VKPyp     tiled;
+    PetscReal dx = 0;
+    PetscCall(Supercell(&relaxed, 2, 2, &tiled));
+    for (PetscInt v = 0; v < super.nv; v++)
+      for (int k = 0; k < 3; k++) dx = PetscMax(dx, PetscAbsReal(super.q[4 * v + k] - tiled.q[4 * v + k]));
+    PetscCall(VKTestCheck((PetscBool)(dx <= 1e-3 * p.radius && PetscAbsReal(super.period[0] - 2 * relaxed.period[0]) <= 1e-3 * p.radius && PetscAbsReal(super.period[1] - 2 * relaxed.period[1]) <= 1e-3 * p.radius), NULL, "a 2 x 2 supercell relaxed periodically (%d iterations) equals the relaxed cell tiled 2 x 2: vertices within %.2e r, periods %.5g x %.5g mm (2 x %.5g x %.5g)", (int)sst.iterations, (double)(dx / p.radius), (double)(1e3 * super.period[0]), (double)(1e3 * super.period[1]), (double)(1e3 * relaxed.period[0]), (double)(1e3 * relaxed.period[1])));
+    PetscCall(VKPypFree(&tiled));
+  }
+
+  /* cells that cannot be relaxed: periods far too small for the cell, and
+   * two yarn axes through one point */
+  for (int k = 0; k < 2; k++) {
+    VKPyp          bad;
+    PetscErrorCode ierr;
+    const char    *msg = NULL, *expect = k ? "too close to push apart" : "too small for a cell";
+    PetscCall(VKPypCopy(&cell, &bad));
+    if (k == 0) bad.period[1] = 1e-6 * cell.period[1];
+    else
+      for (int c = 0; c < 3; c++) bad.q[4 * 5 + c] = bad.q[4 * 17 + c]; /* half a loop apart along the yarn */
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = VKYLSRelaxPeriodic(&bad, &p, &sst);
+    PetscCall(PetscPopErrorHandler());
+    if (ierr) PetscCall(PetscErrorMessage(ierr, NULL, (char **)&msg));
+    PetscCall(VKTestCheck((PetscBool)(ierr && msg && strstr(msg, expect)), msg, "a cell with %s is refused: '... %s ...'", k ? "two yarn axes through one point" : "periods a millionth of its size", expect));
+    PetscCall(VKPypFree(&bad));
+  }
+  PetscCall(PetscFree(q));
+  PetscCall(PetscFree(qr));
+  PetscCall(VKPypFree(&super));
+  PetscCall(VKPypFree(&relaxed));
+  PetscCall(VKPypFree(&cell));
+  {
+    int rc = VKTestFinish();
+    PetscCall(PetscFinalize());
+    return rc;
+  }
+}
