@@ -814,6 +814,7 @@ static PetscErrorCode PCSetUp_CMS(PC pc)
   PetscBool reuse = (PetscBool)(pc->setupcalled && pc->flag == SAME_NONZERO_PATTERN && cms->Q);
 
   PetscFunctionBegin;
+  pc->failedreason = PC_NOERROR; /* a failure of an earlier set-up does not outlive it */
   PetscCall(PetscLogEventBegin(VK_EVENT_CMSSetUp, 0, 0, 0, 0));
   PetscCall(BuildSubspace(pc, pc->pmat, reuse));
   PetscCall(SetUpTwoLevel(pc));
