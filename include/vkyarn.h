@@ -86,6 +86,8 @@ PETSC_EXTERN PetscErrorCode VKPypParse(const char buf[], size_t len, const char 
 PETSC_EXTERN PetscErrorCode VKPypWrite(const char path[], const VKPyp *);
 PETSC_EXTERN PetscErrorCode VKPypFree(VKPyp *);
 PETSC_EXTERN PetscErrorCode VKPypCopy(const VKPyp *, VKPyp *);
+/* Edge k as a vector, its second vertex in its tile (d: 3), and its length. */
+PETSC_EXTERN PetscReal      VKPypEdgeVector(const VKPyp *, PetscInt k, PetscReal d[3]);
 /* Every edge split into equal pieces no longer than maxlen (the new
  * vertices in the tile of the edge's first one); the extra sections are
  * dropped. */

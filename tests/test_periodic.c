@@ -126,12 +126,8 @@ static PetscErrorCode Supercell(const VKPyp *c, PetscInt m, PetscInt n, VKPyp *s
 /* Total yarn length of a cell (its edges, offsets included). */
 static PetscReal CellLength(const VKPyp *c)
 {
-  PetscReal L = 0;
-  for (PetscInt k = 0; k < c->ne; k++) {
-    const PetscInt  *e = c->e + 4 * k;
-    const PetscReal *a = c->q + 4 * e[0], *b = c->q + 4 * e[1];
-    L += PetscSqrtReal(PetscSqr(b[0] + e[2] * c->period[0] - a[0]) + PetscSqr(b[1] + e[3] * c->period[1] - a[1]) + PetscSqr(b[2] - a[2]));
-  }
+  PetscReal L = 0, d[3];
+  for (PetscInt k = 0; k < c->ne; k++) L += VKPypEdgeVector(c, k, d);
   return L;
 }
 
@@ -150,9 +146,8 @@ static PetscErrorCode TestRefineAndFragments(const VKPyp *cell, const char dir[]
   PetscCall(VKPypCopy(cell, &fine));
   PetscCall(VKPypRefine(&fine, 0.4 * cell->radius));
   for (PetscInt k = 0; k < fine.ne; k++) {
-    const PetscInt  *e = fine.e + 4 * k;
-    const PetscReal *a = fine.q + 4 * e[0], *b = fine.q + 4 * e[1];
-    longest            = PetscMax(longest, PetscSqrtReal(PetscSqr(b[0] + e[2] * fine.period[0] - a[0]) + PetscSqr(b[1] + e[3] * fine.period[1] - a[1]) + PetscSqr(b[2] - a[2])));
+    PetscReal d[3];
+    longest = PetscMax(longest, VKPypEdgeVector(&fine, k, d));
   }
   PetscCall(VKTestCheck((PetscBool)(longest <= 0.4 * cell->radius * (1 + 1e-12) && PetscAbsReal(CellLength(&fine) - CellLength(cell)) <= 1e-12 * CellLength(cell) && fine.nv > cell->nv), NULL, "VKPypRefine: %d -> %d vertices, longest edge %.3f r (<= 0.4 r), yarn length kept (%.6e m)", (int)cell->nv, (int)fine.nv, (double)(longest / cell->radius), (double)CellLength(&fine)));
   PetscCall(VKPypFree(&fine));

@@ -54,6 +54,23 @@ PetscErrorCode VKPypCopy(const VKPyp *a, VKPyp *b)
   PetscFunctionReturn(0);
 }
 
+PetscReal VKPypEdgeVector(const VKPyp *p, PetscInt k, PetscReal d[3])
+{
+  const PetscInt  *ed = p->e + 4 * k;
+  const PetscReal *a = p->q + 4 * ed[0], *b = p->q + 4 * ed[1];
+
+  d[0] = b[0] + ed[2] * p->period[0] - a[0];
+  d[1] = b[1] + ed[3] * p->period[1] - a[1];
+  d[2] = b[2] - a[2];
+  return PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+}
+
+/* The pieces edge k is split into: no longer than maxlen, at least one. */
+static PetscInt EdgePieces(const VKPyp *p, PetscInt k, PetscReal maxlen, PetscReal d[3])
+{
+  return PetscMax((PetscInt)PetscCeilReal(VKPypEdgeVector(p, k, d) / maxlen * (1 - 1e-12)), 1);
+}
+
 PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
 {
   PetscInt  nv = p->nv, ne = 0, *e;
@@ -62,13 +79,9 @@ PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
   PetscFunctionBegin;
   PetscCheck(maxlen > 0 && isfinite(maxlen), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypRefine: the longest segment must be positive, got %g", (double)maxlen);
   for (PetscInt k = 0; k < p->ne; k++) { /* count */
-    const PetscInt  *ed = p->e + 4 * k;
-    const PetscReal *a = p->q + 4 * ed[0], *b = p->q + 4 * ed[1];
-    PetscReal        d[3] = {b[0] + ed[2] * p->period[0] - a[0], b[1] + ed[3] * p->period[1] - a[1], b[2] - a[2]};
-    PetscReal        L    = PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    PetscInt         n    = (PetscInt)PetscCeilReal(L / maxlen * (1 - 1e-12));
+    PetscReal d[3];
+    PetscInt  n = EdgePieces(p, k, maxlen, d);
     PetscCheck(n < 100000, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypRefine: edge %d would need %d pieces", (int)k, (int)n);
-    n = PetscMax(n, 1);
     nv += n - 1;
     ne += n;
   }
@@ -80,9 +93,8 @@ PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
   for (PetscInt k = 0; k < p->ne; k++) {
     const PetscInt  *ed = p->e + 4 * k;
     const PetscReal *a = p->q + 4 * ed[0], *b = p->q + 4 * ed[1];
-    PetscReal        d[3] = {b[0] + ed[2] * p->period[0] - a[0], b[1] + ed[3] * p->period[1] - a[1], b[2] - a[2]};
-    PetscReal        L    = PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    PetscInt         n    = PetscMax((PetscInt)PetscCeilReal(L / maxlen * (1 - 1e-12)), 1), prev = ed[0];
+    PetscReal        d[3];
+    PetscInt         n = EdgePieces(p, k, maxlen, d), prev = ed[0];
     for (PetscInt i = 1; i < n; i++) { /* new vertices in the first vertex's tile */
       for (int c = 0; c < 3; c++) q[4 * nv + c] = a[c] + d[c] * (PetscReal)i / (PetscReal)n;
       q[4 * nv + 3] = a[3] + (b[3] - a[3]) * (PetscReal)i / (PetscReal)n;
