@@ -105,6 +105,7 @@ typedef struct {
   PetscInt       stages, iterations, factor_shifts;
   PetscReal      radius_start, contact_radius;         /* the first and the last stage's contact radius (m), the last a little above r */
   PetscReal      dmin_over_2r, residual;               /* closest axes / 2r after; largest force (N) */
+  PetscBool      full_radius;                          /* the closest axes reached 2r (to 1e-4) within 8 raises of the contact radius */
   PetscReal      period0[2], period[2];                /* before and after (m) */
   PetscLogDouble time;
 } VKYLSPeriodicStats;

@@ -141,6 +141,7 @@ static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done)
   if (!ierr) ierr = VKYarnSetPypCell(y, &cell, PETSC_TRUE, "relaxed periodically");
   PetscCall(VKPypFree(&cell));
   PetscCall(ierr);
+  if (!st.full_radius) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "WARNING: the periodic relaxation stopped raising the contact radius with the closest axes at %.4f x 2r: the tiled patch honours a contact radius under r\n", (double)st.dmin_over_2r));
   PetscCall(PetscPrintf(comm, "volknit yarn: relaxed the pyp cell %s periodically: %d Newton iterations in %d stages (contact radius %.3g r to %.4f r), periods %g x %g -> %g x %g m, closest axes %.4f x 2r, largest force %.2e N (%.2f s)\n", file, (int)st.iterations, (int)st.stages, (double)(st.radius_start / p.radius), (double)(st.contact_radius / p.radius), (double)st.period0[0], (double)st.period0[1], (double)st.period[0], (double)st.period[1], (double)st.dmin_over_2r, (double)st.residual, st.time));
   PetscFunctionReturn(0);
 }

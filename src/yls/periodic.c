@@ -604,6 +604,7 @@ PetscErrorCode VKYLSRelaxPeriodic(VKPyp *cell, const VKYLSPeriodicParams *p, VKY
   }
   st->contact_radius = C.par.radius;
   st->dmin_over_2r   = dmin / (2 * p->radius);
+  st->full_radius    = (PetscBool)(dmin >= 2 * p->radius * (1 - 1e-4));
   for (PetscInt v = 0; v < C.nv; v++) {
     for (int c = 0; c < 3; c++) cell->q[4 * v + c] = q[3 * v + c];
     cell->q[4 * v + 3] = 0; /* untwisted */
