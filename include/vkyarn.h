@@ -95,6 +95,12 @@ PETSC_EXTERN PetscErrorCode VKPypRefine(VKPyp *, PetscReal maxlen);
 /* Tile m x n copies; origin (optional, 2 per vertex: tile i + m*j, pattern vertex). */
 PETSC_EXTERN PetscErrorCode VKPypTile(const VKPyp *, PetscInt m, PetscInt n, VKCurves *, PetscInt **origin);
 
+/* One repeat of a knit chart (chart->rows courses of chart->cols loops of
+ * the geometry p) as a periodic cell: periods cols w by rows dy, each
+ * course a cycle through the cell's x edge, its vertices equally spaced
+ * along it, no further apart than `spacing`. */
+PETSC_EXTERN PetscErrorCode VKKnitCell(const VKKnitChart *, const VKKnitParams *, PetscReal spacing, PetscReal radius, VKPyp *);
+
 /* ---- the yarn model --------------------------------------------------- */
 typedef enum {
   VK_YARN_CHART,
@@ -119,12 +125,16 @@ PETSC_EXTERN PetscErrorCode VKYarnSetRadius(VKYarn, PetscReal);
 /* Take ownership-free copies of given polylines as the model (tests, tools) */
 PETSC_EXTERN PetscErrorCode VKYarnSetCurves(VKYarn, const VKCurves *);
 
-/* The pyp cell to tile at set-up (-yarn_tiles) instead of -yarn_pyp's
- * file, which it stands for (a copy is kept; a periodic relaxation's
- * result: VKYLSRelaxPeriodic).  With exact, the tiled polylines are the
- * model as they are (the cell already at the segment length), not
- * resampled.  VKYarnWriteOutputs writes it as cell.pyp. */
+/* The pyp cell to tile at set-up instead of -yarn_pyp's file (-yarn_tiles
+ * times) or of a knit chart's loops (wales/cols x courses/rows times, then
+ * glued as a knit), which it stands for (a copy is kept; a periodic
+ * relaxation's result: VKYLSRelaxPeriodic).  With exact, the tiled
+ * polylines are the model as they are (the cell already at the segment
+ * length), not resampled.  VKYarnWriteOutputs writes it as cell.pyp. */
 PETSC_EXTERN PetscErrorCode VKYarnSetPypCell(VKYarn, const VKPyp *, PetscBool exact, const char description[]);
+/* A knit model's chart repeat as a periodic cell (VKKnitCell) at the
+ * yarn's knit geometry and segment length (before VKYarnSetUp). */
+PETSC_EXTERN PetscErrorCode VKYarnGetKnitCell(VKYarn, VKPyp *);
 /* A yarn.h5 (or the /yarn group of a mesh.h5) to read at set-up (-yarn_h5). */
 PETSC_EXTERN PetscErrorCode VKYarnSetH5File(VKYarn, const char path[]);
 /* Read the /yarn group of an open file as the set-up model (mesh.h5). */

@@ -119,6 +119,18 @@ for n in 1 2; do
 done
 if cmp -s "$out/periodic.n1/cell.pyp" "$out/periodic.n2/cell.pyp"; then ok
 else not_ok "the periodically relaxed cell differs between 1 and 2 ranks ($out/periodic.n1/cell.pyp, $out/periodic.n2/cell.pyp)"; fi
+# and a knit chart's repeat: rib1x1 tiled 4 x 3 into 8 wales x 3 courses
+for n in 1 2; do
+  log="$out/periodic_knit.n$n.log"
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$out/periodic_knit.n$n" -yarn_pattern rib1x1 -yarn_wales 8 -yarn_courses 3 -yarn_relax_periodic > "$log" 2>&1 \
+     && [ -s "$out/periodic_knit.n$n/cell.pyp" ] && grep -q '"relaxed": true' "$out/periodic_knit.n$n/yarn.json" \
+     && grep -q "relaxed the knit chart's repeat periodically" "$log" \
+     && grep -q 'the tiled patch is the relaxed rest state (not relaxed again): contact radius 0.9999 r' "$log" \
+     && grep -q 'relaxed periodically: 3 curves, 900 vertices' "$log"; then ok
+  else not_ok "volknit yarn -yarn_pattern rib1x1 -yarn_relax_periodic (-n $n): expected cell.pyp and 3 courses of 900 vertices relaxed at contact radius 0.9999 r (see $log)"; fi
+done
+if cmp -s "$out/periodic_knit.n1/cell.pyp" "$out/periodic_knit.n2/cell.pyp"; then ok
+else not_ok "the periodically relaxed knit repeat differs between 1 and 2 ranks ($out/periodic_knit.n1/cell.pyp, $out/periodic_knit.n2/cell.pyp)"; fi
 
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed

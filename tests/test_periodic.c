@@ -1,4 +1,4 @@
-/* test_periodic.c: periodic relaxation of a pyp cell (issue 23,
+/* test_periodic.c: periodic relaxation of a pyp cell or a knit repeat (issue 23,
  * src/yls/periodic.c), on the stockinette tile of meshes/:
  *  - Taylor tests of the periodic energy -> gradient -> Hessian in the
  *    vertex positions and both periods: on the cell as given and perturbed
@@ -11,7 +11,10 @@
  *  - every rank computes the same cell;
  *  - cells that cannot be relaxed are refused with a message;
  *  - VKPypRefine keeps the yarn; a tiled diagonal yarn's corner fragments
- *    are dropped (-yarn_pyp_min_length).
+ *    are dropped (-yarn_pyp_min_length);
+ *  - a knit chart's repeat as a cell (VKKnitCell) lies on the knit patch's
+ *    loops when tiled, relaxes to the full radius, and the yarn model tiles
+ *    it into whole repeats only.
  * ranks: 1 2
  */
 #include <string.h>
@@ -189,6 +192,105 @@ static PetscErrorCode TestRefineAndFragments(const VKPyp *cell, const char dir[]
   PetscFunctionReturn(0);
 }
 
+/* Distance from point x to the polyline of curve i of c. */
+static PetscReal DistanceToCurve(const VKCurves *c, PetscInt i, const PetscReal x[])
+{
+  PetscReal best = PETSC_MAX_REAL;
+  for (PetscInt v = c->start[i]; v + 1 < c->start[i + 1]; v++) {
+    const PetscReal *a = c->x + 3 * v, *b = a + 3;
+    PetscReal        ab2 = 0, t = 0, d2 = 0;
+    for (int k = 0; k < 3; k++) {
+      ab2 += PetscSqr(b[k] - a[k]);
+      t += (x[k] - a[k]) * (b[k] - a[k]);
+    }
+    t = ab2 > 0 ? PetscMin(PetscMax(t / ab2, 0), 1) : 0;
+    for (int k = 0; k < 3; k++) d2 += PetscSqr(a[k] + t * (b[k] - a[k]) - x[k]);
+    best = PetscMin(best, d2);
+  }
+  return PetscSqrtReal(best);
+}
+
+/* A knit chart's repeat as a periodic cell (VKKnitCell): its periods, its
+ * segments no longer than asked, and, tiled, the loops VKKnitBuild lays
+ * (away from the patch's edges, where the two differ by design: the
+ * patch's edge loops take their own stitch's sign for the missing
+ * neighbour); relaxed periodically to the full radius (the rib draws in
+ * along the courses) and tiled by the yarn model into a glued patch of
+ * whole repeats, other counts refused. */
+static PetscErrorCode TestKnitCell(void)
+{
+  const char  *patterns[] = {"rib1x1", "seed"};
+  VKKnitParams kp;
+  PetscReal    r = 1e-3, spacing = r;
+
+  PetscFunctionBegin;
+  PetscCall(VKKnitParamsDefault(r, &kp));
+  for (int ip = 0; ip < 2; ip++) {
+    VKKnitChart chart;
+    VKPyp       cell;
+    VKCurves    tiled, built;
+    PetscReal   longest = 0, shortest = PETSC_MAX_REAL, dmax = 0;
+    PetscInt    checked = 0;
+    PetscCall(VKKnitChartBuiltin(patterns[ip], &chart));
+    kp.wales   = 4 * chart.cols;
+    kp.courses = 3 * chart.rows;
+    PetscCall(VKKnitCell(&chart, &kp, spacing, r, &cell));
+    for (PetscInt k = 0; k < cell.ne; k++) {
+      PetscReal d[3], l = VKPypEdgeVector(&cell, k, d);
+      longest  = PetscMax(longest, l);
+      shortest = PetscMin(shortest, l);
+    }
+    PetscCall(VKPypTile(&cell, 4, 3, &tiled, NULL));
+    PetscCall(VKKnitBuild(&chart, &kp, spacing, &built));
+    for (PetscInt j = 0; j + 1 < tiled.n && tiled.n == built.n; j++) /* the top course's heads differ: no course above */
+      for (PetscInt v = tiled.start[j]; v < tiled.start[j + 1]; v++) {
+        PetscReal x = tiled.x[3 * v];
+        if (x < 1.5 * kp.width || x > (kp.wales - 1.5) * kp.width) continue;
+        dmax = PetscMax(dmax, DistanceToCurve(&built, j, tiled.x + 3 * v));
+        checked++;
+      }
+    PetscCall(VKTestCheck((PetscBool)(tiled.n == kp.courses && built.n == kp.courses && checked > 100 && dmax <= 1e-9 * r && longest <= spacing * (1 + 1e-12) && shortest >= 0.5 * spacing && cell.period[0] == chart.cols * kp.width && cell.period[1] == chart.rows * kp.height), NULL,
+                          "VKKnitCell %s (%d x %d chart): periods %.3g x %.3g mm, %d vertices, segments %.3f to %.3f r (<= 1); tiled 4 x 3 it lies on VKKnitBuild's courses (%d vertices away from the edges within %.1e r)", patterns[ip], (int)chart.rows, (int)chart.cols, (double)(1e3 * cell.period[0]), (double)(1e3 * cell.period[1]), (int)cell.nv,
+                          (double)(shortest / r), (double)(longest / r), (int)checked, (double)(dmax / r)));
+    PetscCall(VKCurvesFree(&tiled));
+    PetscCall(VKCurvesFree(&built));
+    if (ip == 0) { /* relaxed, then tiled by the yarn model */
+      VKYLSPeriodicParams p;
+      VKYLSPeriodicStats  st;
+      VKYarn              y;
+      const VKCurves     *c;
+      const PetscInt     *pairs;
+      PetscInt            nbind;
+      PetscErrorCode      ierr;
+      const char         *msg = NULL;
+      PetscReal           w0 = cell.period[0];
+      PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, r, &p));
+      PetscCall(VKYLSRelaxPeriodic(&cell, &p, &st));
+      PetscCall(VKTestCheck((PetscBool)(st.full_radius && st.dmin_over_2r >= 1 - 1e-4 && st.residual <= p.ftol * p.kb / PetscSqr(r) && cell.period[0] < 0.9 * w0), NULL, "the rib1x1 repeat relaxed periodically at the full radius (closest axes %.4f x 2r, largest force %.2e N, %d iterations): it draws in along the courses, %.3g -> %.3g mm", (double)st.dmin_over_2r, (double)st.residual, (int)st.iterations, (double)(1e3 * w0), (double)(1e3 * cell.period[0])));
+      PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &y));
+      PetscCall(VKYarnSetKnit(y, "rib1x1", 8, 3));
+      PetscCall(VKYarnSetRadius(y, r));
+      PetscCall(VKYarnSetPypCell(y, &cell, PETSC_TRUE, "relaxed periodically"));
+      PetscCall(VKYarnSetUp(y));
+      PetscCall(VKYarnGetCurves(y, &c));
+      PetscCall(VKYarnGetBindings(y, &nbind, &pairs));
+      PetscCall(VKTestCheck((PetscBool)(c->n == 3 && c->nv == 4 * 3 * cell.nv && nbind > 0), NULL, "the relaxed repeat tiled into 8 wales x 3 courses: %d courses, %d vertices (4 x 3 x %d), %d glue pairs", (int)c->n, (int)c->nv, (int)cell.nv, (int)nbind));
+      PetscCall(VKYarnDestroy(&y));
+      PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &y));
+      PetscCall(VKYarnSetKnit(y, "rib1x1", 5, 3));
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+      ierr = VKYarnGetKnitCell(y, &cell);
+      PetscCall(PetscPopErrorHandler());
+      if (ierr) PetscCall(PetscErrorMessage(ierr, NULL, (char **)&msg));
+      PetscCall(VKTestCheck((PetscBool)(ierr && msg && strstr(msg, "whole chart repeats")), msg, "a knit cell for 5 wales of rib1x1 (2 columns) is refused: '... whole chart repeats ...'"));
+      PetscCall(VKYarnDestroy(&y));
+    }
+    PetscCall(VKPypFree(&cell));
+    PetscCall(VKKnitChartFree(&chart));
+  }
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   VKPyp               cell, relaxed, super;
@@ -205,6 +307,7 @@ int main(int argc, char **argv)
   PetscCall(VKMakeDirectory(PETSC_COMM_WORLD, dir));
   PetscCall(LoadCell(&cell));
   PetscCall(TestRefineAndFragments(&cell, dir));
+  PetscCall(TestKnitCell());
   PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, cell.radius, &p));
   p.ftol = 1e-7; /* tighter than the default, so that two relaxations can be compared to 1e-3 r */
   n = 3 * cell.nv + 2;

@@ -98,51 +98,64 @@ PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
 }
 
 /* -yarn_relax_periodic: the pyp cell of -yarn_pyp refined to the yarn's
- * segment length (-yarn_segment_length, default r), relaxed as one
- * periodic cell at the yarn's radius (VKYLSRelaxPeriodic, -yls_ks/kb/kc
- * and the relaxation stages), and tiled in place of the file's as it is
- * (not resampled, so that the patch keeps the cell's contacts exactly). */
+ * segment length (-yarn_segment_length, default r), or the knit chart's
+ * repeat (VKYarnGetKnitCell) at that length, relaxed as one periodic cell
+ * at the yarn's radius (VKYLSRelaxPeriodic, -yls_ks/kb/kc and the
+ * relaxation stages), and tiled in place of the file's or the chart's
+ * loops as it is (not resampled, so that the patch keeps the cell's
+ * contacts exactly). */
 static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done)
 {
   PetscBool           relax = PETSC_FALSE;
   VKYarnSource        source;
   const char         *file;
   MPI_Comm            comm;
-  char               *buf;
-  size_t              len;
   VKPyp               cell;
   VKYLSPeriodicParams p;
   VKYLSPeriodicStats  st;
   PetscErrorCode      ierr;
+  char                what[PETSC_MAX_PATH_LEN + 32];
 
   PetscFunctionBegin;
+  PetscCall(PetscMemzero(&cell, sizeof(cell)));
   PetscCall(VKYarnGetComm(y, &comm));
   PetscOptionsBegin(comm, NULL, "Periodic relaxation (issue 23)", "volknit yarn");
-  PetscCall(PetscOptionsBool("-yarn_relax_periodic", "Relax the pyp cell of -yarn_pyp as one cell of an infinite periodic patch (periods free, contact with its neighbouring copies) before tiling it; written as DIR/cell.pyp", "VKYLSRelaxPeriodic", relax, &relax, NULL));
+  PetscCall(PetscOptionsBool("-yarn_relax_periodic", "Relax the pyp cell of -yarn_pyp, or one repeat of the knit chart, as one cell of an infinite periodic patch (periods free, contact with its neighbouring copies) before tiling it; written as DIR/cell.pyp", "VKYLSRelaxPeriodic", relax, &relax, NULL));
   PetscOptionsEnd();
   *done = relax;
   if (!relax) PetscFunctionReturn(0);
   PetscCall(VKYarnGetSource(y, &source, &file, NULL, NULL));
-  PetscCheck(source == VK_YARN_PYP, comm, PETSC_ERR_ARG_INCOMP, "-yarn_relax_periodic relaxes a periodic cell: give it with -yarn_pyp FILE");
-  PetscCall(VKReadFileBroadcast(comm, file, &buf, &len));
-  ierr = VKPypParse(buf, len, file, &cell);
-  PetscCall(PetscFree(buf));
-  if (!ierr) { /* in the file's units: -yarn_scale multiplies them afterwards */
-    PetscReal scale = 1, radius = 0, seglen = 0;
-    PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_scale", &scale, NULL));
-    PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_radius", &radius, NULL));
-    PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_segment_length", &seglen, NULL));
-    radius = radius > 0 ? radius / scale : cell.radius;
-    seglen = seglen > 0 ? seglen / scale : radius;
-    ierr   = VKPypRefine(&cell, seglen);
+  PetscCheck(source == VK_YARN_PYP || source == VK_YARN_CHART, comm, PETSC_ERR_ARG_INCOMP, "-yarn_relax_periodic relaxes a periodic cell: give it with -yarn_pyp FILE, or a knit pattern (-yarn_pattern, -yarn_chart)");
+  if (source == VK_YARN_CHART) {
+    PetscReal radius;
+    PetscCall(PetscSNPrintf(what, sizeof(what), "the knit chart's repeat"));
+    PetscCall(VKYarnGetProperties(y, &radius, NULL, NULL));
+    ierr = VKYarnGetKnitCell(y, &cell);
     if (!ierr) ierr = VKYLSPeriodicParamsFromOptions(comm, radius, &p);
+  } else {
+    char  *buf;
+    size_t len;
+    PetscCall(PetscSNPrintf(what, sizeof(what), "the pyp cell %s", file));
+    PetscCall(VKReadFileBroadcast(comm, file, &buf, &len));
+    ierr = VKPypParse(buf, len, file, &cell);
+    PetscCall(PetscFree(buf));
+    if (!ierr) { /* in the file's units: -yarn_scale multiplies them afterwards */
+      PetscReal scale = 1, radius = 0, seglen = 0;
+      PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_scale", &scale, NULL));
+      PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_radius", &radius, NULL));
+      PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_segment_length", &seglen, NULL));
+      radius = radius > 0 ? radius / scale : cell.radius;
+      seglen = seglen > 0 ? seglen / scale : radius;
+      ierr   = VKPypRefine(&cell, seglen);
+      if (!ierr) ierr = VKYLSPeriodicParamsFromOptions(comm, radius, &p);
+    }
   }
   if (!ierr) ierr = VKYLSRelaxPeriodic(&cell, &p, &st);
   if (!ierr) ierr = VKYarnSetPypCell(y, &cell, PETSC_TRUE, "relaxed periodically");
   PetscCall(VKPypFree(&cell));
   PetscCall(ierr);
   if (!st.full_radius) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "WARNING: the periodic relaxation stopped raising the contact radius with the closest axes at %.4f x 2r: the tiled patch honours a contact radius under r\n", (double)st.dmin_over_2r));
-  PetscCall(PetscPrintf(comm, "volknit yarn: relaxed the pyp cell %s periodically: %d Newton iterations in %d stages (contact radius %.3g r to %.4f r), periods %g x %g -> %g x %g m, closest axes %.4f x 2r, largest force %.2e N (%.2f s)\n", file, (int)st.iterations, (int)st.stages, (double)(st.radius_start / p.radius), (double)(st.contact_radius / p.radius), (double)st.period0[0], (double)st.period0[1], (double)st.period[0], (double)st.period[1], (double)st.dmin_over_2r, (double)st.residual, st.time));
+  PetscCall(PetscPrintf(comm, "volknit yarn: relaxed %s periodically: %d Newton iterations in %d stages (contact radius %.3g r to %.4f r), periods %g x %g -> %g x %g m, closest axes %.4f x 2r, largest force %.2e N (%.2f s)\n", what, (int)st.iterations, (int)st.stages, (double)(st.radius_start / p.radius), (double)(st.contact_radius / p.radius), (double)st.period0[0], (double)st.period0[1], (double)st.period[0], (double)st.period[1], (double)st.dmin_over_2r, (double)st.residual, st.time));
   PetscFunctionReturn(0);
 }
 

@@ -15,7 +15,11 @@
  * between the first two and the last two courses, and both ends of every
  * other yarn to the nearest vertex of the course below (about 2 r away).
  * The ends of the first course lie a fraction of a stitch from its glued
- * crossings. */
+ * crossings.
+ *
+ * VKKnitCell gives one chart repeat as a periodic (pyp) cell, for the
+ * periodic relaxation of issue 23: the same loops with the neighbours'
+ * signs taken across the cell's edges. */
 #include <vkyarn.h>
 
 #define KNIT_BLEND (PETSC_PI / 8)
@@ -104,6 +108,65 @@ PetscErrorCode VKKnitBuild(const VKKnitChart *chart, const VKKnitParams *p, Pets
     PetscCall(VKCurvesAdd(out, nv, x, PETSC_FALSE));
   }
   PetscCall(PetscFree(x));
+  PetscFunctionReturn(0);
+}
+
+/* One chart repeat as a periodic cell: chart->rows courses of chart->cols
+ * loops, periods cols w by rows dy; each course sampled densely, then cut
+ * into equal pieces no longer than `spacing` along its length, its last
+ * vertex joined to its first in the next tile along x. */
+PetscErrorCode VKKnitCell(const VKKnitChart *chart, const VKKnitParams *p, PetscReal spacing, PetscReal radius, VKPyp *cell)
+{
+  PetscInt   Nd, nd, nv = 0, ne = 0;
+  PetscReal *xd, *sd;
+
+  PetscFunctionBegin;
+  PetscCall(VKKnitParamsCheck(p));
+  PetscCheck(radius > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKKnitCell: the yarn radius must be positive, got %g", (double)radius);
+  PetscCall(VKKnitSamplesPerLoop(p, spacing, &Nd));
+  PetscCheck((double)Nd * (double)chart->cols * (double)chart->rows < 1e8, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment length %g is too small for a chart repeat of %d x %d stitches", (double)spacing, (int)chart->rows, (int)chart->cols);
+  nd = Nd * chart->cols;
+  PetscCall(PetscMalloc2(3 * (nd + 1), &xd, nd + 1, &sd));
+  PetscCall(PetscMemzero(cell, sizeof(*cell)));
+  cell->period[0] = chart->cols * p->width;
+  cell->period[1] = chart->rows * p->height;
+  cell->radius    = radius;
+  for (int pass = 0; pass < 2; pass++) { /* count, then fill */
+    if (pass == 1) {
+      PetscCall(PetscMalloc1(4 * nv, &cell->q));
+      PetscCall(PetscMalloc1(4 * ne, &cell->e));
+      cell->nv = cell->ne = nv = ne = 0;
+    }
+    for (PetscInt j = 0; j < chart->rows; j++) {
+      PetscInt v = 0, n, first = nv;
+      for (PetscInt k = 0; k < chart->cols; k++) {
+        PetscReal own = Sign(chart, j, k), left = Sign(chart, j, k + chart->cols - 1), right = Sign(chart, j, k + 1), up = Sign(chart, j + 1, k);
+        for (PetscInt i = 0; i < Nd; i++, v++) LoopPoint(p, j, k, 2 * PETSC_PI * i / Nd, own, left, right, up, &xd[3 * v]);
+      }
+      for (int c = 0; c < 3; c++) xd[3 * nd + c] = xd[c] + (c == 0 ? cell->period[0] : 0);
+      sd[0] = 0;
+      for (PetscInt i = 1; i <= nd; i++) sd[i] = sd[i - 1] + PetscSqrtReal(PetscSqr(xd[3 * i] - xd[3 * i - 3]) + PetscSqr(xd[3 * i + 1] - xd[3 * i - 2]) + PetscSqr(xd[3 * i + 2] - xd[3 * i - 1]));
+      n = (PetscInt)PetscCeilReal(sd[nd] / spacing * (1 - 1e-12));
+      PetscCheck(n >= 4 * chart->cols, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment length %g is too long for the knit cell: a loop of yarn length %g needs at least 4 segments", (double)spacing, (double)(sd[nd] / chart->cols));
+      if (pass == 1)
+        for (PetscInt i = 0, seg = 0; i < n; i++) {
+          PetscReal s = sd[nd] * i / n, f;
+          while (seg + 1 < nd && sd[seg + 1] <= s) seg++;
+          f = (s - sd[seg]) / (sd[seg + 1] - sd[seg]);
+          for (int c = 0; c < 3; c++) cell->q[4 * (first + i) + c] = xd[3 * seg + c] + f * (xd[3 * seg + 3 + c] - xd[3 * seg + c]);
+          cell->q[4 * (first + i) + 3] = 0;
+          cell->e[4 * (ne + i)]        = first + i;
+          cell->e[4 * (ne + i) + 1]    = i + 1 < n ? first + i + 1 : first;
+          cell->e[4 * (ne + i) + 2]    = i + 1 < n ? 0 : 1;
+          cell->e[4 * (ne + i) + 3]    = 0;
+        }
+      nv += n;
+      ne += n;
+    }
+  }
+  cell->nv = nv;
+  cell->ne = ne;
+  PetscCall(PetscFree2(xd, sd));
   PetscFunctionReturn(0);
 }
 

@@ -41,7 +41,7 @@ PetscErrorCode VKYarnSetPypCell(VKYarn y, const VKPyp *cell, PetscBool exact, co
 {
   PetscFunctionBegin;
   PetscCheck(!y->setup, y->comm, PETSC_ERR_ORDER, "VKYarnSetPypCell() after VKYarnSetUp()");
-  PetscCheck(y->source == VK_YARN_PYP, y->comm, PETSC_ERR_ARG_WRONG, "VKYarnSetPypCell() stands for a pyp file: give -yarn_pyp first");
+  PetscCheck(y->source == VK_YARN_PYP || y->source == VK_YARN_CHART, y->comm, PETSC_ERR_ARG_WRONG, "VKYarnSetPypCell() stands for a pyp file or a knit chart's repeat: give -yarn_pyp, -yarn_pattern or -yarn_chart first");
   if (y->cell) PetscCall(VKPypFree(y->cell));
   else PetscCall(PetscNew(&y->cell));
   PetscCall(VKPypCopy(cell, y->cell));
@@ -373,9 +373,10 @@ static PetscErrorCode KnitFitsMemory(VKYarn y)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
+/* The knit chart of -yarn_pattern or -yarn_chart, with the knit
+ * parameters settled and the description written. */
+static PetscErrorCode LoadChart(VKYarn y, VKKnitChart *chart)
 {
-  VKKnitChart    chart = {0, 0, NULL};
   PetscErrorCode ierr;
 
   PetscFunctionBegin;
@@ -384,13 +385,66 @@ static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
     char  *buf;
     size_t len;
     PetscCall(VKReadFileBroadcast(y->comm, y->file, &buf, &len));
-    ierr = VKKnitChartParse(buf, len, y->file, &chart);
+    ierr = VKKnitChartParse(buf, len, y->file, chart);
     PetscCall(PetscFree(buf));
+    if (ierr) PetscCall(VKKnitChartFree(chart));
     PetscCall(ierr);
-    PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "knit chart %s (%d x %d), %d wales x %d courses", y->file, (int)chart.rows, (int)chart.cols, (int)y->knit.wales, (int)y->knit.courses));
+    PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "knit chart %s (%d x %d), %d wales x %d courses", y->file, (int)chart->rows, (int)chart->cols, (int)y->knit.wales, (int)y->knit.courses));
   } else {
-    PetscCall(VKKnitChartBuiltin(y->pattern, &chart));
+    PetscCall(VKKnitChartBuiltin(y->pattern, chart));
     PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "knit pattern %s, %d wales x %d courses", y->pattern, (int)y->knit.wales, (int)y->knit.courses));
+  }
+  PetscFunctionReturn(0);
+}
+
+/* How many chart repeats a periodic knit cell is tiled into. */
+static PetscErrorCode KnitCellTiles(VKYarn y, const VKKnitChart *chart, PetscInt *m, PetscInt *n)
+{
+  PetscFunctionBegin;
+  PetscCheck(y->knit.wales % chart->cols == 0 && y->knit.courses % chart->rows == 0, PETSC_COMM_SELF, PETSC_ERR_ARG_INCOMP, "A periodic knit cell tiles whole chart repeats: %d wales x %d courses is no multiple of the chart's %d columns x %d rows", (int)y->knit.wales, (int)y->knit.courses, (int)chart->cols, (int)chart->rows);
+  *m = y->knit.wales / chart->cols;
+  *n = y->knit.courses / chart->rows;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetKnitCell(VKYarn y, VKPyp *cell)
+{
+  VKKnitChart    chart = {0, 0, NULL};
+  PetscInt       m, n;
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCheck(!y->setup, y->comm, PETSC_ERR_ORDER, "VKYarnGetKnitCell() after VKYarnSetUp()");
+  PetscCheck(y->source == VK_YARN_CHART, y->comm, PETSC_ERR_ARG_WRONG, "VKYarnGetKnitCell() needs a knit model (-yarn_pattern or -yarn_chart)");
+  PetscCheck(y->radius > 0, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Yarn radius must be positive");
+  PetscCall(LoadChart(y, &chart));
+  ierr = KnitCellTiles(y, &chart, &m, &n);
+  if (!ierr) ierr = VKKnitCell(&chart, &y->knit, y->seglen_set ? y->seglen : y->radius, y->radius, cell);
+  PetscCall(VKKnitChartFree(&chart));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+/* The patch: the knit loops of DESIGN §3, or the periodic cell given by
+ * VKYarnSetPypCell tiled over it (whole chart repeats only), its courses
+ * bottom first as VKKnitBind wants them. */
+static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
+{
+  VKKnitChart    chart = {0, 0, NULL};
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(LoadChart(y, &chart));
+  if (y->cell) {
+    PetscInt m, n;
+    ierr = KnitCellTiles(y, &chart, &m, &n);
+    PetscCall(VKKnitChartFree(&chart));
+    PetscCall(ierr);
+    PetscCall(VKPypTile(y->cell, m, n, dense, NULL));
+    PetscCheck(dense->n == y->knit.courses, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Tiling the knit cell gave %d yarns for %d courses", (int)dense->n, (int)y->knit.courses);
+    PetscCall(PetscStrlcat(y->description, y->cell_description[0] ? ", " : "", sizeof(y->description)));
+    PetscCall(PetscStrlcat(y->description, y->cell_description, sizeof(y->description)));
+    PetscFunctionReturn(0);
   }
   ierr = KnitFitsMemory(y);
   if (!ierr) ierr = VKKnitBuild(&chart, &y->knit, y->seglen, dense);

@@ -195,6 +195,30 @@ per_row() { # radius, mode (patch | periodic)
 }
 for r in 0.001 0.0012 0.0013; do per_row $r patch; per_row $r periodic; done
 echo
+echo "Knit charts (8 x 8 stitches, r = 1 mm, the generator's loops): the patch relaxation of -yarn_relax against the"
+echo "chart's repeat relaxed periodically and tiled (glued at the edges as a knit).  Width: the patch's x extent."
+echo
+echo "| pattern | relaxation | contact radius reached | bow of the interior, mm | z extent, mm | width, mm | s |"
+echo "|---|---|---|---|---|---|---|"
+knit_row() { # pattern, mode (patch | periodic), chart columns, rows
+  local dir="$out/knit_$2_$1" opt="-yarn_relax" t0 t1 cr bow ext px py lo hi
+  [ "$2" = periodic ] && opt="-yarn_relax_periodic"
+  rm -rf "$dir"
+  px=$(awk -v c="$3" 'BEGIN { printf "%g", 0.009 * c }'); py=$(awk -v c="$4" 'BEGIN { printf "%g", 0.007 * c }')
+  t0=$(date +%s.%N)
+  if run bin/volknit yarn -o "$dir" -yarn_pattern "$1" -yarn_wales 8 -yarn_courses 8 $opt > "$dir.log" 2>&1; then
+    t1=$(date +%s.%N)
+    cr=$(sed -n 's/.*"contact_radius_m": \([^,]*\),*/\1/p' "$dir/yarn.json")
+    if [ -s "$dir/cell.pyp" ]; then read -r px py _ < <(sed -n '/^\*pattern/{n;p}' "$dir/cell.pyp"); fi
+    read -r bow ext < <(python3 tools/yarn_flatness.py "$dir" "$px" "$py" | sed -n 's/.*z extent \([0-9.]*\) mm;.*bow \([0-9.]*\) mm/\2 \1/p')
+    read -r lo hi < <(bin/volknit yarn -yarn_h5 "$dir/yarn.h5" -yarn_view 2>/dev/null | sed -n 's/.*bounding box \[\([^,]*\), \([^]]*\)\].*/\1 \2/p')
+    echo "| $1 | $2 | $(awk -v c="$cr" 'BEGIN { printf "%.4f", c / 0.001 }') r | ${bow:--} | ${ext:--} | $(awk -v a="$lo" -v b="$hi" 'BEGIN { printf "%.1f", 1000 * (b - a) }') | $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') |"
+  else
+    echo "| $1 | $2 | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-100) | - | - | - | - |"
+  fi
+}
+for pat in "stockinette 1 1" "rib1x1 2 1" "seed 2 2"; do set -- $pat; knit_row "$1" patch "$2" "$3"; knit_row "$1" periodic "$2" "$3"; done
+echo
 echo "Rows produced by:"
 cat "$out/commands"
 echo
