@@ -7,8 +7,13 @@
  * per time step size and material; K itself is kept for the true residual
  * and the handle correction of the right-hand side.  With colliders, each
  * free node's constraint weight w_i = -pd_contact_weight K_ii is added to
- * the diagonal, whether or not the node touches a collider, so the factor
- * survives changes of the contact set.  VKPDSetStatic drops M/dt^2 (a
+ * the diagonal: with L-BFGS on the nodes in contact at the start of the
+ * step or at its first guess (-pd_contact_active_set, pd_solve.c: K
+ * reassembled when that set changes; a node that comes into contact
+ * during the solve is left to L-BFGS, whose gradient holds its weight),
+ * otherwise on every free node, whether or not it touches a collider, so
+ * the factor survives changes of the contact set (plain PD's fixed point
+ * needs the weight in K).  VKPDSetStatic drops M/dt^2 (a
  * static equilibrium, for the fitting; then handles must hold the mesh),
  * VKPDSetConstantForce adds a constant nodal force to Phi. */
 #include <vkpd.h>
@@ -53,6 +58,8 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   pd->newton_its  = 0;
   pd->newton_rtol = 1e-10;
   pd->contact_weight = 1;
+  pd->contact_active = PETSC_TRUE;
+  pd->contact_set_tol = 0.1;
   PetscCall(KSPCreate(pd->comm, &pd->ksp));
   PetscCall(SubSolverPrefixes(pd));
   PetscCall(VKKSPSetDirectSolver(pd->ksp));
@@ -68,7 +75,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscFunctionBegin;
   if (!pd) PetscFunctionReturn(0);
   PetscCall(PetscFree4(pd->handle_node, pd->handle_id, pd->handle_row, pd->node_handle));
-  PetscCall(PetscFree2(pd->contact, pd->contact_w));
+  PetscCall(PetscFree4(pd->contact, pd->contact_w, pd->contact_k, pd->contact_want));
   PetscCall(PetscFree(pd->tetW));
   PetscCall(PetscFree2(pd->hist_phi, pd->hist_res));
   if (pd->lbfgs_s) PetscCall(VecDestroyVecs(pd->lbfgs_m, &pd->lbfgs_s));
@@ -335,6 +342,8 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsBool("-pd_fixed_its", "Run exactly -pd_max_it iterations and measure no residual (status 'unmeasured')", "VKPDSolve", pd->fixed_its, &pd->fixed_its, NULL));
   PetscCall(VKOptionsRangeInt("-pd_lbfgs_m", "L-BFGS history length (-pd_type lbfgs)", "VKPDSolve", pd->lbfgs_m, &pd->lbfgs_m, NULL, 1, PETSC_MAX_INT));
   PetscCall(VKOptionsRangeInt("-pd_lbfgs_switch", "L-BFGS iterations after which projected Newton (PSD-projected exact Hessian, KSP prefix -pd_pnewton_) finishes the solve (0: never)", "VKPDSolve", pd->lbfgs_switch, &pd->lbfgs_switch, NULL, 0, PETSC_MAX_INT));
+  PetscCall(PetscOptionsBool("-pd_contact_active_set", "With colliders and -pd_type lbfgs, K holds the collider weight only on the nodes in contact at the start of the step or at its first guess, reassembled and refactored when that set changes (false: on every free node, factored once)", "VKPDSolve", pd->contact_active, &pd->contact_active, NULL));
+  PetscCall(PetscOptionsReal("-pd_contact_set_tol", "With -pd_contact_active_set, K is refactored when more than this fraction of the contact set changed since it was built (0: at every change)", "VKPDSolve", pd->contact_set_tol, &pd->contact_set_tol, NULL));
   PetscCall(PetscOptionsBool("-pd_monitor", "Print Phi and |grad Phi| at every PD iteration", "VKPDSolve", pd->monitor, &pd->monitor, NULL));
   PetscCall(PetscOptionsReal("-pd_chebyshev_rho", "Spectral radius estimate for Chebyshev acceleration of the PD iterations (0: off; Wang 2015)", "VKPDSolve", pd->cheb_rho, &pd->cheb_rho, NULL));
   PetscCall(PetscOptionsReal("-pd_chebyshev_gamma", "Under-relaxation of the accelerated iterations", "VKPDSolve", pd->cheb_gamma, &pd->cheb_gamma, NULL));
@@ -353,6 +362,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCheck(pd->atol >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_atol must be >= 0, got %g", pd->prefix, (double)pd->atol);
   PetscCheck(pd->ftol >= 0 && pd->ftol < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_ftol must be >= 0 and finite, got %g", pd->prefix, (double)pd->ftol);
   PetscCheck(pd->fixed_its || pd->ftol > 0 || pd->atol > 0 || pd->rtol > 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_ftol, -%spd_atol and -%spd_rtol are all 0: no solve could converge (for a fixed iteration count use -%spd_fixed_its)", pd->prefix, pd->prefix, pd->prefix, pd->prefix);
+  PetscCheck(pd->contact_set_tol >= 0 && pd->contact_set_tol < PETSC_INFINITY, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_contact_set_tol must be >= 0 and finite, got %g", pd->prefix, (double)pd->contact_set_tol);
   PetscCheck(pd->lbfgs_switch >= 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_lbfgs_switch must be >= 0, got %d", pd->prefix, (int)pd->lbfgs_switch);
   PetscCheck(pd->lbfgs_m >= 1 && pd->lbfgs_m <= 100, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_lbfgs_m must be in [1, 100], got %d", pd->prefix, (int)pd->lbfgs_m);
   PetscCheck(pd->max_it >= 1, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "-%spd_max_it must be >= 1, got %d", pd->prefix, (int)pd->max_it);
@@ -492,7 +502,7 @@ static PetscErrorCode ForceScales(VKPD pd)
       PetscReal m = VKMeshNodeMasses(pd->mesh)[L->nStart + i];
       if (pd->node_handle[i] >= 0) continue;
       if (c == 0) sums[0] += m * m * g2;
-      sums[1] += PetscSqr(ka[i] - (VKPDInertiaScale(pd) * m / dt2 + pd->contact_w[i]) * xa[i]);
+      sums[1] += PetscSqr(ka[i] - (VKPDInertiaScale(pd) * m / dt2 + (pd->contact_k[i] ? pd->contact_w[i] : 0)) * xa[i]);
     }
     PetscCall(VecRestoreArrayRead(xr, (const PetscScalar **)&xa));
     PetscCall(VecRestoreArrayRead(kx, &ka));
@@ -560,7 +570,8 @@ static PetscErrorCode CreateK(VKPD pd)
 }
 
 /* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e (+ the collider weights
- * w_i on free nodes when the scene has colliders), then Kel. */
+ * w_i on the free nodes of contact_k when the scene has colliders), then
+ * Kel. */
 static PetscErrorCode AssembleK(VKPD pd)
 {
   VKMesh           mesh = pd->mesh;
@@ -603,12 +614,17 @@ static PetscErrorCode AssembleK(VKPD pd)
     pd->nhandle = pd->nscene;
     for (PetscInt i = 0; i < nown; i++) {
       pd->contact_w[i] = 0;
-      if (pd->node_handle[i] >= 0 && pd->node_handle[i] < VK_SCENE_MAX) continue;
+      if (pd->node_handle[i] >= 0 && pd->node_handle[i] < VK_SCENE_MAX) {
+        pd->contact_k[i] = PETSC_FALSE;
+        continue;
+      }
       pd->node_handle[i] = -1;
       if (da[i] > 1e-14 * kmean) {
         if (pd->ncolliders) pd->contact_w[i] = pd->contact_weight * da[i];
+        if (!VKPDContactActiveSet(pd)) pd->contact_k[i] = (PetscBool)(pd->contact_w[i] > 0); /* else the solves keep it */
         continue;
       }
+      pd->contact_k[i]              = PETSC_FALSE;
       pd->node_handle[i]            = VK_SCENE_MAX; /* frozen */
       pd->handle_node[pd->nhandle]  = i;
       pd->handle_id[pd->nhandle]    = -1;
@@ -618,7 +634,7 @@ static PetscErrorCode AssembleK(VKPD pd)
     if (pd->ncolliders) {
       PetscScalar *wa;
       PetscCall(VecGetArray(d, &wa));
-      for (PetscInt i = 0; i < nown; i++) wa[i] = pd->contact_w[i];
+      for (PetscInt i = 0; i < nown; i++) wa[i] = pd->contact_k[i] ? pd->contact_w[i] : 0;
       PetscCall(VecRestoreArray(d, &wa));
       PetscCall(MatDiagonalSet(pd->K, d, ADD_VALUES));
     }
@@ -683,7 +699,7 @@ PetscErrorCode VKPDSetUp(VKPD pd)
     PetscInt nown = VKMeshLayout(pd->mesh)->nEnd - VKMeshLayout(pd->mesh)->nStart;
     PetscCall(FindHandles(pd));
     PetscInt ne = VKMeshLayout(pd->mesh)->eEnd - VKMeshLayout(pd->mesh)->eStart;
-    PetscCall(PetscCalloc2(nown + 1, &pd->contact, nown + 1, &pd->contact_w));
+    PetscCall(PetscCalloc4(nown + 1, &pd->contact, nown + 1, &pd->contact_w, nown + 1, &pd->contact_k, nown + 1, &pd->contact_want));
     PetscCall(PetscCalloc1(9 * ne + 1, &pd->tetW));
     for (PetscInt e = 0; e < ne; e++) pd->tetW[9 * e] = pd->tetW[9 * e + 4] = pd->tetW[9 * e + 8] = 1;
     PetscCall(VKMeshCreateNodeVec(pd->mesh, 3, &pd->b));

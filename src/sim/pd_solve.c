@@ -290,7 +290,7 @@ static PetscErrorCode ContactStep(VKPD pd, Vec x, Vec b, PetscReal *Ec, PetscInt
     Ei = VKPDNodeContact(pd, i, xi, pa ? pa + 3 * i : NULL, gi, NULL, &inside);
     pd->contact[i] = inside;
     for (int c = 0; c < 3; c++) {
-      ba[3 * i + c] += pd->contact_w[i] * xi[c] - gi[c];
+      ba[3 * i + c] += (pd->contact_k[i] ? pd->contact_w[i] : 0) * xi[c] - gi[c];
       f2 += gi[c] * gi[c];
     }
     VKSumAdd(&sum, Ei);
@@ -429,6 +429,44 @@ static PetscErrorCode IteratePD(VKPD pd, Vec y, Vec x, Vec prev, VKPDStats *st)
   PetscFunctionReturn(0);
 }
 
+/* With -pd_contact_active_set, K holds the collider weight of the free
+ * nodes inside a collider at the start of the step (prev, the colliders
+ * at t - dt) or at the first guess x (at t), where friction and the
+ * penalty act; when that set changes, K is reassembled and refactored.
+ * Otherwise K holds every free node's weight (set by AssembleK). */
+static PetscErrorCode UpdateContactSet(VKPD pd, PetscReal t, Vec x, Vec prev)
+{
+  const VKLayout    *L = VKMeshLayout(pd->mesh);
+  const PetscScalar *xa, *pa = NULL;
+  PetscInt           mine[2] = {0, 0}, all[2]; /* nodes that change, nodes in the new set */
+  PetscBool          active  = VKPDContactActiveSet(pd), *want;
+
+  PetscFunctionBegin;
+  if (!pd->ncolliders) PetscFunctionReturn(0);
+  want = pd->contact_want;
+  PetscCall(VecGetArrayRead(x, &xa));
+  if (prev) PetscCall(VecGetArrayRead(prev, &pa));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+    want[i] = PETSC_FALSE;
+    if (pd->node_handle[i] < 0 && pd->contact_w[i] > 0) {
+      want[i] = (PetscBool)!active;
+      if (!want[i]) want[i] = (PetscBool)(VKSceneDepth(pd->scene, t, xa + 3 * i) > 0 || (pa && VKSceneDepth(pd->scene, t - pd->dt, pa + 3 * i) > 0));
+    }
+    mine[0] += want[i] != pd->contact_k[i];
+    mine[1] += want[i];
+  }
+  if (prev) PetscCall(VecRestoreArrayRead(prev, &pa));
+  PetscCall(VecRestoreArrayRead(x, &xa));
+  PetscCallMPI(MPI_Allreduce(mine, all, 2, MPIU_INT, MPI_SUM, pd->comm));
+  /* a few nodes more or less cost L-BFGS less than a refactorization */
+  if (all[0] > (active ? pd->contact_set_tol * all[1] : 0)) {
+    PetscCall(PetscArraycpy(pd->contact_k, want, L->nEnd - L->nStart));
+    pd->kset = PETSC_FALSE;
+    PetscCall(VKPDSetUp(pd));
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *st)
 {
   PetscLogDouble t0 = VKWallTime();
@@ -460,6 +498,7 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
     PetscCall(VecRestoreArray(x, &xa));
   }
   PetscCall(VKPDApplyHandles(pd, t, x));
+  PetscCall(UpdateContactSet(pd, t, x, prev));
   PetscCall(InertialTarget(pd, y));
   pd->t    = t;
   pd->prev = prev;

@@ -49,14 +49,19 @@ struct _n_VKPD {
   /* colliders (DESIGN §7): every free owned node carries the PD constraint
    * w_i/2 |x_i - P(x_i)|^2, P the projection out of the colliders with
    * Coulomb friction relative to the node's position at the start of the
-   * step; w_i = contact_weight * K_ii is in K, so K stays constant.
-   * contact[i] is set when x_i is inside a collider. */
+   * step; w_i = contact_weight * K_ii.  K holds w_i where contact_k[i]:
+   * with -pd_contact_active_set (L-BFGS only) on the nodes in contact at
+   * the start of the step or at its first guess, K reassembled and
+   * refactored when that set changes; otherwise on every free node, so K
+   * stays constant.  contact[i] is set when x_i is inside a collider. */
   PetscReal  contact_weight;
+  PetscBool  contact_active;
+  PetscReal  contact_set_tol; /* refactor when more than this fraction of the contact set changed */
   char       prefix[64]; /* options prefix (VKPDSetOptionsPrefix) */
   PetscObjectState mat_state; /* of the material K was assembled with */
   VKPDHandleNodes handle_nodes;
   PetscReal *contact_w;
-  PetscBool *contact;
+  PetscBool *contact, *contact_k, *contact_want; /* contact_want: work of pd_solve.c */
   PetscReal  t;    /* time of the current solve (handles, moving colliders) */
   Vec        prev; /* start of the step (friction reference), or NULL */
   PetscReal *tetW; /* per owned tet: W of its last SVD (warm start) */
@@ -84,6 +89,13 @@ struct _n_VKPD {
   PetscInt   hist_n, hist_cap;
   PetscBool  setup, kset;
 };
+
+/* Whether K follows the contact set (-pd_contact_active_set) or holds
+ * every free node's collider weight. */
+static inline PetscBool VKPDContactActiveSet(VKPD pd)
+{
+  return (PetscBool)(pd->contact_active && pd->type == VK_PD_TYPE_LBFGS && pd->ncolliders > 0);
+}
 
 /* The factor of M/dt^2 in Phi, K and the Hessian: 0 in a static solve,
  * else 1 + c dt with c the scene's damping. */
