@@ -184,7 +184,8 @@ PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
       PetscCall(VKYLSKeepRest(y, &d));
       PetscCall(VKYarnGetProperties(y, &radius, NULL, &contact_radius));
       PetscCall(VKYarnGetComm(y, &comm));
-      PetscCall(PetscPrintf(comm, "volknit yarn: the tiled patch is the relaxed rest state (not relaxed again): contact radius %.4f r, closest axes %.4f x 2r\n", (double)(contact_radius / radius), (double)PetscMin(d, 1e9)));
+      if (d < 1) PetscCall(PetscPrintf(comm, "volknit yarn: the tiled patch is the relaxed rest state (not relaxed again): contact radius %.4f r, closest axes %.4f x 2r\n", (double)(contact_radius / radius), (double)d));
+      else PetscCall(PetscPrintf(comm, "volknit yarn: the tiled patch is the relaxed rest state (not relaxed again): contact radius %.4f r, no two axes closer than 2r\n", (double)(contact_radius / radius)));
     }
     PetscCall(VKYarnGetComm(y, &comm));
     PetscCall(VKYarnGetSource(y, &source, NULL, NULL, &estimated));

@@ -16,8 +16,10 @@
  *             discrete elastic rod of zero rest curvature: an isotropic,
  *             straight rod, whose twist decouples and stays zero);
  *   contact   k_c L_a L_b sum w w f(d / 2r) per pair of edges (a, b + tile
- *             t), t over the 3 x 3 neighbouring tiles, pairs that touch by
- *             construction (within 4 r of yarn) excluded as in the model.
+ *             t), t over every tile whose copy can come within reach (a
+ *             loop taller than its period meets copies two tiles away),
+ *             pairs that touch by construction (within 4 r of yarn)
+ *             excluded as in the model.
  * The minimum is found by Newton (element Hessians projected PSD, a
  * Levenberg-Marquardt shift when the factorization fails, steps capped at
  * a quarter radius per vertex, backtracking on the energy) with vertex 0

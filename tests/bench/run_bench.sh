@@ -217,7 +217,7 @@ knit_row() { # pattern, mode (patch | periodic), chart columns, rows
     echo "| $1 | $2 | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-100) | - | - | - | - |"
   fi
 }
-for pat in "stockinette 1 1" "rib1x1 2 1" "seed 2 2"; do set -- $pat; knit_row "$1" patch "$2" "$3"; knit_row "$1" periodic "$2" "$3"; done
+for pat in "stockinette 1 1" "rib1x1 2 1"; do set -- $pat; knit_row "$1" patch "$2" "$3"; knit_row "$1" periodic "$2" "$3"; done
 echo
 echo "Rows produced by:"
 cat "$out/commands"
