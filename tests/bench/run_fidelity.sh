@@ -14,7 +14,10 @@
 #      (default: all) at once (-fit_loss trajectory -fit_joint, options
 #      FID_JOINT_OPTS) and run on each scene ("fitted_jointly", or
 #      "fitted_jointly_held_out" on a scene it was not fitted to);
-#   5. volknit report on all of them; a Markdown table on stdout.
+#   5. with FID_FTOLS (e.g. "1e-2 3e-2 1e-1"), the best uniform and the own
+#      fit again at each of those -pd_ftol (default 1e-3): error against
+#      run time, for the report's log-log plot;
+#   6. volknit report on all of them; a Markdown table on stdout.
 # Sizes from the environment: FID_PATTERNS (rib1x1), FID_WALES x FID_COURSES
 # (8 x 7, about 2K yarn vertices), FID_SCENES (hang stretch drape twist),
 # FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
@@ -48,6 +51,7 @@ TAG=${FID_TAG:-}
 JOINT=${FID_JOINT:-0}
 JOINT_OPTS=${FID_JOINT_OPTS:--fit_harmonic 1,10 -fit_gn_its 15}
 JOINT_SCENES=${FID_JOINT_SCENES:-$SCENES}
+FTOLS=${FID_FTOLS:-}
 top=out/fidelity
 YLS_MODEL=$(sed -n 's/^#define VK_YLS_MODEL "\(.*\)"$/\1/p' include/vkyls.h) # the model bin/volknit was built with
 [ -n "$YLS_MODEL" ] || { echo "run_fidelity.sh: VK_YLS_MODEL not found in include/vkyls.h"; exit 1; }
@@ -124,6 +128,16 @@ for pat in $PATTERNS; do
       [ -s "$(sdir "$f")/fit$TAG/material.h5" ] || continue
       sim_run "$(sdir "$s")/fit_$f$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$f")/fit$TAG/material.h5"
       runs="$runs,$(sdir "$s")/fit_$f$TAG"; labels="$labels,fitted_on_$f"
+    done
+    for ft in $FTOLS; do # error against run time: the best uniform and the own fit at looser PD tolerances
+      if [ -s "$(sdir "$s")/best_uniform$TAG/material.h5" ]; then
+        sim_run "$(sdir "$s")/ubest_ftol$ft$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$s")/best_uniform$TAG/material.h5" -pd_ftol "$ft"
+        runs="$runs,$(sdir "$s")/ubest_ftol$ft$TAG"; labels="$labels,best_uniform_searched_ftol_$ft"
+      fi
+      if [ -s "$(sdir "$s")/fit$TAG/material.h5" ]; then
+        sim_run "$(sdir "$s")/fit_${s}_ftol$ft$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$s")/fit$TAG/material.h5" -pd_ftol "$ft"
+        runs="$runs,$(sdir "$s")/fit_${s}_ftol$ft$TAG"; labels="$labels,fitted_on_${s}_ftol_$ft"
+      fi
     done
     if [ "$JOINT" = 1 ] && [ -s "$joint/material.h5" ]; then
       sim_run "$(sdir "$s")/fit_joint$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$joint/material.h5"
