@@ -112,9 +112,12 @@ PETSC_EXTERN PetscErrorCode VKSegmentPiecesFree(VKSegmentPieces *);
 
 /* Distributed objects over the layout: a ghosted node vector with block
  * size bs, and an AIJ (bs 1) or BAIJ (bs 3) matrix preallocated for the
- * node adjacency with the local-to-global map set (MatSetValuesLocal). */
+ * node adjacency with the local-to-global map set (MatSetValuesLocal);
+ * VKMeshCreateNodeMatAIJ: bs 3 as AIJ with block size 3 (what MUMPS's
+ * Cholesky takes). */
 PETSC_EXTERN PetscErrorCode VKMeshCreateNodeVec(VKMesh, PetscInt bs, Vec *);
 PETSC_EXTERN PetscErrorCode VKMeshCreateNodeMat(VKMesh, PetscInt bs, Mat *);
+PETSC_EXTERN PetscErrorCode VKMeshCreateNodeMatAIJ(VKMesh, PetscInt bs, Mat *);
 
 /* mesh.h5 (with the yarn model inside), mesh.xdmf, mesh.json into dir */
 PETSC_EXTERN PetscErrorCode VKMeshWriteOutputs(VKMesh, const char dir[]);

@@ -110,7 +110,7 @@ PetscErrorCode VKMeshCreateNodeVec(VKMesh m, PetscInt bs, Vec *v)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKMeshCreateNodeMat(VKMesh m, PetscInt bs, Mat *A)
+static PetscErrorCode CreateNodeMat(VKMesh m, PetscInt bs, PetscBool aij, Mat *A)
 {
   VKLayout              *L    = &m->layout;
   PetscInt               nown = L->nEnd - L->nStart;
@@ -125,6 +125,10 @@ PetscErrorCode VKMeshCreateNodeMat(VKMesh m, PetscInt bs, Mat *A)
     PetscCall(MatSetType(*A, MATAIJ));
     PetscCall(MatSeqAIJSetPreallocation(*A, 0, L->d_nnz));
     PetscCall(MatMPIAIJSetPreallocation(*A, 0, L->d_nnz, 0, L->o_nnz));
+  } else if (aij) { /* d_nnz, o_nnz count blocks */
+    PetscCall(MatSetType(*A, MATAIJ));
+    PetscCall(MatSetBlockSize(*A, bs));
+    PetscCall(MatXAIJSetPreallocation(*A, bs, L->d_nnz, L->o_nnz, NULL, NULL));
   } else {
     PetscCall(MatSetType(*A, MATBAIJ));
     PetscCall(MatSetBlockSize(*A, bs));
@@ -137,5 +141,19 @@ PetscErrorCode VKMeshCreateNodeMat(VKMesh m, PetscInt bs, Mat *A)
   PetscCall(MatSetLocalToGlobalMapping(*A, map, map));
   PetscCall(ISLocalToGlobalMappingDestroy(&map));
   PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMeshCreateNodeMat(VKMesh m, PetscInt bs, Mat *A)
+{
+  PetscFunctionBegin;
+  PetscCall(CreateNodeMat(m, bs, PETSC_FALSE, A));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMeshCreateNodeMatAIJ(VKMesh m, PetscInt bs, Mat *A)
+{
+  PetscFunctionBegin;
+  PetscCall(CreateNodeMat(m, bs, PETSC_TRUE, A));
   PetscFunctionReturn(0);
 }

@@ -88,6 +88,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(MatDestroy(&pd->B));
   PetscCall(MatDestroy(&pd->X));
   PetscCall(MatDestroy(&pd->H));
+  PetscCall(MatDestroy(&pd->Hp));
   PetscCall(KSPDestroy(&pd->ksp));
   PetscCall(SNESDestroy(&pd->snes));
   PetscCall(KSPDestroy(&pd->pksp));

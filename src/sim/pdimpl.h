@@ -79,6 +79,7 @@ struct _n_VKPD {
   /* Newton: polish (SNES) and the projected Newton L-BFGS hands over to */
   PetscInt  lbfgs_switch; /* L-BFGS iterations before projected Newton takes over (0: never) */
   KSP       pksp;
+  Mat       Hp; /* projected Newton's SPD Hessian (AIJ, for MUMPS's Cholesky) */
   SNES      snes;
   Mat       H;
   Vec       hdiag; /* diagonal added to the material Hessian: inertia M/dt^2 + contact weights */
