@@ -147,7 +147,11 @@ PetscErrorCode VKKnitCell(const VKKnitChart *chart, const VKKnitParams *p, Petsc
       sd[0] = 0;
       for (PetscInt i = 1; i <= nd; i++) sd[i] = sd[i - 1] + PetscSqrtReal(PetscSqr(xd[3 * i] - xd[3 * i - 3]) + PetscSqr(xd[3 * i + 1] - xd[3 * i - 2]) + PetscSqr(xd[3 * i + 2] - xd[3 * i - 1]));
       n = (PetscInt)PetscCeilReal(sd[nd] / spacing * (1 - 1e-12));
-      PetscCheck(n >= 4 * chart->cols, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment length %g is too long for the knit cell: a loop of yarn length %g needs at least 4 segments", (double)spacing, (double)(sd[nd] / chart->cols));
+      if (n < 4 * chart->cols) {
+        PetscReal loop = sd[nd] / chart->cols;
+        PetscCall(PetscFree2(xd, sd));
+        SETERRQ(PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Segment length %g is too long for the knit cell: a loop of yarn length %g needs at least 4 segments", (double)spacing, (double)loop);
+      }
       if (pass == 1)
         for (PetscInt i = 0, seg = 0; i < n; i++) {
           PetscReal s = sd[nd] * i / n, f;
