@@ -104,6 +104,42 @@ PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
  * relaxation stages), and tiled in place of the file's or the chart's
  * loops as it is (not resampled, so that the patch keeps the cell's
  * contacts exactly). */
+/* The cell of a knit or pyp source, refined, relaxed and handed to the
+ * yarn; every rank computes the same, and meets the same errors. */
+static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[], VKPyp *cell, VKYLSPeriodicParams *p, VKYLSPeriodicStats *st)
+{
+  MPI_Comm comm;
+
+  PetscFunctionBegin;
+  PetscCall(VKYarnGetComm(y, &comm));
+  if (source == VK_YARN_CHART) {
+    PetscReal radius;
+    PetscCall(VKYarnGetProperties(y, &radius, NULL, NULL));
+    PetscCall(VKYarnGetKnitCell(y, cell));
+    PetscCall(VKYLSPeriodicParamsFromOptions(comm, radius, p));
+  } else {
+    char          *buf;
+    size_t         len;
+    PetscErrorCode ierr;
+    PetscReal      scale = 1, radius = 0, seglen = 0;
+    PetscCall(VKReadFileBroadcast(comm, file, &buf, &len));
+    ierr = VKPypParse(buf, len, file, cell);
+    PetscCall(PetscFree(buf));
+    PetscCall(ierr);
+    /* in the file's units: -yarn_scale multiplies them afterwards */
+    PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_scale", &scale, NULL));
+    PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_radius", &radius, NULL));
+    PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_segment_length", &seglen, NULL));
+    radius = radius > 0 ? radius / scale : cell->radius;
+    seglen = seglen > 0 ? seglen / scale : radius;
+    PetscCall(VKPypRefine(cell, seglen));
+    PetscCall(VKYLSPeriodicParamsFromOptions(comm, radius, p));
+  }
+  PetscCall(VKYLSRelaxPeriodic(cell, p, st));
+  PetscCall(VKYarnSetPypCell(y, cell, PETSC_TRUE, "relaxed periodically"));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done)
 {
   PetscBool           relax = PETSC_FALSE;
@@ -126,34 +162,13 @@ static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done)
   if (!relax) PetscFunctionReturn(0);
   PetscCall(VKYarnGetSource(y, &source, &file, NULL, NULL));
   PetscCheck(source == VK_YARN_PYP || source == VK_YARN_CHART, comm, PETSC_ERR_ARG_INCOMP, "-yarn_relax_periodic relaxes a periodic cell: give it with -yarn_pyp FILE, or a knit pattern (-yarn_pattern, -yarn_chart)");
-  if (source == VK_YARN_CHART) {
-    PetscReal radius;
-    PetscCall(PetscSNPrintf(what, sizeof(what), "the knit chart's repeat"));
-    PetscCall(VKYarnGetProperties(y, &radius, NULL, NULL));
-    ierr = VKYarnGetKnitCell(y, &cell);
-    if (!ierr) ierr = VKYLSPeriodicParamsFromOptions(comm, radius, &p);
-  } else {
-    char  *buf;
-    size_t len;
-    PetscCall(PetscSNPrintf(what, sizeof(what), "the pyp cell %s", file));
-    PetscCall(VKReadFileBroadcast(comm, file, &buf, &len));
-    ierr = VKPypParse(buf, len, file, &cell);
-    PetscCall(PetscFree(buf));
-    if (!ierr) { /* in the file's units: -yarn_scale multiplies them afterwards */
-      PetscReal scale = 1, radius = 0, seglen = 0;
-      PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_scale", &scale, NULL));
-      PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_radius", &radius, NULL));
-      PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_segment_length", &seglen, NULL));
-      radius = radius > 0 ? radius / scale : cell.radius;
-      seglen = seglen > 0 ? seglen / scale : radius;
-      ierr   = VKPypRefine(&cell, seglen);
-      if (!ierr) ierr = VKYLSPeriodicParamsFromOptions(comm, radius, &p);
-    }
-  }
-  if (!ierr) ierr = VKYLSRelaxPeriodic(&cell, &p, &st);
-  if (!ierr) ierr = VKYarnSetPypCell(y, &cell, PETSC_TRUE, "relaxed periodically");
+  if (source == VK_YARN_CHART) PetscCall(PetscSNPrintf(what, sizeof(what), "the knit chart's repeat"));
+  else PetscCall(PetscSNPrintf(what, sizeof(what), "the pyp cell %s", file));
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+  ierr = RelaxCell(y, source, file, &cell, &p, &st);
+  PetscCall(PetscPopErrorHandler());
   PetscCall(VKPypFree(&cell));
-  PetscCall(ierr);
+  VKCallCollective(comm, ierr); /* every rank met the same error: say it once */
   if (!st.full_radius) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "WARNING: the periodic relaxation stopped raising the contact radius with the closest axes at %.4f x 2r: the tiled patch honours a contact radius under r\n", (double)st.dmin_over_2r));
   PetscCall(PetscPrintf(comm, "volknit yarn: relaxed %s periodically: %d Newton iterations in %d stages (contact radius %.3g r to %.4f r), periods %g x %g -> %g x %g m, closest axes %.4f x 2r, largest force %.2e N (%.2f s)\n", what, (int)st.iterations, (int)st.stages, (double)(st.radius_start / p.radius), (double)(st.contact_radius / p.radius), (double)st.period0[0], (double)st.period0[1], (double)st.period[0], (double)st.period[1], (double)st.dmin_over_2r, (double)st.residual, st.time));
   PetscFunctionReturn(0);
