@@ -8,9 +8,10 @@
  * and the handle correction of the right-hand side.  With colliders, each
  * free node's constraint weight w_i = -pd_contact_weight K_ii is added to
  * the diagonal: with L-BFGS on the nodes in contact at the start of the
- * step or at its first guess (-pd_contact_active_set, pd_solve.c: K
- * reassembled when that set changes; a node that comes into contact
- * during the solve is left to L-BFGS, whose gradient holds its weight),
+ * step or at its first guess (-pd_contact_active_set, pd_solve.c: K's
+ * diagonal updated and Kel refactored when that set changes; a node that
+ * comes into contact during the solve is left to L-BFGS, whose gradient
+ * holds its weight),
  * otherwise on every free node, whether or not it touches a collider, so
  * the factor survives changes of the contact set (plain PD's fixed point
  * needs the weight in K).  VKPDSetStatic drops M/dt^2 (a
@@ -29,6 +30,7 @@ const char *VKPDReasonName(VKPDReason r)
 
 const char *const VKPDTypes[] = {"pd", "lbfgs", "VKPDType", "VK_PD_TYPE_", NULL};
 static PetscErrorCode SubSolverPrefixes(VKPD);
+static PetscErrorCode FactorKel(VKPD);
 
 const char *const VKPDHandleNodesTypes[] = {"embedded", "box", "VKPDHandleNodes", "VK_PD_HANDLE_", NULL};
 
@@ -343,7 +345,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsBool("-pd_fixed_its", "Run exactly -pd_max_it iterations and measure no residual (status 'unmeasured')", "VKPDSolve", pd->fixed_its, &pd->fixed_its, NULL));
   PetscCall(VKOptionsRangeInt("-pd_lbfgs_m", "L-BFGS history length (-pd_type lbfgs)", "VKPDSolve", pd->lbfgs_m, &pd->lbfgs_m, NULL, 1, PETSC_MAX_INT));
   PetscCall(VKOptionsRangeInt("-pd_lbfgs_switch", "L-BFGS iterations after which projected Newton (PSD-projected exact Hessian, KSP prefix -pd_pnewton_) finishes the solve (0: never)", "VKPDSolve", pd->lbfgs_switch, &pd->lbfgs_switch, NULL, 0, PETSC_MAX_INT));
-  PetscCall(PetscOptionsBool("-pd_contact_active_set", "With colliders and -pd_type lbfgs, K holds the collider weight only on the nodes in contact at the start of the step or at its first guess, reassembled and refactored when that set changes (false: on every free node, factored once)", "VKPDSolve", pd->contact_active, &pd->contact_active, NULL));
+  PetscCall(PetscOptionsBool("-pd_contact_active_set", "With colliders and -pd_type lbfgs, K holds the collider weight only on the nodes in contact at the start of the step or at its first guess, its diagonal updated and refactored when that set changes (false: on every free node, factored once)", "VKPDSolve", pd->contact_active, &pd->contact_active, NULL));
   PetscCall(PetscOptionsReal("-pd_contact_set_tol", "With -pd_contact_active_set, K is refactored when more than this fraction of the contact set changed since it was built (0: at every change)", "VKPDSolve", pd->contact_set_tol, &pd->contact_set_tol, NULL));
   PetscCall(PetscOptionsBool("-pd_monitor", "Print Phi and |grad Phi| at every PD iteration", "VKPDSolve", pd->monitor, &pd->monitor, NULL));
   PetscCall(PetscOptionsReal("-pd_chebyshev_rho", "Spectral radius estimate for Chebyshev acceleration of the PD iterations (0: off; Wang 2015)", "VKPDSolve", pd->cheb_rho, &pd->cheb_rho, NULL));
@@ -653,6 +655,43 @@ static PetscErrorCode AssembleK(VKPD pd)
   else PetscCall(MatDuplicate(pd->K, MAT_COPY_VALUES, &pd->Kel));
   PetscCallMPI(MPI_Allreduce(&pd->nhandle, &pd->nhandle_total, 1, MPIU_INT, MPI_SUM, pd->comm));
   PetscCall(MatZeroRowsColumns(pd->Kel, pd->nhandle, pd->handle_row, pd->kdiag, NULL, NULL));
+  PetscCall(FactorKel(pd));
+  PetscCall(VKMaterialGetState(pd->mat, &pd->mat_state));
+  pd->kset = PETSC_TRUE;
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDSetUp, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* The collider weights K holds become those of want[] (per owned node):
+ * only the diagonals of K and Kel change (eliminated rows carry none),
+ * then Kel is refactored. */
+PetscErrorCode VKPDSetContactSet(VKPD pd, const PetscBool want[])
+{
+  const VKLayout *L = VKMeshLayout(pd->mesh);
+  Vec             d;
+  PetscScalar    *da;
+
+  PetscFunctionBegin;
+  PetscCall(PetscLogEventBegin(VK_EVENT_PDSetUp, 0, 0, 0, 0));
+  PetscCall(MatCreateVecs(pd->K, &d, NULL));
+  PetscCall(VecGetArray(d, &da));
+  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++) {
+    da[i]            = ((PetscReal)want[i] - (PetscReal)pd->contact_k[i]) * pd->contact_w[i];
+    pd->contact_k[i] = want[i];
+  }
+  PetscCall(VecRestoreArray(d, &da));
+  PetscCall(MatDiagonalSet(pd->K, d, ADD_VALUES));
+  PetscCall(MatDiagonalSet(pd->Kel, d, ADD_VALUES));
+  PetscCall(VecDestroy(&d));
+  PetscCall(FactorKel(pd));
+  PetscCall(PetscLogEventEnd(VK_EVENT_PDSetUp, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+/* Kel to the global KSP and factored (PC cms: its changed domains). */
+static PetscErrorCode FactorKel(VKPD pd)
+{
+  PetscFunctionBegin;
   PetscCall(MatSetOption(pd->Kel, MAT_SPD, PETSC_TRUE));
   PetscCall(KSPSetOperators(pd->ksp, pd->Kel, pd->Kel));
   PetscCall(SetCMSDomains(pd));
@@ -669,9 +708,6 @@ static PetscErrorCode AssembleK(VKPD pd)
     PetscCall(PCGetType(pc, &type));
     PetscCheck(!any, pd->comm, PETSC_ERR_LIB, "PD set-up: the global solver (PC %s, prefix -%spd_global_) failed to set up: %s. Run with -info to see the factorization's message", type, pd->prefix, PCFailedReasons[any]);
   }
-  PetscCall(VKMaterialGetState(pd->mat, &pd->mat_state));
-  pd->kset = PETSC_TRUE;
-  PetscCall(PetscLogEventEnd(VK_EVENT_PDSetUp, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
 

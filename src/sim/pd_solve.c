@@ -432,7 +432,8 @@ static PetscErrorCode IteratePD(VKPD pd, Vec y, Vec x, Vec prev, VKPDStats *st)
 /* With -pd_contact_active_set, K holds the collider weight of the free
  * nodes inside a collider at the start of the step (prev, the colliders
  * at t - dt) or at the first guess x (at t), where friction and the
- * penalty act; when that set changes, K is reassembled and refactored.
+ * penalty act; when that set changes, K's diagonal is updated and Kel
+ * refactored.
  * Otherwise K holds every free node's weight (set by AssembleK). */
 static PetscErrorCode UpdateContactSet(VKPD pd, PetscReal t, Vec x, Vec prev)
 {
@@ -459,11 +460,7 @@ static PetscErrorCode UpdateContactSet(VKPD pd, PetscReal t, Vec x, Vec prev)
   PetscCall(VecRestoreArrayRead(x, &xa));
   PetscCallMPI(MPI_Allreduce(mine, all, 2, MPIU_INT, MPI_SUM, pd->comm));
   /* a few nodes more or less cost L-BFGS less than a refactorization */
-  if (all[0] > (active ? pd->contact_set_tol * all[1] : 0)) {
-    PetscCall(PetscArraycpy(pd->contact_k, want, L->nEnd - L->nStart));
-    pd->kset = PETSC_FALSE;
-    PetscCall(VKPDSetUp(pd));
-  }
+  if (all[0] > (active ? pd->contact_set_tol * all[1] : 0)) PetscCall(VKPDSetContactSet(pd, want));
   PetscFunctionReturn(0);
 }
 

@@ -51,7 +51,7 @@ struct _n_VKPD {
    * Coulomb friction relative to the node's position at the start of the
    * step; w_i = contact_weight * K_ii.  K holds w_i where contact_k[i]:
    * with -pd_contact_active_set (L-BFGS only) on the nodes in contact at
-   * the start of the step or at its first guess, K reassembled and
+   * the start of the step or at its first guess, K's diagonal updated and
    * refactored when that set changes; otherwise on every free node, so K
    * stays constant.  contact[i] is set when x_i is inside a collider. */
   PetscReal  contact_weight;
@@ -125,4 +125,7 @@ PETSC_INTERN PetscErrorCode VKPDIterateProjectedNewton(VKPD, Vec y, Vec x, Petsc
  * its energy, gradient g[3] and (H not NULL) PSD Hessian H[9]; prev: the
  * node at the start of the step (NULL: no friction); *inside: x is inside
  * a collider. */
+/* K and Kel hold the collider weight of the owned nodes of want[] from
+ * now on (their diagonals changed, Kel refactored; pd_solve.c). */
+PETSC_INTERN PetscErrorCode VKPDSetContactSet(VKPD, const PetscBool want[]);
 PETSC_INTERN PetscReal VKPDNodeContact(VKPD, PetscInt i, const PetscReal x[], const PetscReal prev[], PetscReal g[], PetscReal H[], PetscBool *inside);
