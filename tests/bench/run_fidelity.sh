@@ -9,7 +9,9 @@
 #      trajectory loss (g_s and g_v apart, as volknit run's best_uniform;
 #      the baseline a fit must beat, with the grid's best), and the
 #      material fitted on the scene's own frames (training error);
-#   3. the materials fitted on the other scenes (held-out error, paper §8.6);
+#   3. the materials fitted on the other scenes (held-out error, paper §8.6),
+#      beside the best uniform materials searched on those scenes (the
+#      baseline each of them must beat held out: "best_uniform_of_<scene>");
 #   4. with FID_JOINT=1, one material fitted to the scenes FID_JOINT_SCENES
 #      (default: all) at once (-fit_loss trajectory -fit_joint, options
 #      FID_JOINT_OPTS) and run on each scene ("fitted_jointly", or
@@ -124,6 +126,11 @@ for pat in $PATTERNS; do
       sim_run "$(sdir "$s")/ubest$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$s")/best_uniform$TAG/material.h5"
       runs="$runs,$(sdir "$s")/ubest$TAG"; labels="$labels,best_uniform_searched"
     fi
+    for f in $SCENES; do # the held-out baseline: the uniform material searched on another scene's data
+      [ "$f" != "$s" ] && [ -s "$(sdir "$f")/best_uniform$TAG/material.h5" ] || continue
+      sim_run "$(sdir "$s")/ubest_$f$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$f")/best_uniform$TAG/material.h5"
+      runs="$runs,$(sdir "$s")/ubest_$f$TAG"; labels="$labels,best_uniform_of_$f"
+    done
     for f in $SCENES; do
       [ -s "$(sdir "$f")/fit$TAG/material.h5" ] || continue
       sim_run "$(sdir "$s")/fit_$f$TAG" -options_file "options/$s.opts" -scene_duration "$(dur "$s")" -mat_file "$(sdir "$f")/fit$TAG/material.h5"
