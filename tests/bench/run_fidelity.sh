@@ -19,7 +19,9 @@
 #   5. with FID_FTOLS (e.g. "1e-2 3e-2 1e-1"), the best uniform and the own
 #      fit again at each of those -pd_ftol (default 1e-3): error against
 #      run time, for the report's log-log plot;
-#   6. volknit report on all of them; a Markdown table on stdout.
+#   6. volknit report on all of them; a Markdown table on stdout, with
+#      per scene each held-out fit against the uniform searched on the
+#      fit's own training scene ("held out: ... fit better / uniform better").
 # Sizes from the environment: FID_PATTERNS (rib1x1), FID_WALES x FID_COURSES
 # (8 x 7, about 2K yarn vertices), FID_SCENES (hang stretch drape twist),
 # FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
@@ -169,14 +171,20 @@ for pat in $PATTERNS; do
     j="$(sdir "$s")/report$TAG/report.json"
     [ -s "$j" ] || { echo "| $pat | $s | (no report: see $(sdir "$s")/report$TAG.log) | | | | | |"; continue; }
     n=$(grep -c '"label"' "$j")
-    best=""; bestrel=""
+    best=""; bestrel=""; declare -A relof=()
     for i in $(seq 1 "$n"); do
-      label=$(json "$j" label "$i" | tr -d '"'); rel=$(json "$j" rel "$i"); fl=$(json "$j" floor_rel "$i")
+      label=$(json "$j" label "$i" | tr -d '"'); rel=$(json "$j" rel "$i"); fl=$(json "$j" floor_rel "$i"); relof[$label]=$rel
       mx=$(json "$j" max_error_r "$i"); ps=$(json "$j" wall_time_per_simulated_second "$((i + 1))"); sp=$(json "$j" speedup "$i")
       printf '| %s | %s | %s | %.3f | %.3f | %.1f | %.3g | %.0f |\n' "$pat" "$s" "$label" "$rel" "$fl" "$mx" "$ps" "$sp"
       case "$label" in uniform*|best_uniform*) if [ -z "$bestrel" ] || awk "BEGIN{exit !($rel < $bestrel)}"; then best=$label; bestrel=$rel; fi ;; esac
     done
     echo "| $pat | $s | best uniform: $best | $(printf %.3f "$bestrel") | | | | |"
+    for f in $SCENES; do # held out: the fit on f against the uniform searched on f, both run on s
+      [ "$f" != "$s" ] && [ -n "${relof[fitted_on_$f]:-}" ] && [ -n "${relof[best_uniform_of_$f]:-}" ] || continue
+      a=${relof[fitted_on_$f]}; b=${relof[best_uniform_of_$f]}
+      echo "| $pat | $s | held out: fitted_on_$f against best_uniform_of_$f | $(printf %.3f "$a") against $(printf %.3f "$b"): $(awk "BEGIN{print ($a < $b) ? \"fit better\" : (($a > $b) ? \"uniform better\" : \"equal\")}") | | | | |"
+    done
+    unset relof
   done
 done
 echo
