@@ -181,8 +181,8 @@ for pat in $PATTERNS; do
     echo "| $pat | $s | best uniform: $best | $(printf %.3f "$bestrel") | | | | |"
     for f in $SCENES; do # held out: the fit on f against the uniform searched on f, both run on s
       [ "$f" != "$s" ] && [ -n "${relof[fitted_on_$f]:-}" ] && [ -n "${relof[best_uniform_of_$f]:-}" ] || continue
-      a=${relof[fitted_on_$f]}; b=${relof[best_uniform_of_$f]}
-      echo "| $pat | $s | held out: fitted_on_$f against best_uniform_of_$f | $(printf %.3f "$a") against $(printf %.3f "$b"): $(awk "BEGIN{print ($a < $b) ? \"fit better\" : (($a > $b) ? \"uniform better\" : \"equal\")}") | | | | |"
+      a=$(printf %.3f "${relof[fitted_on_$f]}"); b=$(printf %.3f "${relof[best_uniform_of_$f]}") # compared as printed
+      echo "| $pat | $s | held out: fitted_on_$f against best_uniform_of_$f | $a against $b: $(awk "BEGIN{print ($a < $b) ? \"fit better\" : (($a > $b) ? \"uniform better\" : \"equal\")}") | | | | |"
     done
     unset relof
   done
