@@ -184,7 +184,6 @@ for pat in $PATTERNS; do
       a=$(printf %.3f "${relof[fitted_on_$f]}"); b=$(printf %.3f "${relof[best_uniform_of_$f]}") # compared as printed
       echo "| $pat | $s | held out: fitted_on_$f against best_uniform_of_$f | $a against $b: $(awk "BEGIN{print ($a < $b) ? \"fit better\" : (($a > $b) ? \"uniform better\" : \"equal\")}") | | | | |"
     done
-    unset relof
   done
 done
 echo
