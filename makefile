@@ -25,8 +25,12 @@ WARN      := -Wall -Wextra $(if $(WERROR),-Werror)
 # Evaluated lazily so that `make run` can install the packages first.
 PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS))
 PKG_LIBS   = $(shell pkg-config --libs $(PKGS))
-CFLAGS     = $(CSTD) $(OPT) $(ARCH) $(WARN) -Iinclude $(PKG_CFLAGS)
-LDLIBS     = $(PKG_LIBS) -lmetis -lm
+# CHOLMOD (SuiteSparse, which Debian's PETSc is built with), called directly
+# by the PC subtrees (src/sim/pc_subtrees.c).
+SUITESPARSE_CFLAGS ?= -I/usr/include/suitesparse
+SUITESPARSE_LIBS   ?= -lcholmod -lsuitesparseconfig
+CFLAGS     = $(CSTD) $(OPT) $(ARCH) $(WARN) -Iinclude $(PKG_CFLAGS) $(SUITESPARSE_CFLAGS)
+LDLIBS     = $(PKG_LIBS) $(SUITESPARSE_LIBS) -lmetis -lm
 MPIEXEC   ?= mpiexec
 FUZZ_TIME ?= 60
 
@@ -124,8 +128,8 @@ bin/examples/%: examples/%.c $(LIB)
 # libFuzzer targets: the library sources again, built once with clang and
 # sanitizers into their own archive, then one binary per reader.
 FUZZ_SAN    = address,undefined
-FUZZ_CFLAGS = $(CSTD) -O1 -g -Iinclude -Isrc -Ibuild $(PKG_CFLAGS) $(shell mpicc --showme:compile)
-FUZZ_LIBS   = $(PKG_LIBS) $(shell mpicc --showme:link) -lmetis -lm
+FUZZ_CFLAGS = $(CSTD) -O1 -g -Iinclude -Isrc -Ibuild $(PKG_CFLAGS) $(SUITESPARSE_CFLAGS) $(shell mpicc --showme:compile)
+FUZZ_LIBS   = $(PKG_LIBS) $(SUITESPARSE_LIBS) $(shell mpicc --showme:link) -lmetis -lm
 FUZZ_OBJ   := $(LIB_SRC:src/%.c=build/fuzz/%.o)
 FUZZ_LIB   := lib/libvolknit_fuzz.a
 build/fuzz/%.o: src/%.c

@@ -44,6 +44,14 @@
  * factorization of the whole operator (registered by VKPDCreate). */
 #define PCCOLUMNS "columns"
 PETSC_EXTERN PetscErrorCode VKPCCreate_Columns(PC);
+/* PC type "subtrees" (pc_subtrees.c): one sparse Cholesky factor split
+ * over the ranks along its elimination tree, each rank keeping and solving
+ * its subtrees and, redundantly, the separators above them (CHOLMOD). */
+#define PCSUBTREES "subtrees"
+PETSC_EXTERN PetscErrorCode VKPCCreate_Subtrees(PC);
+/* After set-up: the entries of the factor's blocks this rank solves with
+ * in its subtrees, in the top (every rank), and in the whole factor. */
+PETSC_EXTERN PetscErrorCode PCSubtreesGetWork(PC, PetscReal *own, PetscReal *top, PetscReal *total);
 /* PC type "cms" (pc_cms.c): component mode synthesis over domains
  * (DESIGN §9), a two-level PCMG whose coarse space holds every boundary
  * row and the lowest interior modes of each domain.  Its domains are
@@ -71,8 +79,8 @@ PETSC_EXTERN PetscErrorCode VKSimInitializePackage(void);
 /* The sequential solver of this rank (after set-up). */
 PETSC_EXTERN PetscErrorCode VKPCColumnsGetKSP(PC, KSP *);
 /* The default solver of a scalar SPD matrix with three right-hand sides
- * (PD's K, the shape fit's A): preonly with PC columns on up to 3 ranks
- * (the coordinates solved concurrently), one distributed MUMPS Cholesky
+ * (PD's K, the shape fit's A): preonly with PC subtrees on up to 3 ranks
+ * (PC columns where PETSc has no CHOLMOD), one distributed MUMPS Cholesky
  * factor beyond. */
 PETSC_EXTERN PetscErrorCode VKKSPSetDirectSolver(KSP);
 

@@ -1,5 +1,5 @@
 /* laplacian.h: the SPD test matrix of the global-step solver tests
- * (test_pc_columns.c, test_pc_cms.c), with the structure of PD's K. */
+ * (test_pc_direct.c, test_pc_cms.c), with the structure of PD's K. */
 #pragma once
 #include <petscmat.h>
 

@@ -1,7 +1,7 @@
 /* package.c: registration of the simulator's PETSc types, as PETSc's own
  * packages do it (KSPInitializePackage registers every KSP and PC type):
- * the TS type "pd" (ts_pd.c) and the PC types "columns" (pc_columns.c)
- * and "cms" (pc_cms.c),
+ * the TS type "pd" (ts_pd.c) and the PC types "columns" (pc_columns.c),
+ * "subtrees" (pc_subtrees.c) and "cms" (pc_cms.c),
  * with volknit's log stages and events.  The driver calls it at start-up,
  * so -help and -ts_type/-pd_global_pc_type know the types before any
  * object exists; VKPDCreate and VKSimCreate call it for library users. */
@@ -24,6 +24,7 @@ PetscErrorCode VKSimInitializePackage(void)
   registered = PETSC_TRUE;
   PetscCall(VKInitializePackage());
   PetscCall(PCRegister(PCCOLUMNS, VKPCCreate_Columns));
+  PetscCall(PCRegister(PCSUBTREES, VKPCCreate_Subtrees));
   PetscCall(PCRegister(PCCMS, VKPCCreate_CMS));
   PetscCall(TSRegister(TSPD, VKTSCreate_PD));
   PetscCall(PetscRegisterFinalize(VKSimFinalizePackage));

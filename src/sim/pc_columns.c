@@ -290,8 +290,13 @@ PetscErrorCode VKKSPSetDirectSolver(KSP ksp)
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)ksp), &size));
   PetscCall(KSPGetPC(ksp, &pc));
-  if (size <= 3) PetscCall(PCSetType(pc, PCCOLUMNS));
-  else {
+  if (size <= 3) {
+#if defined(PETSC_HAVE_SUITESPARSE) && !defined(PETSC_USE_64BIT_INDICES)
+    PetscCall(PCSetType(pc, PCSUBTREES));
+#else
+    PetscCall(PCSetType(pc, PCCOLUMNS));
+#endif
+  } else {
     PetscCall(PCSetType(pc, PCCHOLESKY));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   }

@@ -389,7 +389,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
       if (st) PetscCall(PetscStrcmp(st, MATSOLVERCHOLMOD, &ischolmod));
     }
     PetscCallMPI(MPI_Comm_size(pd->comm, &size));
-    PetscCheck(!ischolmod || size == 1, pd->comm, PETSC_ERR_SUP, "-%spd_global_pc_factor_mat_solver_type cholmod is sequential; with %d ranks use mumps or -%spd_global_pc_type columns", pd->prefix, (int)size, pd->prefix);
+    PetscCheck(!ischolmod || size == 1, pd->comm, PETSC_ERR_SUP, "-%spd_global_pc_factor_mat_solver_type cholmod is sequential; with %d ranks use mumps or -%spd_global_pc_type subtrees (the default on up to 3 ranks)", pd->prefix, (int)size, pd->prefix);
   }
   PetscFunctionReturn(0);
 }

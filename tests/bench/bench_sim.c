@@ -98,10 +98,12 @@ static PetscErrorCode TimeSteps(VKMesh mesh, VKSim sim, PetscInt wales, PetscInt
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCGetType(pc, &pctype));
   {
-    PetscBool factor, columns;
+    PetscBool factor, columns, subtrees;
     PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCCHOLESKY, PCLU, ""));
     PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCOLUMNS, &columns));
+    PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSUBTREES, &subtrees));
     if (factor) PetscCall(PCFactorGetMatSolverType(pc, &solver));
+    else if (subtrees) solver = "cholmod";
     else if (columns) { /* the sequential factor each rank holds */
       KSP sub;
       PC  subpc;

@@ -1,6 +1,7 @@
-/* test_pc_columns.c: the PC type "columns" (src/sim/pc_columns.c), the
- * default global-step solver of PD on up to 3 ranks, on a 3D Laplacian
- * plus a mass term (SPD, the structure of the PD matrix K):
+/* test_pc_direct.c: the exact global-step solvers of PD, the PC types
+ * "columns" (src/sim/pc_columns.c) and "subtrees" (src/sim/pc_subtrees.c),
+ * each on a 3D Laplacian plus a mass term (SPD, the structure of the PD
+ * matrix K):
  *  - KSPMatSolve with 3 and with 5 right-hand sides (more columns than
  *    ranks, uneven split): relative residual |K X - B| / |B| <= 1e-12 per
  *    column, and X equal to the distributed MUMPS solve to 1e-12;
@@ -9,12 +10,19 @@
  *  - after the matrix values change (same pattern, new diagonal shift),
  *    the solve uses the new values (residual again <= 1e-12);
  *  - an indefinite matrix: solved correctly or a reported failure (error
- *    or negative converged reason), never a silent wrong answer.
+ *    or negative converged reason), never a silent wrong answer;
+ * and for subtrees: the factor is split (on more than one rank no rank
+ * solves more than 3/4 of it, and the ranks' parts and the top add up to
+ * the whole), and a matrix whose tree is a forest (block diagonal, more
+ * roots than ranks) and one with fewer rows than ranks are solved.
  * ranks: 1 2 3
  */
 #include <vkpd.h>
 #include "vktest.h"
 #include "laplacian.h"
+
+static PCType      pctype;                     /* the PC under test */
+static const char *matrix = "12^3 Laplacian"; /* and the matrix */
 
 static PetscErrorCode ColumnsKSP(Mat K, KSPType type, KSP *ksp)
 {
@@ -25,7 +33,7 @@ static PetscErrorCode ColumnsKSP(Mat K, KSPType type, KSP *ksp)
   PetscCall(KSPSetOperators(*ksp, K, K));
   PetscCall(KSPSetType(*ksp, type));
   PetscCall(KSPGetPC(*ksp, &pc));
-  PetscCall(PCSetType(pc, PCCOLUMNS));
+  PetscCall(PCSetType(pc, pctype));
   PetscCall(KSPSetTolerances(*ksp, 1e-12, 1e-50, PETSC_DEFAULT, 100));
   PetscCall(KSPSetFromOptions(*ksp));
   PetscFunctionReturn(0);
@@ -73,7 +81,7 @@ static PetscErrorCode TestMatSolve(Mat K, PetscInt ncols)
   PetscCall(ColumnsKSP(K, KSPPREONLY, &ksp));
   PetscCall(KSPMatSolve(ksp, B, X));
   PetscCall(WorstResidual(K, B, X, &worst));
-  PetscCall(VKTestCheck((PetscBool)(worst <= 1e-12), NULL, "%d right-hand sides: largest relative residual %.1e <= 1e-12", (int)ncols, (double)worst));
+  PetscCall(VKTestCheck((PetscBool)(worst <= 1e-12), NULL, "%s, %s, %d right-hand sides: largest relative residual %.1e <= 1e-12", pctype, matrix, (int)ncols, (double)worst));
   PetscCall(KSPCreate(PETSC_COMM_WORLD, &ref)); /* the distributed MUMPS solve */
   PetscCall(KSPSetOperators(ref, K, K));
   PetscCall(KSPSetType(ref, KSPPREONLY));
@@ -84,7 +92,7 @@ static PetscErrorCode TestMatSolve(Mat K, PetscInt ncols)
   PetscCall(MatNorm(Xref, NORM_FROBENIUS, &xn));
   PetscCall(MatAXPY(Xref, -1, X, SAME_NONZERO_PATTERN));
   PetscCall(MatNorm(Xref, NORM_FROBENIUS, &diff));
-  PetscCall(VKTestCheck((PetscBool)(diff <= 1e-12 * xn), NULL, "%d right-hand sides: equal to the distributed MUMPS solve (relative %.1e)", (int)ncols, (double)(diff / xn)));
+  PetscCall(VKTestCheck((PetscBool)(diff <= 1e-12 * xn), NULL, "%s, %s, %d right-hand sides: equal to the distributed MUMPS solve (relative %.1e)", pctype, matrix, (int)ncols, (double)(diff / xn)));
   PetscCall(KSPDestroy(&ref));
   PetscCall(KSPDestroy(&ksp));
   PetscCall(MatDestroy(&B));
@@ -128,9 +136,9 @@ static PetscErrorCode TestVec(Mat K)
 
   PetscFunctionBegin;
   PetscCall(SolveOne(K, KSPPREONLY, &rel, &its, &reason));
-  PetscCall(VKTestCheck((PetscBool)(rel <= 1e-12 && reason > 0), NULL, "one right-hand side: relative residual %.1e <= 1e-12", (double)rel));
+  PetscCall(VKTestCheck((PetscBool)(rel <= 1e-12 && reason > 0), NULL, "%s, one right-hand side: relative residual %.1e <= 1e-12", pctype, (double)rel));
   PetscCall(SolveOne(K, KSPCG, &rel, &its, &reason));
-  PetscCall(VKTestCheck((PetscBool)(rel <= 1e-12 && its <= 1 && reason > 0), NULL, "CG preconditioned by it: %d iteration(s), relative residual %.1e", (int)its, (double)rel));
+  PetscCall(VKTestCheck((PetscBool)(rel <= 1e-12 && its <= 1 && reason > 0), NULL, "%s, CG preconditioned by it: %d iteration(s), relative residual %.1e", pctype, (int)its, (double)rel));
   PetscFunctionReturn(0);
 }
 
@@ -154,7 +162,7 @@ static PetscErrorCode TestNewValues(Mat K)
   PetscCall(KSPSetOperators(ksp, K, K));
   PetscCall(KSPMatSolve(ksp, B, X));
   PetscCall(WorstResidual(K, B, X, &worst));
-  PetscCall(VKTestCheck((PetscBool)(worst <= 1e-12), NULL, "after the matrix values change: residual with the new values %.1e <= 1e-12", (double)worst));
+  PetscCall(VKTestCheck((PetscBool)(worst <= 1e-12), NULL, "%s, after the matrix values change: residual with the new values %.1e <= 1e-12", pctype, (double)worst));
   PetscCall(MatShift(K, -10));
   PetscCall(KSPDestroy(&ksp));
   PetscCall(MatDestroy(&B));
@@ -175,26 +183,81 @@ static PetscErrorCode TestIndefinite(void)
   {
     PetscErrorCode ierr = SolveOne(K, KSPPREONLY, &rel, &its, &reason);
     PetscCall(PetscPopErrorHandler());
-    PetscCall(VKTestCheck((PetscBool)(ierr != 0 || reason < 0 || rel <= 1e-10), NULL, "an indefinite matrix: solved (residual %.1e) or a reported failure (error %d, reason %d), never a wrong answer", ierr ? -1.0 : (double)rel, (int)ierr, (int)(ierr ? 0 : reason)));
+    PetscCall(VKTestCheck((PetscBool)(ierr != 0 || reason < 0 || rel <= 1e-10), NULL, "%s, an indefinite matrix: solved (residual %.1e) or a reported failure (error %d, reason %d), never a wrong answer", pctype, ierr ? -1.0 : (double)rel, (int)ierr, (int)(ierr ? 0 : reason)));
   }
   PetscCall(MatDestroy(&K));
   PetscFunctionReturn(0);
 }
 
+/* The subtrees PC's split of the factor: each rank's part, the top. */
+static PetscErrorCode TestSplit(Mat K)
+{
+  KSP         ksp;
+  PC          pc;
+  PetscReal   own, top, total, sum, largest;
+  PetscMPIInt size;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscCall(ColumnsKSP(K, KSPPREONLY, &ksp));
+  PetscCall(KSPSetUp(ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSubtreesGetWork(pc, &own, &top, &total));
+  PetscCallMPI(MPI_Allreduce(&own, &sum, 1, MPIU_REAL, MPIU_SUM, PETSC_COMM_WORLD));
+  PetscCallMPI(MPI_Allreduce(&own, &largest, 1, MPIU_REAL, MPIU_MAX, PETSC_COMM_WORLD));
+  PetscCall(VKTestCheck((PetscBool)(sum + top == total && (size == 1 ? top == 0 : largest + top <= 0.75 * total)), NULL, "subtrees on %d rank(s): the largest rank's part %.1f%% and the top %.1f%% of the factor, the parts and the top adding up to it", (int)size, (double)(100 * largest / total), (double)(100 * top / total)));
+  PetscCall(KSPDestroy(&ksp));
+  PetscFunctionReturn(0);
+}
+
+/* diag(d) with 2 x 2 blocks coupling rows 2i and 2i+1: a forest of n/2
+ * trees for CHOLMOD. */
+static PetscErrorCode BlockDiagonal(PetscInt N, Mat *K)
+{
+  PetscInt lo, hi;
+
+  PetscFunctionBegin;
+  PetscCall(MatCreateAIJ(PETSC_COMM_WORLD, PETSC_DECIDE, PETSC_DECIDE, N, N, 2, NULL, 1, NULL, K));
+  PetscCall(MatSetOption(*K, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatGetOwnershipRange(*K, &lo, &hi));
+  for (PetscInt r = lo; r < hi; r++) {
+    PetscInt partner = r % 2 ? r - 1 : r + 1;
+    PetscCall(MatSetValue(*K, r, r, 2 + r, INSERT_VALUES));
+    if (partner < N) PetscCall(MatSetValue(*K, r, partner, 1, INSERT_VALUES));
+  }
+  PetscCall(MatAssemblyBegin(*K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(*K, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
-  Mat K;
+  const PCType types[] = {PCCOLUMNS, PCSUBTREES};
+  Mat          K;
 
   PetscFunctionBeginUser;
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
   VKTestInit(PETSC_COMM_WORLD);
   PetscCall(VKSimInitializePackage());
   PetscCall(Laplacian(12, 0.5, &K));
+  for (size_t t = 0; t < sizeof(types) / sizeof(types[0]); t++) {
+    pctype = types[t];
+    PetscCall(TestMatSolve(K, 3));
+    PetscCall(TestMatSolve(K, 5));
+    PetscCall(TestVec(K));
+    PetscCall(TestNewValues(K));
+    PetscCall(TestIndefinite());
+  }
+  pctype = PCSUBTREES;
+  PetscCall(TestSplit(K));
+  PetscCall(MatDestroy(&K));
+  matrix = "block diagonal, 20 trees";
+  PetscCall(BlockDiagonal(40, &K));
   PetscCall(TestMatSolve(K, 3));
-  PetscCall(TestMatSolve(K, 5));
-  PetscCall(TestVec(K));
-  PetscCall(TestNewValues(K));
-  PetscCall(TestIndefinite());
+  PetscCall(MatDestroy(&K));
+  matrix = "2 rows";
+  PetscCall(BlockDiagonal(2, &K));
+  PetscCall(TestMatSolve(K, 3));
   PetscCall(MatDestroy(&K));
   {
     int rc = VKTestFinish();

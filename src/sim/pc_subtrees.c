@@ -1,0 +1,732 @@
+/* pc_subtrees.c: the PC type "subtrees" (DESIGN §7, global step), an exact
+ * solver that splits one sparse Cholesky factor P K P^T = L L^T over the
+ * ranks along its elimination tree.
+ *
+ * Every rank factors a sequential copy of the operator the same way
+ * (CHOLMOD, supernodal, METIS nested dissection), so every rank has the
+ * same tree of supernodes.  The tree is cut into disjoint subtrees, each
+ * given to one rank, and a top part (the separators above the cut), which
+ * every rank keeps.  A solve with k right-hand sides:
+ *   forward:  each rank through its own subtrees; their updates of the top
+ *             rows are summed over the ranks (one MPI_Allreduce of
+ *             |top| x k numbers; rank 0 adds the right-hand side there);
+ *   top:      forward and backward through the top part, on every rank;
+ *   backward: each rank through its own subtrees.
+ * A supernode is one dense nr x nc block (T its nc x nc lower triangle, B
+ * the nr - nc rows below):
+ *   forward:  w = y(rows);  w(0:nc) = T^{-1} w(0:nc);  w(nc:nr) -= B w(0:nc)
+ *   backward: w(0:nc) = T^{-T} (w(0:nc) - B^T w(nc:nr))
+ * four columns of the block at a time, and up to four columns of the
+ * right-hand side with each load of the block.  Each rank keeps only its part of the
+ * factor's values (CHOLMOD's numeric factor is freed once they are
+ * copied) and reads only that part per solve: on 2 ranks the PD global
+ * step's three columns cost each rank half the factor, where PC columns
+ * gives one rank two whole columns.  The cut minimizes the largest rank's
+ * work plus the top's (a greedy descent from the root, splitting the
+ * largest subtree, the subtrees bin-packed by work), the subtree-to-rank
+ * mapping of parallel sparse Cholesky.  Set-up modelled on PETSc's
+ * PCREDUNDANT. */
+#include <vkpd.h>
+#include <petsc/private/pcimpl.h>
+#if defined(PETSC_HAVE_SUITESPARSE) && !defined(PETSC_USE_64BIT_INDICES)
+#include <cholmod.h>
+
+typedef struct {
+  Mat            Aseq;       /* the whole operator on this rank */
+  cholmod_common common;
+  cholmod_factor *L;         /* symbolic once the values are copied out */
+  PetscBool      started;    /* common initialized */
+  PetscBool      symbolic;   /* L analyzed and the tree cut for Aseq's pattern */
+  PetscBool      failed;     /* the last factorization met a nonpositive pivot */
+  /* this rank's supernodes: its subtrees', then the top's, both ascending */
+  PetscInt       nown, ntop; /* numbers of supernodes */
+  PetscInt      *snode;      /* their CHOLMOD numbers */
+  PetscInt      *voff;       /* offsets of their blocks in val */
+  PetscInt      *order;      /* the same supernodes in the factor's order */
+  PetscScalar   *val;        /* the blocks, column major (CHOLMOD's array, shrunk) */
+  PetscInt       nval;
+  /* rows: this rank's columns of L (own supernodes'), then the top's */
+  PetscInt       nowncols, ntopcols;
+  PetscInt      *cols;       /* permuted indices */
+  PetscScalar   *y;          /* permuted right-hand sides, n x k */
+  PetscInt       ny;
+  PetscScalar   *w, *buf;    /* one block's rows; the top rows, k columns */
+  PetscScalar   *io;         /* this rank's rows of one parallel column */
+  PetscInt       nbuf;
+  Vec            col, seq;   /* parallel column (no array); this rank's rows of it */
+  VecScatter     scatter;
+  PetscReal      work_own, work_top, work_max, work_total; /* block entries read per solve */
+  PetscMPIInt    rank, size;
+} PC_Subtrees;
+
+/* Aseq's CSR arrays read as CSC: it is symmetric, so row i is column i;
+ * CHOLMOD reads the upper triangle (stype 1) and ignores the rest. */
+static PetscErrorCode WrapAIJ(Mat A, cholmod_sparse *S)
+{
+  PetscInt           n;
+  const PetscInt    *ia, *ja;
+  const PetscScalar *va;
+  PetscBool          done;
+
+  PetscFunctionBegin;
+  PetscCall(MatGetRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done));
+  PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_SUP, "Cannot get the CSR arrays of the matrix");
+  PetscCall(MatSeqAIJGetArrayRead(A, &va));
+  PetscCall(PetscMemzero(S, sizeof(*S)));
+  S->nrow = S->ncol = (size_t)n;
+  S->nzmax          = (size_t)ia[n];
+  S->p              = (void *)ia;
+  S->i              = (void *)ja;
+  S->x              = (void *)va;
+  S->stype          = 1;
+  S->itype          = CHOLMOD_INT;
+  S->xtype          = CHOLMOD_REAL;
+  S->dtype          = CHOLMOD_DOUBLE;
+  S->sorted         = 1;
+  S->packed         = 1;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode UnwrapAIJ(Mat A, cholmod_sparse *S)
+{
+  PetscInt        n;
+  const PetscInt *ia, *ja;
+  PetscBool       done;
+
+  PetscFunctionBegin;
+  PetscCall(MatSeqAIJRestoreArrayRead(A, (const PetscScalar **)&S->x));
+  PetscCall(MatRestoreRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done));
+  PetscFunctionReturn(0);
+}
+
+static inline PetscInt NCols(const cholmod_factor *L, PetscInt s) { return ((const int *)L->super)[s + 1] - ((const int *)L->super)[s]; }
+static inline PetscInt NRows(const cholmod_factor *L, PetscInt s) { return ((const int *)L->pi)[s + 1] - ((const int *)L->pi)[s]; }
+
+/* The supernodal tree: parent[s] is the supernode holding the first row of
+ * s below its diagonal block, -1 for a root.  CHOLMOD's supernodes are
+ * postordered, so a child's number is below its parent's. */
+static PetscErrorCode SupernodeParents(const cholmod_factor *L, PetscInt parent[])
+{
+  const int *super = (const int *)L->super, *pi = (const int *)L->pi, *ls = (const int *)L->s;
+  PetscInt   nsuper = (PetscInt)L->nsuper, *of;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(L->n, &of));
+  for (PetscInt s = 0; s < nsuper; s++)
+    for (PetscInt j = super[s]; j < super[s + 1]; j++) of[j] = s;
+  for (PetscInt s = 0; s < nsuper; s++) {
+    parent[s] = NRows(L, s) > NCols(L, s) ? of[ls[pi[s] + NCols(L, s)]] : -1;
+    PetscCheck(parent[s] < 0 || parent[s] > s, PETSC_COMM_SELF, PETSC_ERR_PLIB, "CHOLMOD's supernodes are not postordered");
+  }
+  PetscCall(PetscFree(of));
+  PetscFunctionReturn(0);
+}
+
+typedef struct {
+  PetscReal work;
+  PetscInt  root;
+} Piece;
+
+static int ComparePieces(const void *a, const void *b)
+{
+  const Piece *p = (const Piece *)a, *q = (const Piece *)b;
+  if (p->work != q->work) return p->work > q->work ? -1 : 1;
+  return p->root < q->root ? -1 : (p->root > q->root);
+}
+
+/* Largest-first bin packing of the pieces (sorted) into size bins: owner[i]
+ * of piece i; returns the largest bin. */
+static PetscReal Pack(PetscInt np, const Piece pieces[], PetscMPIInt size, PetscReal bin[], PetscMPIInt owner[])
+{
+  PetscReal largest = 0;
+
+  for (PetscMPIInt r = 0; r < size; r++) bin[r] = 0;
+  for (PetscInt i = 0; i < np; i++) {
+    PetscMPIInt least = 0;
+    for (PetscMPIInt r = 1; r < size; r++)
+      if (bin[r] < bin[least]) least = r;
+    bin[least] += pieces[i].work;
+    owner[i] = least;
+  }
+  for (PetscMPIInt r = 0; r < size; r++) largest = PetscMax(largest, bin[r]);
+  return largest;
+}
+
+/* Cuts the tree: mine[s] = this rank's supernode (1), top (2) or another
+ * rank's (0).  The work of a supernode is its block's size, what a solve
+ * reads.  Starting from the roots as the pieces, the largest piece's root
+ * moves to the top and its children become pieces; the cut kept is the one
+ * with the least largest bin plus top work.  The same on every rank (the
+ * same factor, deterministic ties). */
+static PetscErrorCode CutTree(PC_Subtrees *c, char mine[])
+{
+  const cholmod_factor *L = c->L;
+  PetscInt              nsuper = (PetscInt)L->nsuper, *parent, *child, *next, *count, np = 0, best_np = 0, maxpieces = 16 * c->size + 16;
+  PetscReal            *sub, *bin, top = 0, best, best_top = 0;
+  Piece                *pieces, *best_pieces;
+  PetscMPIInt          *owner, *best_owner;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc5(nsuper, &parent, nsuper, &child, nsuper, &next, nsuper, &count, nsuper, &sub));
+  PetscCall(PetscMalloc5(nsuper, &pieces, nsuper, &best_pieces, nsuper, &owner, nsuper, &best_owner, c->size, &bin));
+  PetscCall(SupernodeParents(L, parent));
+  for (PetscInt s = 0; s < nsuper; s++) {
+    sub[s]   = (PetscReal)NRows(L, s) * NCols(L, s);
+    count[s] = 1;
+    child[s] = -1;
+  }
+  for (PetscInt s = nsuper - 1; s >= 0; s--) { /* children lists, ascending */
+    if (parent[s] >= 0) {
+      next[s]           = child[parent[s]];
+      child[parent[s]] = s;
+    }
+  }
+  c->work_total = 0;
+  for (PetscInt s = 0; s < nsuper; s++) {
+    c->work_total += (PetscReal)NRows(L, s) * NCols(L, s);
+    if (parent[s] >= 0) {
+      sub[parent[s]] += sub[s];
+      count[parent[s]] += count[s];
+    } else pieces[np++] = (Piece){sub[s], s};
+  }
+  best = PETSC_MAX_REAL;
+  while (np > 0) {
+    PetscReal cost;
+    PetscInt  r;
+    qsort(pieces, (size_t)np, sizeof(Piece), ComparePieces);
+    cost = Pack(np, pieces, c->size, bin, owner) + top;
+    if (cost < best) {
+      best     = cost;
+      best_top = top;
+      best_np  = np;
+      PetscCall(PetscArraycpy(best_pieces, pieces, np));
+      PetscCall(PetscArraycpy(best_owner, owner, np));
+    }
+    r = pieces[0].root;
+    if (child[r] < 0 || np >= maxpieces || c->size == 1) break; /* a leaf, fine enough, or nothing to share */
+    top += (PetscReal)NRows(L, r) * NCols(L, r);
+    if (top >= best) break;
+    pieces[0] = pieces[--np];
+    for (PetscInt ch = child[r]; ch >= 0; ch = next[ch]) pieces[np++] = (Piece){sub[ch], ch};
+  }
+  /* the best cut: top = every ancestor of its pieces' roots */
+  for (PetscInt s = 0; s < nsuper; s++) mine[s] = 0;
+  for (PetscInt i = 0; i < best_np; i++) {
+    PetscInt r = best_pieces[i].root;
+    for (PetscInt a = parent[r]; a >= 0 && mine[a] != 2; a = parent[a]) mine[a] = 2;
+  }
+  /* a piece's subtree: postordered, so its supernodes are the count[r]
+     numbers ending at its root r */
+  for (PetscInt i = 0; i < best_np; i++) {
+    PetscInt r = best_pieces[i].root;
+    if (best_owner[i] == c->rank)
+      for (PetscInt s = r - count[r] + 1; s <= r; s++) mine[s] = 1;
+  }
+  c->work_top = best_top;
+  c->work_max = best - best_top;
+  c->work_own = 0;
+  for (PetscInt s = 0; s < nsuper; s++)
+    if (mine[s] == 1) c->work_own += (PetscReal)NRows(L, s) * NCols(L, s);
+  PetscCall(PetscFree5(parent, child, next, count, sub));
+  PetscCall(PetscFree5(pieces, best_pieces, owner, best_owner, bin));
+  PetscFunctionReturn(0);
+}
+
+/* Forward substitution through one supernode for K <= 4 columns at once
+ * (K a constant where it is inlined): its nr x nc block (column major) and
+ * rows, the columns y + r n; w holds K x nr numbers. */
+static inline void ForwardK(const PetscInt K, PetscInt nc, PetscInt nr, const int rows[], const PetscScalar *restrict blk, PetscScalar *restrict y, PetscInt n, PetscScalar *restrict w)
+{
+  PetscScalar *restrict w0 = w, *restrict w1 = w + nr, *restrict w2 = w + 2 * nr, *restrict w3 = w + 3 * nr;
+  PetscScalar *wr[4] = {w0, w1, w2, w3};
+  PetscInt     j = 0;
+
+  for (PetscInt r = 0; r < K; r++)
+    for (PetscInt i = 0; i < nr; i++) wr[r][i] = y[r * n + rows[i]];
+  for (; j + 4 <= nc; j += 4) {
+    const PetscScalar *c0 = blk + j * nr, *c1 = c0 + nr, *c2 = c1 + nr, *c3 = c2 + nr;
+    PetscScalar        y0[4] = {0}, y1[4] = {0}, y2[4] = {0}, y3[4] = {0};
+    for (PetscInt r = 0; r < K; r++) {
+      PetscScalar *v = wr[r];
+      y0[r]          = v[j] / c0[j];
+      y1[r]          = (v[j + 1] - c0[j + 1] * y0[r]) / c1[j + 1];
+      y2[r]          = (v[j + 2] - c0[j + 2] * y0[r] - c1[j + 2] * y1[r]) / c2[j + 2];
+      y3[r]          = (v[j + 3] - c0[j + 3] * y0[r] - c1[j + 3] * y1[r] - c2[j + 3] * y2[r]) / c3[j + 3];
+      v[j]           = y0[r];
+      v[j + 1]       = y1[r];
+      v[j + 2]       = y2[r];
+      v[j + 3]       = y3[r];
+    }
+    for (PetscInt i = j + 4; i < nr; i++) {
+      const PetscScalar a0 = c0[i], a1 = c1[i], a2 = c2[i], a3 = c3[i];
+      w0[i] -= a0 * y0[0] + a1 * y1[0] + a2 * y2[0] + a3 * y3[0];
+      if (K > 1) w1[i] -= a0 * y0[1] + a1 * y1[1] + a2 * y2[1] + a3 * y3[1];
+      if (K > 2) w2[i] -= a0 * y0[2] + a1 * y1[2] + a2 * y2[2] + a3 * y3[2];
+      if (K > 3) w3[i] -= a0 * y0[3] + a1 * y1[3] + a2 * y2[3] + a3 * y3[3];
+    }
+  }
+  for (; j < nc; j++) {
+    const PetscScalar *cj = blk + j * nr;
+    for (PetscInt r = 0; r < K; r++) {
+      PetscScalar *v  = wr[r];
+      PetscScalar  yj = v[j] / cj[j];
+      v[j]            = yj;
+      for (PetscInt i = j + 1; i < nr; i++) v[i] -= cj[i] * yj;
+    }
+  }
+  for (PetscInt r = 0; r < K; r++)
+    for (PetscInt i = 0; i < nr; i++) y[r * n + rows[i]] = wr[r][i];
+}
+
+/* Back substitution through one supernode for K <= 4 columns at once; the
+ * rows below its diagonal block hold their final values already. */
+static inline void BackwardK(const PetscInt K, PetscInt nc, PetscInt nr, const int rows[], const PetscScalar *restrict blk, PetscScalar *restrict y, PetscInt n, PetscScalar *restrict w)
+{
+  PetscScalar *restrict w0 = w, *restrict w1 = w + nr, *restrict w2 = w + 2 * nr, *restrict w3 = w + 3 * nr;
+  PetscScalar *wr[4] = {w0, w1, w2, w3};
+  PetscInt     nc4   = nc - nc % 4;
+
+  for (PetscInt r = 0; r < K; r++)
+    for (PetscInt i = 0; i < nr; i++) wr[r][i] = y[r * n + rows[i]];
+  for (PetscInt j = nc - 1; j >= nc4; j--) {
+    const PetscScalar *cj = blk + j * nr;
+    for (PetscInt r = 0; r < K; r++) {
+      PetscScalar *v = wr[r], a = 0;
+      for (PetscInt i = j + 1; i < nr; i++) a += cj[i] * v[i];
+      v[j] = (v[j] - a) / cj[j];
+    }
+  }
+  for (PetscInt j = nc4 - 4; j >= 0; j -= 4) {
+    const PetscScalar *c0 = blk + j * nr, *c1 = c0 + nr, *c2 = c1 + nr, *c3 = c2 + nr;
+    PetscScalar        a[4][4] = {{0}}; /* a[r][q] = sum_i c_q[i] w_r[i] */
+    for (PetscInt i = j + 4; i < nr; i++) {
+      const PetscScalar b0 = c0[i], b1 = c1[i], b2 = c2[i], b3 = c3[i];
+      a[0][0] += b0 * w0[i], a[0][1] += b1 * w0[i], a[0][2] += b2 * w0[i], a[0][3] += b3 * w0[i];
+      if (K > 1) a[1][0] += b0 * w1[i], a[1][1] += b1 * w1[i], a[1][2] += b2 * w1[i], a[1][3] += b3 * w1[i];
+      if (K > 2) a[2][0] += b0 * w2[i], a[2][1] += b1 * w2[i], a[2][2] += b2 * w2[i], a[2][3] += b3 * w2[i];
+      if (K > 3) a[3][0] += b0 * w3[i], a[3][1] += b1 * w3[i], a[3][2] += b2 * w3[i], a[3][3] += b3 * w3[i];
+    }
+    for (PetscInt r = 0; r < K; r++) {
+      PetscScalar *v = wr[r];
+      v[j + 3]       = (v[j + 3] - a[r][3]) / c3[j + 3];
+      v[j + 2]       = (v[j + 2] - a[r][2] - c2[j + 3] * v[j + 3]) / c2[j + 2];
+      v[j + 1]       = (v[j + 1] - a[r][1] - c1[j + 2] * v[j + 2] - c1[j + 3] * v[j + 3]) / c1[j + 1];
+      v[j]           = (v[j] - a[r][0] - c0[j + 1] * v[j + 1] - c0[j + 2] * v[j + 2] - c0[j + 3] * v[j + 3]) / c0[j];
+    }
+  }
+  for (PetscInt r = 0; r < K; r++)
+    for (PetscInt j = 0; j < nc; j++) y[r * n + rows[j]] = wr[r][j];
+}
+
+/* One supernode, forward or backward, for k columns, at most four at a
+ * time through the kernels above. */
+static void Substitute(PetscBool forward, PetscInt k, PetscInt nc, PetscInt nr, const int rows[], const PetscScalar *blk, PetscScalar *y, PetscInt n, PetscScalar *w)
+{
+  for (PetscInt r = 0; r < k; r += 4) {
+    PetscScalar *yr = y + r * n;
+    switch (PetscMin(k - r, 4)) {
+    case 1: forward ? ForwardK(1, nc, nr, rows, blk, yr, n, w) : BackwardK(1, nc, nr, rows, blk, yr, n, w); break;
+    case 2: forward ? ForwardK(2, nc, nr, rows, blk, yr, n, w) : BackwardK(2, nc, nr, rows, blk, yr, n, w); break;
+    case 3: forward ? ForwardK(3, nc, nr, rows, blk, yr, n, w) : BackwardK(3, nc, nr, rows, blk, yr, n, w); break;
+    default: forward ? ForwardK(4, nc, nr, rows, blk, yr, n, w) : BackwardK(4, nc, nr, rows, blk, yr, n, w);
+    }
+  }
+}
+
+/* Orders Aseq's rows (METIS nested dissection, whose separators make a tree
+ * that splits), finds the supernodes, cuts the tree, and lays out this
+ * rank's part: its supernodes, its rows, the scatter of its rows. */
+static PetscErrorCode Analyze(PC pc)
+{
+  PC_Subtrees    *c = (PC_Subtrees *)pc->data;
+  cholmod_sparse  S;
+  const int      *super, *pi, *perm;
+  char           *mine;
+  PetscInt        n, nsuper, nlocal, N, m, nrmax = 1;
+  IS              is;
+  PetscInt       *global;
+
+  PetscFunctionBegin;
+  if (c->L) cholmod_free_factor(&c->L, &c->common);
+  c->common.nmethods           = 1;
+  c->common.method[0].ordering = CHOLMOD_METIS;
+  c->common.postorder          = 1;
+  PetscCall(WrapAIJ(c->Aseq, &S));
+  c->L = cholmod_analyze(&S, &c->common);
+  if (!c->L && c->common.status == CHOLMOD_NOT_INSTALLED) { /* a CHOLMOD without METIS: its default orderings */
+    c->common.nmethods = 0;
+    c->L               = cholmod_analyze(&S, &c->common);
+  }
+  PetscCall(UnwrapAIJ(c->Aseq, &S));
+  PetscCheck(c->L, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis failed with status %d", c->common.status);
+  PetscCheck(c->L->is_super, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis did not give a supernodal factor");
+  n      = (PetscInt)c->L->n;
+  nsuper = (PetscInt)c->L->nsuper;
+  super  = (const int *)c->L->super;
+  pi     = (const int *)c->L->pi;
+  perm   = (const int *)c->L->Perm;
+  PetscCall(PetscMalloc1(nsuper, &mine));
+  PetscCall(CutTree(c, mine));
+  PetscCall(PetscFree4(c->snode, c->voff, c->order, c->cols));
+  c->nown = c->ntop = c->nowncols = c->ntopcols = 0;
+  for (PetscInt s = 0; s < nsuper; s++) {
+    if (mine[s] == 1) c->nown++, c->nowncols += NCols(c->L, s);
+    if (mine[s] == 2) c->ntop++, c->ntopcols += NCols(c->L, s);
+  }
+  PetscCall(PetscMalloc4(c->nown + c->ntop, &c->snode, c->nown + c->ntop + 1, &c->voff, c->nown + c->ntop, &c->order, c->nowncols + c->ntopcols, &c->cols));
+  {
+    PetscInt i = 0, j = 0;
+    for (int part = 1; part <= 2; part++)
+      for (PetscInt s = 0; s < nsuper; s++)
+        if (mine[s] == part) {
+          c->snode[i++] = s;
+          for (PetscInt k = super[s]; k < super[s + 1]; k++) c->cols[j++] = k;
+        }
+  }
+  { /* the kept blocks in the order of the factor, so that they can be
+       moved down within CHOLMOD's array (Factor) */
+    PetscInt *pos, off = 0, j = 0;
+    PetscCall(PetscMalloc1(nsuper, &pos));
+    for (PetscInt i = 0; i < c->nown + c->ntop; i++) pos[c->snode[i]] = i;
+    for (PetscInt s = 0; s < nsuper; s++) {
+      if (!mine[s]) continue;
+      c->order[j++]   = pos[s];
+      c->voff[pos[s]] = off;
+      off += (PetscInt)(pi[s + 1] - pi[s]) * NCols(c->L, s);
+      nrmax = PetscMax(nrmax, (PetscInt)(pi[s + 1] - pi[s]));
+    }
+    c->voff[c->nown + c->ntop] = off;
+    PetscCall(PetscFree(pos));
+  }
+  PetscCall(PetscFree(mine));
+  { /* every row belongs to exactly one rank's subtrees or to the top: a
+       check that all ranks cut the same tree */
+    PetscInt    owned = c->nowncols, total, tops[2] = {c->ntopcols, -c->ntopcols};
+    PetscCallMPI(MPI_Allreduce(&owned, &total, 1, MPIU_INT, MPI_SUM, PetscObjectComm((PetscObject)pc)));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, tops, 2, MPIU_INT, MPI_MAX, PetscObjectComm((PetscObject)pc)));
+    PetscCheck(total + c->ntopcols == n && tops[0] == -tops[1], PETSC_COMM_SELF, PETSC_ERR_PLIB, "The ranks cut different elimination trees (%d + %d of %d rows)", (int)total, (int)c->ntopcols, (int)n);
+  }
+  PetscCall(PetscFree3(c->w, c->buf, c->io));
+  PetscCall(PetscMalloc3(4 * nrmax, &c->w, 0, &c->buf, c->nowncols + c->ntopcols, &c->io));
+  c->nbuf = 0;
+  /* this rank's rows of a parallel column: its own, and rank 0 the top's */
+  m = c->nowncols + (c->rank == 0 ? c->ntopcols : 0);
+  PetscCall(PetscMalloc1(m, &global));
+  for (PetscInt i = 0; i < m; i++) global[i] = perm[c->cols[i]];
+  PetscCall(ISCreateGeneral(PETSC_COMM_SELF, m, global, PETSC_OWN_POINTER, &is));
+  PetscCall(VecDestroy(&c->col));
+  PetscCall(VecDestroy(&c->seq));
+  PetscCall(VecScatterDestroy(&c->scatter));
+  PetscCall(MatGetSize(pc->pmat, &N, NULL));
+  PetscCall(MatGetLocalSize(pc->pmat, &nlocal, NULL));
+  PetscCall(VecCreateMPIWithArray(PetscObjectComm((PetscObject)pc), 1, nlocal, N, NULL, &c->col));
+  PetscCall(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, m, c->io, &c->seq));
+  PetscCall(VecScatterCreate(c->col, is, c->seq, NULL, &c->scatter));
+  PetscCall(ISDestroy(&is));
+  c->symbolic = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+/* The numeric factorization (on every rank, the same), then this rank's
+ * blocks copied out and CHOLMOD's values freed. */
+static PetscErrorCode Factor(PC pc)
+{
+  PC_Subtrees       *c = (PC_Subtrees *)pc->data;
+  cholmod_sparse     S;
+  PetscScalar       *lx;
+  const int         *px;
+
+  PetscFunctionBegin;
+  if (c->val) c->val = (PetscScalar *)SuiteSparse_free(c->val); /* before CHOLMOD allocates the new factor */
+  PetscCall(WrapAIJ(c->Aseq, &S));
+  cholmod_factorize(&S, c->L, &c->common);
+  PetscCall(UnwrapAIJ(c->Aseq, &S));
+  PetscCall(PetscLogFlops(c->common.fl));
+  PetscCall(PetscInfo(pc, "CHOLMOD: %.0f nonzeros in L, %.1f MB in use, %.1f MB at most\n", c->common.lnz, (double)c->common.memory_inuse / 1048576.0, (double)c->common.memory_usage / 1048576.0));
+  c->failed = PETSC_FALSE;
+  if (c->common.status == CHOLMOD_NOT_POSDEF) {
+    PetscCall(PetscInfo(pc, "CHOLMOD: the matrix is not positive definite (column %d of %d)\n", (int)c->L->minor, (int)c->L->n));
+    pc->failedreason = PC_FACTOR_NUMERIC_ZEROPIVOT;
+    c->failed        = PETSC_TRUE;
+    c->symbolic      = PETSC_FALSE; /* start again from the analysis next time */
+    PetscFunctionReturn(0);
+  }
+  PetscCheck(c->common.status >= CHOLMOD_OK, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's factorization failed with status %d", c->common.status);
+  PetscCheck(c->L->is_super && c->L->is_ll && c->L->xtype == CHOLMOD_REAL, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD did not give a real supernodal L L^T factor");
+  /* this rank's blocks moved down to the front of CHOLMOD's array, in the
+     factor's order (never upwards), and the array shrunk and kept: no
+     second copy of the factor, even for a moment */
+  lx = (PetscScalar *)c->L->x;
+  px = (const int *)c->L->px;
+  for (PetscInt j = 0; j < c->nown + c->ntop; j++) {
+    PetscInt i = c->order[j], s = c->snode[i];
+    PetscCall(PetscArraymove(lx + c->voff[i], lx + px[s], NRows(c->L, s) * NCols(c->L, s)));
+  }
+  c->nval = c->voff[c->nown + c->ntop];
+  {
+    int ok;
+    c->val = (PetscScalar *)SuiteSparse_realloc((size_t)PetscMax(c->nval, 1), c->L->xsize, sizeof(PetscScalar), lx, &ok);
+  }
+  c->L->x = NULL;
+  /* keep the symbolic factor (pattern, supernodes, rows) for the next
+     factorization of the same pattern */
+  if (!cholmod_change_factor(CHOLMOD_PATTERN, 1, 1, 1, 1, c->L, &c->common)) c->symbolic = PETSC_FALSE;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PCSetUp_Subtrees(PC pc)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+  PetscBool    seqaij;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)pc), &c->rank));
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)pc), &c->size));
+  if (pc->setupcalled && pc->flag == DIFFERENT_NONZERO_PATTERN) {
+    PetscCall(MatDestroy(&c->Aseq));
+    c->symbolic = PETSC_FALSE;
+  }
+  if (c->size == 1) {
+    if (c->Aseq != pc->pmat) {
+      PetscCall(MatDestroy(&c->Aseq));
+      PetscCall(PetscObjectReference((PetscObject)pc->pmat));
+      c->Aseq     = pc->pmat;
+      c->symbolic = PETSC_FALSE;
+    }
+  } else PetscCall(MatCreateRedundantMatrix(pc->pmat, c->size, PETSC_COMM_SELF, c->Aseq ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, &c->Aseq));
+  PetscCall(PetscObjectTypeCompare((PetscObject)c->Aseq, MATSEQAIJ, &seqaij));
+  PetscCheck(seqaij, PETSC_COMM_SELF, PETSC_ERR_SUP, "PC %s needs an AIJ matrix, not %s", PCSUBTREES, ((PetscObject)c->Aseq)->type_name);
+  if (!c->started) {
+    cholmod_start(&c->common);
+    c->common.supernodal = CHOLMOD_SUPERNODAL; /* the solves need the supernodal form */
+    c->common.print      = 0;
+    c->started           = PETSC_TRUE;
+  }
+  if (!c->symbolic) PetscCall(Analyze(pc));
+  PetscCall(Factor(pc));
+  PetscFunctionReturn(0);
+}
+
+/* X = K^{-1} B for the k columns this solve holds in y. */
+static PetscErrorCode Solve(PC pc, PetscInt k)
+{
+  PC_Subtrees       *c  = (PC_Subtrees *)pc->data;
+  const int         *pi = (const int *)c->L->pi, *rows = (const int *)c->L->s;
+  PetscInt           n  = (PetscInt)c->L->n, nsn = c->nown + c->ntop;
+  const PetscScalar *v  = c->val;
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < c->nown; i++) {
+    PetscInt s = c->snode[i];
+    Substitute(PETSC_TRUE, k, NCols(c->L, s), pi[s + 1] - pi[s], rows + pi[s], v + c->voff[i], c->y, n, c->w);
+  }
+  if (c->size > 1 && c->ntopcols > 0) {
+    const PetscInt *top = c->cols + c->nowncols;
+    if (c->nbuf < k * c->ntopcols) {
+      PetscCall(PetscFree(c->buf));
+      c->nbuf = k * c->ntopcols;
+      PetscCall(PetscMalloc1(c->nbuf, &c->buf));
+    }
+    for (PetscInt r = 0; r < k; r++)
+      for (PetscInt j = 0; j < c->ntopcols; j++) c->buf[r * c->ntopcols + j] = c->y[r * n + top[j]];
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, c->buf, (PetscMPIInt)(k * c->ntopcols), MPIU_SCALAR, MPIU_SUM, PetscObjectComm((PetscObject)pc)));
+    for (PetscInt r = 0; r < k; r++)
+      for (PetscInt j = 0; j < c->ntopcols; j++) c->y[r * n + top[j]] = c->buf[r * c->ntopcols + j];
+  }
+  for (PetscInt i = c->nown; i < nsn; i++) {
+    PetscInt s = c->snode[i];
+    Substitute(PETSC_TRUE, k, NCols(c->L, s), pi[s + 1] - pi[s], rows + pi[s], v + c->voff[i], c->y, n, c->w);
+  }
+  for (PetscInt i = nsn - 1; i >= 0; i--) {
+    PetscInt s = c->snode[i];
+    Substitute(PETSC_FALSE, k, NCols(c->L, s), pi[s + 1] - pi[s], rows + pi[s], v + c->voff[i], c->y, n, c->w);
+  }
+  PetscCall(PetscLogFlops(4.0 * k * (c->work_own + c->work_top)));
+  PetscFunctionReturn(0);
+}
+
+/* Column r of the permuted right-hand sides from the parallel b: this
+ * rank's rows, the top's from rank 0 and zero elsewhere (the other ranks'
+ * updates are summed into them). */
+static PetscErrorCode Gather(PC pc, Vec b, PetscInt r)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+  PetscInt     n = (PetscInt)c->L->n, m = c->nowncols + (c->rank == 0 ? c->ntopcols : 0);
+  PetscScalar *y = c->y + r * n;
+
+  PetscFunctionBegin;
+  PetscCall(VecScatterBegin(c->scatter, b, c->seq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(c->scatter, b, c->seq, INSERT_VALUES, SCATTER_FORWARD));
+  for (PetscInt i = 0; i < m; i++) y[c->cols[i]] = c->io[i];
+  for (PetscInt i = m; i < c->nowncols + c->ntopcols; i++) y[c->cols[i]] = 0;
+  PetscFunctionReturn(0);
+}
+
+/* Column r of the solution into the parallel x: each rank its rows, rank 0
+ * the top's. */
+static PetscErrorCode Spread(PC pc, Vec x, PetscInt r)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+  PetscInt     n = (PetscInt)c->L->n, m = c->nowncols + (c->rank == 0 ? c->ntopcols : 0);
+  PetscScalar *y = c->y + r * n;
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < m; i++) c->io[i] = y[c->cols[i]];
+  PetscCall(VecScatterBegin(c->scatter, c->seq, x, INSERT_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(c->scatter, c->seq, x, INSERT_VALUES, SCATTER_REVERSE));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode Reserve(PC_Subtrees *c, PetscInt k)
+{
+  PetscFunctionBegin;
+  if (c->ny < k * (PetscInt)c->L->n) {
+    PetscCall(PetscFree(c->y));
+    c->ny = k * (PetscInt)c->L->n;
+    PetscCall(PetscMalloc1(c->ny, &c->y));
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PCApply_Subtrees(PC pc, Vec b, Vec x)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+
+  PetscFunctionBegin;
+  if (c->failed) {
+    PetscCall(VecSetInf(x));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(Reserve(c, 1));
+  PetscCall(Gather(pc, b, 0));
+  PetscCall(Solve(pc, 1));
+  PetscCall(Spread(pc, x, 0));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PCMatApply_Subtrees(PC pc, Mat B, Mat X)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+  PetscInt     k;
+
+  PetscFunctionBegin;
+  PetscCall(MatGetSize(B, NULL, &k));
+  if (c->failed) {
+    for (PetscInt r = 0; r < k; r++) {
+      Vec x;
+      PetscCall(MatDenseGetColumnVecWrite(X, r, &x));
+      PetscCall(VecSetInf(x));
+      PetscCall(MatDenseRestoreColumnVecWrite(X, r, &x));
+    }
+    PetscFunctionReturn(0);
+  }
+  PetscCall(Reserve(c, k));
+  for (PetscInt r = 0; r < k; r++) {
+    Vec b;
+    PetscCall(MatDenseGetColumnVecRead(B, r, &b));
+    PetscCall(Gather(pc, b, r));
+    PetscCall(MatDenseRestoreColumnVecRead(B, r, &b));
+  }
+  PetscCall(Solve(pc, k));
+  for (PetscInt r = 0; r < k; r++) {
+    Vec x;
+    PetscCall(MatDenseGetColumnVecWrite(X, r, &x));
+    PetscCall(Spread(pc, x, r));
+    PetscCall(MatDenseRestoreColumnVecWrite(X, r, &x));
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PCReset_Subtrees(PC pc)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+
+  PetscFunctionBegin;
+  if (c->L) cholmod_free_factor(&c->L, &c->common);
+  c->symbolic = PETSC_FALSE;
+  PetscCall(MatDestroy(&c->Aseq));
+  PetscCall(PetscFree4(c->snode, c->voff, c->order, c->cols));
+  PetscCall(PetscFree3(c->w, c->buf, c->io));
+  if (c->val) c->val = (PetscScalar *)SuiteSparse_free(c->val);
+  PetscCall(PetscFree(c->y));
+  c->nval = c->ny = c->nbuf = 0;
+  PetscCall(VecDestroy(&c->col));
+  PetscCall(VecDestroy(&c->seq));
+  PetscCall(VecScatterDestroy(&c->scatter));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PCDestroy_Subtrees(PC pc)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+
+  PetscFunctionBegin;
+  PetscCall(PCReset_Subtrees(pc));
+  if (c->started) cholmod_finish(&c->common);
+  PetscCall(PetscFree(pc->data));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PCView_Subtrees(PC pc, PetscViewer viewer)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+  PetscBool    ascii;
+  PetscReal    own[2];
+
+  PetscFunctionBegin;
+  PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
+  if (!ascii || !c->L) PetscFunctionReturn(0);
+  own[0] = c->work_own;
+  own[1] = -c->work_own;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, own, 2, MPIU_REAL, MPIU_MAX, PetscObjectComm((PetscObject)pc)));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  one Cholesky factor (CHOLMOD, %s ordering): %d rows, %d supernodes, %.0f nonzeros in L\n", c->common.method[c->common.selected].ordering == CHOLMOD_METIS ? "METIS" : "CHOLMOD's default", (int)c->L->n, (int)c->L->nsuper, c->common.lnz));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  split over %d ranks along its tree: each rank solves its subtrees (%.1f-%.1f%% of the factor's blocks) and the top (%d supernodes, %d rows, %.1f%%)\n", (int)c->size, 100 * -own[1] / c->work_total, 100 * own[0] / c->work_total, (int)c->ntop, (int)c->ntopcols, 100 * c->work_top / c->work_total));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPCCreate_Subtrees(PC pc)
+{
+  PC_Subtrees *c;
+
+  PetscFunctionBegin;
+  PetscCall(PetscNew(&c));
+  pc->data                 = c;
+  pc->ops->setup           = PCSetUp_Subtrees;
+  pc->ops->apply           = PCApply_Subtrees;
+  pc->ops->applytranspose  = PCApply_Subtrees; /* K is symmetric */
+  pc->ops->matapply        = PCMatApply_Subtrees;
+  pc->ops->reset           = PCReset_Subtrees;
+  pc->ops->destroy         = PCDestroy_Subtrees;
+  pc->ops->view            = PCView_Subtrees;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode PCSubtreesGetWork(PC pc, PetscReal *own, PetscReal *top, PetscReal *total)
+{
+  PC_Subtrees *c;
+  PetscBool    is;
+
+  PetscFunctionBegin;
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSUBTREES, &is));
+  PetscCheck(is, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_WRONG, "The PC must be of type %s, not %s", PCSUBTREES, ((PetscObject)pc)->type_name);
+  c = (PC_Subtrees *)pc->data;
+  PetscCheck(c->L, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "Call PCSetUp() first");
+  *own   = c->work_own;
+  *top   = c->work_top;
+  *total = c->work_total;
+  PetscFunctionReturn(0);
+}
+#else
+PetscErrorCode PCSubtreesGetWork(PC pc, PetscReal *own, PetscReal *top, PetscReal *total)
+{
+  PetscFunctionBegin;
+  (void)own, (void)top, (void)total;
+  SETERRQ(PetscObjectComm((PetscObject)pc), PETSC_ERR_SUP_SYS, "PC %s needs PETSc built with SuiteSparse (CHOLMOD) and 32-bit indices", PCSUBTREES);
+}
+
+PetscErrorCode VKPCCreate_Subtrees(PC pc)
+{
+  PetscFunctionBegin;
+  SETERRQ(PetscObjectComm((PetscObject)pc), PETSC_ERR_SUP_SYS, "PC %s needs PETSc built with SuiteSparse (CHOLMOD) and 32-bit indices", PCSUBTREES);
+}
+#endif
