@@ -53,7 +53,9 @@ static PetscErrorCode TSStep_PD(TS ts)
 
   PetscFunctionBegin;
   if (ts->exact_final_time == TS_EXACTFINALTIME_MATCHSTEP && t1 > ts->max_time - 1e-6 * dt) {
-    dt   = ts->max_time - ts->ptime;
+    /* a last step shorter than dt by round-off only (ptime is a sum of
+       steps) keeps dt: K depends on dt, and a new dt refactors it */
+    if (PetscAbsReal(ts->max_time - ts->ptime - dt) > 1e-9 * dt) dt = ts->max_time - ts->ptime;
     t1   = ts->max_time;
     last = PETSC_TRUE;
   }
