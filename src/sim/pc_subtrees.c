@@ -347,6 +347,7 @@ static PetscErrorCode Analyze(PC pc)
   PetscInt       *global;
 
   PetscFunctionBegin;
+  PetscCall(PetscInfo(pc, "CHOLMOD: ordering the matrix and cutting its tree\n"));
   if (c->L) cholmod_free_factor(&c->L, &c->common);
   c->common.nmethods           = 1;
   c->common.method[0].ordering = CHOLMOD_METIS;
@@ -467,10 +468,15 @@ static PetscErrorCode Factor(PC pc)
     int ok;
     c->val = (PetscScalar *)SuiteSparse_realloc((size_t)PetscMax(c->nval, 1), c->L->xsize, sizeof(PetscScalar), lx, &ok);
   }
-  c->L->x = NULL;
-  /* keep the symbolic factor (pattern, supernodes, rows) for the next
-     factorization of the same pattern */
-  if (!cholmod_change_factor(CHOLMOD_PATTERN, 1, 1, 1, 1, c->L, &c->common)) c->symbolic = PETSC_FALSE;
+  /* L keeps its symbolic part (pattern, supernodes, rows) for the next
+     factorization of the same pattern: it becomes what cholmod_analyze
+     returns, its values now ours (cholmod_change_factor would free them),
+     and CHOLMOD's count of its memory follows */
+  c->common.memory_inuse -= c->L->xsize * sizeof(PetscScalar);
+  c->common.malloc_count--;
+  c->L->x     = NULL;
+  c->L->xtype = CHOLMOD_PATTERN;
+  c->L->minor = c->L->n;
   PetscFunctionReturn(0);
 }
 

@@ -40,6 +40,7 @@ echo
 # the paper's setting: exactly 10 plain PD iterations per step (10 local, 10 global steps)
 PD_FIXED="-pd_type pd -pd_max_it 10 -pd_fixed_its"
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_header -bench_steps 15 $PD_FIXED
+run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 15 $PD_FIXED -pd_global_pc_type columns
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 15 -pd_type lbfgs -pd_max_it 10 -pd_fixed_its
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 15 $PD_FIXED -pd_global_pc_type cholesky -pd_global_pc_factor_mat_solver_type mumps
 # converged to the default tolerance (|grad Phi| <= 1e-3 f_scale): the default L-BFGS, and plain PD
@@ -50,9 +51,11 @@ run $MPIEXEC -n 2 bin/bench/bench_sim $PD_FIXED -pd_global_ksp_type cg -pd_globa
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 5 $PD_FIXED -pd_global_pc_type cms -dd_domains 8
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 5 $PD_FIXED -pd_global_pc_type cms -dd_domains 32
 run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED
+run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED -pd_global_pc_type columns
 run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED -pd_global_pc_type cholesky -pd_global_pc_factor_mat_solver_type mumps
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED
-# the default L-BFGS to the default tolerance, direct (columns) against one two-level CMS cycle as K^-1
+run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED -pd_global_pc_type columns
+# the default L-BFGS to the default tolerance, direct (subtrees) against one two-level CMS cycle as K^-1
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 5 -pd_global_pc_type cms -dd_domains 32
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 -pd_global_pc_type cms -dd_domains 512
@@ -68,9 +71,10 @@ echo "A hanging patch (gravity, top edge held), 1 kPa, from rest.  'its/step' is
 echo "|grad Phi| relative to the force scale f_scale (weight + handle reaction), the largest over the steps (the default"
 echo "tolerance is 1e-3); 'not measured' for -pd_fixed_its.  'ns/tet/local step' is"
 echo "core time per tet per local step (wall time x ranks).  Reference: paper Table 1, 1x1 rib, 85 ms per step on"
-echo "an RTX 3090 (38K mesh DOFs).  'columns cholmod': the default global solver on up to 3 ranks (PC columns, every"
-echo "rank factors all of K with CHOLMOD and solves its share of the x, y, z columns); 'cholesky mumps': one"
-echo "distributed MUMPS factor."
+echo "an RTX 3090 (38K mesh DOFs).  'subtrees cholmod': the default global solver on up to 3 ranks (PC subtrees,"
+echo "one CHOLMOD factor split over the ranks along its elimination tree, every rank solving its subtrees for x, y"
+echo "and z); 'columns cholmod': PC columns (every rank factors all of K and solves its share of the x, y, z"
+echo "columns); 'cholesky mumps': one distributed MUMPS factor."
 
 echo
 echo "## PD set-up after a material change (issue 22 target: with PC cms, a change in one domain of 16 at least"
@@ -86,7 +90,7 @@ echo
 echo "The 30x30 rib's hang; every g of domain 0's tets scaled by 1.1 (then back), 4 times, then every tet's, 4"
 echo "times; the PD set-up (assembly of K and the global PC's set-up) averaged.  'first set-up' builds everything"
 echo "(with cms: every domain's factor, boundary and interior modes, and K_r); 'domains rebuilt' is what cms"
-echo "found changed.  columns refactors CHOLMOD numerically on every change."
+echo "found changed.  subtrees (the default) refactors CHOLMOD numerically on every change."
 
 echo
 echo "## Yarn-level simulator, discrete elastic rods (issue 23 targets: the 2K rib stretch at no more than 8 Newton"
