@@ -437,7 +437,7 @@ PetscErrorCode VKProjectVolumeValueBatch(PetscInt n, const PetscReal s[], VKVolu
     const PetscReal *sv = s + 3 * l;
     PetscReal        d = 0, dmin = PETSC_MAX_REAL;
     PetscBool        ok = !fail[l];
-    if (PetscIsInfOrNanReal(sv[0] + sv[1] + sv[2])) continue;
+    if (!isfinite(sv[0] + sv[1] + sv[2])) continue;
     for (int i = 0; i < 3 && ok; i++) {
       if (!(x[i][l] >= VK_SHAT_MIN)) ok = PETSC_FALSE;
       d += PetscSqr(x[i][l] - sv[i]);

@@ -32,7 +32,7 @@ static PetscErrorCode FromSVD(PetscBool jacobian, PetscBool projected, const VKS
   const PetscReal *U = st->svd.U, *W = st->svd.W, lo = band ? band->lo : 1, hi = band ? band->hi : 1;
 
   PetscFunctionBegin;
-  if (PetscIsInfOrNanReal(st->svd.s[0] + st->svd.s[1] + st->svd.s[2])) { /* a non-finite F: NaN for everything */
+  if (!isfinite(st->svd.s[0] + st->svd.s[1] + st->svd.s[2])) { /* a non-finite F: NaN for everything */
     PetscReal nan = (PetscReal)NAN;
     for (int i = 0; i < 9; i++) st->R[i] = st->V[i] = st->proj.J[i] = nan;
     for (int i = 0; i < 3; i++) {
