@@ -17,11 +17,11 @@
  *   forward:  w = y(rows);  w(0:nc) = T^{-1} w(0:nc);  w(nc:nr) -= B w(0:nc)
  *   backward: w(0:nc) = T^{-T} (w(0:nc) - B^T w(nc:nr))
  * four columns of the block at a time, and up to four columns of the
- * right-hand side with each load of the block.  Each rank keeps only its part of the
- * factor's values (CHOLMOD's numeric factor is freed once they are
- * copied) and reads only that part per solve: on 2 ranks the PD global
- * step's three columns cost each rank half the factor, where PC columns
- * gives one rank two whole columns.  The cut minimizes the largest rank's
+ * right-hand side with each load of the block.  Each rank keeps only its
+ * part of the factor's values (CHOLMOD's array, compacted in place and
+ * shrunk) and reads only that part per solve: on 2 ranks the PD global
+ * step's three columns cost each rank about half the factor, where PC
+ * columns gives one rank two whole columns.  The cut minimizes the largest rank's
  * work plus the top's (a greedy descent from the root, splitting the
  * largest subtree, the subtrees bin-packed by work), the subtree-to-rank
  * mapping of parallel sparse Cholesky.  Set-up modelled on PETSc's
@@ -55,7 +55,7 @@ typedef struct {
   PetscInt       nbuf;
   Vec            col, seq;   /* parallel column (no array); this rank's rows of it */
   VecScatter     scatter;
-  PetscReal      work_own, work_top, work_max, work_total; /* block entries read per solve */
+  PetscReal      work_own, work_top, work_total; /* block entries read per solve */
   PetscMPIInt    rank, size;
 } PC_Subtrees;
 
@@ -223,7 +223,6 @@ static PetscErrorCode CutTree(PC_Subtrees *c, char mine[])
       for (PetscInt s = r - count[r] + 1; s <= r; s++) mine[s] = 1;
   }
   c->work_top = best_top;
-  c->work_max = best - best_top;
   c->work_own = 0;
   for (PetscInt s = 0; s < nsuper; s++)
     if (mine[s] == 1) c->work_own += (PetscReal)NRows(L, s) * NCols(L, s);
@@ -407,9 +406,8 @@ static PetscErrorCode Analyze(PC pc)
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, tops, 2, MPIU_INT, MPI_MAX, PetscObjectComm((PetscObject)pc)));
     PetscCheck(total + c->ntopcols == n && tops[0] == -tops[1], PETSC_COMM_SELF, PETSC_ERR_PLIB, "The ranks cut different elimination trees (%d + %d of %d rows)", (int)total, (int)c->ntopcols, (int)n);
   }
-  PetscCall(PetscFree3(c->w, c->buf, c->io));
-  PetscCall(PetscMalloc3(4 * nrmax, &c->w, 0, &c->buf, c->nowncols + c->ntopcols, &c->io));
-  c->nbuf = 0;
+  PetscCall(PetscFree2(c->w, c->io));
+  PetscCall(PetscMalloc2(4 * nrmax, &c->w, c->nowncols + c->ntopcols, &c->io));
   /* this rank's rows of a parallel column: its own, and rank 0 the top's */
   m = c->nowncols + (c->rank == 0 ? c->ntopcols : 0);
   PetscCall(PetscMalloc1(m, &global));
@@ -652,7 +650,8 @@ static PetscErrorCode PCReset_Subtrees(PC pc)
   c->symbolic = PETSC_FALSE;
   PetscCall(MatDestroy(&c->Aseq));
   PetscCall(PetscFree4(c->snode, c->voff, c->order, c->cols));
-  PetscCall(PetscFree3(c->w, c->buf, c->io));
+  PetscCall(PetscFree2(c->w, c->io));
+  PetscCall(PetscFree(c->buf));
   if (c->val) c->val = (PetscScalar *)SuiteSparse_free(c->val);
   PetscCall(PetscFree(c->y));
   c->nval = c->ny = c->nbuf = 0;
