@@ -29,8 +29,10 @@ PKG_LIBS   = $(shell pkg-config --libs $(PKGS))
 # by the PC subtrees (src/sim/pc_subtrees.c).
 SUITESPARSE_CFLAGS ?= -I/usr/include/suitesparse
 SUITESPARSE_LIBS   ?= -lcholmod -lsuitesparseconfig
+# LAPACK (which petsc-dev brings): the dense factor of its separators there.
+LAPACK_LIBS        ?= -llapack
 CFLAGS     = $(CSTD) $(OPT) $(ARCH) $(WARN) -Iinclude $(PKG_CFLAGS) $(SUITESPARSE_CFLAGS)
-LDLIBS     = $(PKG_LIBS) $(SUITESPARSE_LIBS) -lmetis -lm
+LDLIBS     = $(PKG_LIBS) $(SUITESPARSE_LIBS) $(LAPACK_LIBS) -lmetis -lm
 MPIEXEC   ?= mpiexec
 FUZZ_TIME ?= 60
 
@@ -129,7 +131,7 @@ bin/examples/%: examples/%.c $(LIB)
 # sanitizers into their own archive, then one binary per reader.
 FUZZ_SAN    = address,undefined
 FUZZ_CFLAGS = $(CSTD) -O1 -g -Iinclude -Isrc -Ibuild $(PKG_CFLAGS) $(SUITESPARSE_CFLAGS) $(shell mpicc --showme:compile)
-FUZZ_LIBS   = $(PKG_LIBS) $(SUITESPARSE_LIBS) $(shell mpicc --showme:link) -lmetis -lm
+FUZZ_LIBS   = $(PKG_LIBS) $(SUITESPARSE_LIBS) $(LAPACK_LIBS) $(shell mpicc --showme:link) -lmetis -lm
 FUZZ_OBJ   := $(LIB_SRC:src/%.c=build/fuzz/%.o)
 FUZZ_LIB   := lib/libvolknit_fuzz.a
 build/fuzz/%.o: src/%.c

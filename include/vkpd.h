@@ -45,13 +45,15 @@
 #define PCCOLUMNS "columns"
 PETSC_EXTERN PetscErrorCode VKPCCreate_Columns(PC);
 /* PC type "subtrees" (pc_subtrees.c): one sparse Cholesky factor split
- * over the ranks along its elimination tree, each rank keeping and solving
- * its subtrees and, redundantly, the separators above them (CHOLMOD). */
+ * over the ranks along its elimination tree, each rank factoring and
+ * solving its subtrees and, redundantly, the separators above them
+ * (CHOLMOD; the separators' Schur complement dense, LAPACK). */
 #define PCSUBTREES "subtrees"
 PETSC_EXTERN PetscErrorCode VKPCCreate_Subtrees(PC);
-/* After set-up: the entries of the factor's blocks this rank solves with
- * in its subtrees, in the top (every rank), and in the whole factor. */
-PETSC_EXTERN PetscErrorCode PCSubtreesGetWork(PC, PetscReal *own, PetscReal *top, PetscReal *total);
+/* After set-up: this rank's rows of K (its subtrees') and the top's rows
+ * (every rank's), and the entries of the factor's blocks this rank solves
+ * with in its subtrees, in the top, and in the whole factor. */
+PETSC_EXTERN PetscErrorCode PCSubtreesGetSplit(PC, PetscInt *nown, PetscInt *ntop, PetscReal *own, PetscReal *top, PetscReal *total);
 /* PC type "cms" (pc_cms.c): component mode synthesis over domains
  * (DESIGN §9), a two-level PCMG whose coarse space holds every boundary
  * row and the lowest interior modes of each domain.  Its domains are

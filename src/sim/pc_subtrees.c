@@ -2,63 +2,78 @@
  * solver that splits one sparse Cholesky factor P K P^T = L L^T over the
  * ranks along its elimination tree.
  *
- * Every rank factors a sequential copy of the operator the same way
- * (CHOLMOD, supernodal, METIS nested dissection), so every rank has the
- * same tree of supernodes.  The tree is cut into disjoint subtrees, each
- * given to one rank, and a top part (the separators above the cut), which
- * every rank keeps.  A solve with k right-hand sides:
- *   forward:  each rank through its own subtrees; their updates of the top
+ * Every rank orders the whole operator the same way (CHOLMOD's analysis,
+ * METIS nested dissection) and so finds the same tree of supernodes.  The
+ * tree is cut into disjoint subtrees, each given to one rank, and a top
+ * part (the separators above the cut).  A rank factors only its own rows
+ * and the top's, K_p = K(own + top, own + top) in that order (CHOLMOD,
+ * supernodal): its subtrees' columns of L are those of the whole factor,
+ * since a column depends only on its descendants.  The top's factor is
+ * then the Cholesky factor of the Schur complement
+ *   S = K_TT - sum over the ranks of L_Tr L_Tr^T
+ * (L_Tr: the top rows of rank r's columns), summed with one MPI_Allreduce
+ * and factored densely (LAPACK) on every rank.  A solve with k right-hand
+ * sides:
+ *   forward:  each rank through its subtrees; their updates of the top
  *             rows are summed over the ranks (one MPI_Allreduce of
  *             |top| x k numbers; rank 0 adds the right-hand side there);
- *   top:      forward and backward through the top part, on every rank;
- *   backward: each rank through its own subtrees.
+ *   top:      forward and backward through the dense top factor, on every
+ *             rank;
+ *   backward: each rank through its subtrees.
  * A supernode is one dense nr x nc block (T its nc x nc lower triangle, B
  * the nr - nc rows below):
  *   forward:  w = y(rows);  w(0:nc) = T^{-1} w(0:nc);  w(nc:nr) -= B w(0:nc)
  *   backward: w(0:nc) = T^{-T} (w(0:nc) - B^T w(nc:nr))
  * four columns of the block at a time, and up to four columns of the
- * right-hand side with each load of the block.  Each rank keeps only its
- * part of the factor's values (CHOLMOD's array, compacted in place and
- * shrunk) and reads only that part per solve: on 2 ranks the PD global
- * step's three columns cost each rank about half the factor, where PC
- * columns gives one rank two whole columns.  The cut minimizes the largest rank's
- * work plus the top's (a greedy descent from the root, splitting the
- * largest subtree, the subtrees bin-packed by work), the subtree-to-rank
- * mapping of parallel sparse Cholesky.  Set-up modelled on PETSc's
- * PCREDUNDANT. */
+ * right-hand side with each load of the block.  Each rank computes, keeps
+ * and reads per solve only its part of the factor and the top: on 2 ranks
+ * the PD global step's three columns cost each rank about half the
+ * factor, where PC columns gives one rank two whole columns.  The cut
+ * minimizes the largest rank's work plus the top's (a greedy descent from
+ * the root, splitting the largest subtree, the subtrees bin-packed by
+ * work), the subtree-to-rank mapping of parallel sparse Cholesky.  Set-up
+ * modelled on PETSc's PCREDUNDANT. */
 #include <vkpd.h>
+#include <petscblaslapack.h>
 #include <petsc/private/pcimpl.h>
 #if defined(PETSC_HAVE_SUITESPARSE) && !defined(PETSC_USE_64BIT_INDICES)
 #include <cholmod.h>
 
 typedef struct {
-  Mat            Aseq;       /* the whole operator on this rank */
+  Mat            Aseq;      /* the whole operator on this rank (its values feed K_p) */
   cholmod_common common;
-  cholmod_factor *L;         /* symbolic once the values are copied out */
-  PetscBool      started;    /* common initialized */
-  PetscBool      symbolic;   /* L analyzed and the tree cut for Aseq's pattern */
-  PetscBool      failed;     /* the last factorization met a nonpositive pivot */
-  /* this rank's supernodes: its subtrees', then the top's, both ascending */
-  PetscInt       nown, ntop; /* numbers of supernodes */
-  PetscInt      *snode;      /* their CHOLMOD numbers */
-  PetscInt      *voff;       /* offsets of their blocks in val */
-  PetscInt      *order;      /* the same supernodes in the factor's order */
-  PetscScalar   *val;        /* the blocks, column major (CHOLMOD's array, shrunk) */
-  PetscInt       nval;
-  /* rows: this rank's columns of L (own supernodes'), then the top's */
-  PetscInt       nowncols, ntopcols;
-  PetscInt      *cols;       /* permuted indices */
-  PetscScalar   *y;          /* permuted right-hand sides, n x k */
+  PetscBool      started;   /* common initialized */
+  PetscBool      analyzed;  /* the tree cut and K_p laid out for Aseq's pattern */
+  PetscBool      failed;    /* the last factorization met a nonpositive pivot */
+  PetscBool      metis;     /* K ordered by METIS (else CHOLMOD's default) */
+  /* K_p = K(keep, keep): this rank's subtrees' rows (nown), then the top's
+     (ntop), its upper triangle in CHOLMOD's column form */
+  PetscInt       n, nown, ntop;
+  PetscInt      *keep;      /* K_p's rows as rows of K */
+  int           *kp, *ki;   /* column starts, row indices */
+  PetscScalar   *kx;        /* values */
+  PetscInt      *kmap;      /* kx[e] is Aseq's value kmap[e] */
+  cholmod_factor *L;        /* of K_p (NULL without own rows); symbolic between factorizations */
+  /* the subtrees' part of L: its supernodes 0 .. nsn-1, the last of them
+     maybe reaching into the top, of which only its first snc columns count */
+  PetscInt       nsn;
+  PetscInt      *snc, *voff; /* own columns of each; offset of its block in val */
+  PetscScalar   *val;       /* the blocks: CHOLMOD's array of values, shrunk */
+  PetscScalar   *top;       /* the top's factor, dense ntop x ntop, column major, lower */
+  int           *toprows;   /* nown .. n - 1 */
+  PetscScalar   *y;         /* the right-hand sides in K_p's order, n x k */
   PetscInt       ny;
-  PetscScalar   *w, *buf;    /* one block's rows; the top rows, k columns */
-  PetscScalar   *io;         /* this rank's rows of one parallel column */
+  PetscScalar   *w, *io;    /* one block's rows (4 columns); this rank's rows of a column */
+  PetscScalar   *buf;       /* the top rows, k columns */
   PetscInt       nbuf;
-  Vec            col, seq;   /* parallel column (no array); this rank's rows of it */
+  Vec            col, seq;  /* parallel column (no array); this rank's rows of it */
   VecScatter     scatter;
   PetscReal      work_own, work_top, work_total; /* block entries read per solve */
   PetscMPIInt    rank, size;
 } PC_Subtrees;
 
+/* Aseq's CSR arrays read as CSC: it is symmetric, so row i is column i;
+ * CHOLMOD reads the upper triangle (stype 1) and ignores the rest. */
 /* Aseq's CSR arrays read as CSC: it is symmetric, so row i is column i;
  * CHOLMOD reads the upper triangle (stype 1) and ignores the rest. */
 static PetscErrorCode WrapAIJ(Mat A, cholmod_sparse *S)
@@ -158,11 +173,10 @@ static PetscReal Pack(PetscInt np, const Piece pieces[], PetscMPIInt size, Petsc
  * moves to the top and its children become pieces; the cut kept is the one
  * with the least largest bin plus top work.  The same on every rank (the
  * same factor, deterministic ties). */
-static PetscErrorCode CutTree(PC_Subtrees *c, char mine[])
+static PetscErrorCode CutTree(PC_Subtrees *c, const cholmod_factor *L, char mine[])
 {
-  const cholmod_factor *L = c->L;
   PetscInt              nsuper = (PetscInt)L->nsuper, *parent, *child, *next, *count, np = 0, best_np = 0, maxpieces = 16 * c->size + 16;
-  PetscReal            *sub, *bin, top = 0, best, best_top = 0;
+  PetscReal            *sub, *bin, top = 0, best;
   Piece                *pieces, *best_pieces;
   PetscMPIInt          *owner, *best_owner;
 
@@ -197,7 +211,6 @@ static PetscErrorCode CutTree(PC_Subtrees *c, char mine[])
     cost = Pack(np, pieces, c->size, bin, owner) + top;
     if (cost < best) {
       best     = cost;
-      best_top = top;
       best_np  = np;
       PetscCall(PetscArraycpy(best_pieces, pieces, np));
       PetscCall(PetscArraycpy(best_owner, owner, np));
@@ -222,10 +235,6 @@ static PetscErrorCode CutTree(PC_Subtrees *c, char mine[])
     if (best_owner[i] == c->rank)
       for (PetscInt s = r - count[r] + 1; s <= r; s++) mine[s] = 1;
   }
-  c->work_top = best_top;
-  c->work_own = 0;
-  for (PetscInt s = 0; s < nsuper; s++)
-    if (mine[s] == 1) c->work_own += (PetscReal)NRows(L, s) * NCols(L, s);
   PetscCall(PetscFree5(parent, child, next, count, sub));
   PetscCall(PetscFree5(pieces, best_pieces, owner, best_owner, bin));
   PetscFunctionReturn(0);
@@ -332,16 +341,75 @@ static void Substitute(PetscBool forward, PetscInt k, PetscInt nc, PetscInt nr, 
   }
 }
 
-/* Orders Aseq's rows (METIS nested dissection, whose separators make a tree
- * that splits), finds the supernodes, cuts the tree, and lays out this
- * rank's part: its supernodes, its rows, the scatter of its rows. */
+
+/* K_p's upper triangle in CHOLMOD's column form: column j is row keep[j]
+ * of Aseq (K is symmetric), with the entries of rows i <= j of K_p. */
+static PetscErrorCode LayoutKp(PC_Subtrees *c)
+{
+  PetscInt        N, *inv, nz = 0;
+  const PetscInt *ia, *ja;
+  PetscBool       done;
+
+  PetscFunctionBegin;
+  PetscCall(MatGetRowIJ(c->Aseq, 0, PETSC_FALSE, PETSC_FALSE, &N, &ia, &ja, &done));
+  PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_SUP, "Cannot get the CSR arrays of the matrix");
+  PetscCall(PetscMalloc1(N, &inv));
+  for (PetscInt g = 0; g < N; g++) inv[g] = -1;
+  for (PetscInt j = 0; j < c->n; j++) inv[c->keep[j]] = j;
+  for (PetscInt j = 0; j < c->n; j++)
+    for (PetscInt e = ia[c->keep[j]]; e < ia[c->keep[j] + 1]; e++) nz += inv[ja[e]] >= 0 && inv[ja[e]] <= j;
+  PetscCall(PetscFree4(c->kp, c->ki, c->kx, c->kmap));
+  PetscCall(PetscMalloc4(c->n + 1, &c->kp, nz, &c->ki, nz, &c->kx, nz, &c->kmap));
+  c->kp[0] = 0;
+  for (PetscInt j = 0; j < c->n; j++) {
+    PetscInt start = c->kp[j], m = 0, *rows;
+    for (PetscInt e = ia[c->keep[j]]; e < ia[c->keep[j] + 1]; e++) {
+      PetscInt i = inv[ja[e]];
+      if (i < 0 || i > j) continue;
+      c->ki[start + m]   = (int)i;
+      c->kmap[start + m] = e;
+      m++;
+    }
+    PetscCall(PetscMalloc1(m, &rows)); /* rows ascending, as CHOLMOD likes them */
+    for (PetscInt q = 0; q < m; q++) rows[q] = c->ki[start + q];
+    PetscCall(PetscSortIntWithArray(m, rows, c->kmap + start));
+    for (PetscInt q = 0; q < m; q++) c->ki[start + q] = (int)rows[q];
+    PetscCall(PetscFree(rows));
+    c->kp[j + 1] = (int)(start + m);
+  }
+  PetscCall(PetscFree(inv));
+  PetscCall(MatRestoreRowIJ(c->Aseq, 0, PETSC_FALSE, PETSC_FALSE, &N, &ia, &ja, &done));
+  PetscFunctionReturn(0);
+}
+
+static void WrapKp(PC_Subtrees *c, cholmod_sparse *S)
+{
+  PetscMemzero(S, sizeof(*S));
+  S->nrow = S->ncol = (size_t)c->n;
+  S->nzmax          = (size_t)c->kp[c->n];
+  S->p              = c->kp;
+  S->i              = c->ki;
+  S->x              = c->kx;
+  S->stype          = 1;
+  S->itype          = CHOLMOD_INT;
+  S->xtype          = CHOLMOD_REAL;
+  S->dtype          = CHOLMOD_DOUBLE;
+  S->sorted         = 1;
+  S->packed         = 1;
+}
+
+/* Orders K (METIS nested dissection, whose separators make a tree that
+ * splits), cuts the tree, lays out K_p and analyzes it in its own order,
+ * and lays out this rank's part: its supernodes, the top, the scatter of
+ * its rows. */
 static PetscErrorCode Analyze(PC pc)
 {
   PC_Subtrees    *c = (PC_Subtrees *)pc->data;
+  MPI_Comm        comm = PetscObjectComm((PetscObject)pc);
   cholmod_sparse  S;
-  const int      *super, *pi, *perm;
+  cholmod_factor *Lk;
   char           *mine;
-  PetscInt        n, nsuper, nlocal, N, m, nrmax = 1;
+  PetscInt        N, nlocal, m, nrmax = 4;
   IS              is;
   PetscInt       *global;
 
@@ -352,119 +420,134 @@ static PetscErrorCode Analyze(PC pc)
   c->common.method[0].ordering = CHOLMOD_METIS;
   c->common.postorder          = 1;
   PetscCall(WrapAIJ(c->Aseq, &S));
-  c->L = cholmod_analyze(&S, &c->common);
-  if (!c->L && c->common.status == CHOLMOD_NOT_INSTALLED) { /* a CHOLMOD without METIS: its default orderings */
+  Lk = cholmod_analyze(&S, &c->common);
+  if (!Lk && c->common.status == CHOLMOD_NOT_INSTALLED) { /* a CHOLMOD without METIS: its default orderings */
     c->common.nmethods = 0;
-    c->L               = cholmod_analyze(&S, &c->common);
+    Lk                 = cholmod_analyze(&S, &c->common);
   }
   PetscCall(UnwrapAIJ(c->Aseq, &S));
-  PetscCheck(c->L, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis failed with status %d", c->common.status);
-  PetscCheck(c->L->is_super, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis did not give a supernodal factor");
-  n      = (PetscInt)c->L->n;
-  nsuper = (PetscInt)c->L->nsuper;
-  super  = (const int *)c->L->super;
-  pi     = (const int *)c->L->pi;
-  perm   = (const int *)c->L->Perm;
-  PetscCall(PetscMalloc1(nsuper, &mine));
-  PetscCall(CutTree(c, mine));
-  PetscCall(PetscFree4(c->snode, c->voff, c->order, c->cols));
-  c->nown = c->ntop = c->nowncols = c->ntopcols = 0;
-  for (PetscInt s = 0; s < nsuper; s++) {
-    if (mine[s] == 1) c->nown++, c->nowncols += NCols(c->L, s);
-    if (mine[s] == 2) c->ntop++, c->ntopcols += NCols(c->L, s);
-  }
-  PetscCall(PetscMalloc4(c->nown + c->ntop, &c->snode, c->nown + c->ntop + 1, &c->voff, c->nown + c->ntop, &c->order, c->nowncols + c->ntopcols, &c->cols));
-  {
-    PetscInt i = 0, j = 0;
+  PetscCheck(Lk, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis failed with status %d", c->common.status);
+  c->metis = (PetscBool)(c->common.nmethods == 1);
+  PetscCheck(Lk->is_super, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis did not give a supernodal factor");
+  { /* K_p's rows: the subtrees' columns in the factor's order, then the top's */
+    const int *super = (const int *)Lk->super, *perm = (const int *)Lk->Perm;
+    PetscInt   nsuper = (PetscInt)Lk->nsuper, j = 0;
+    PetscCall(PetscMalloc1(nsuper, &mine));
+    PetscCall(CutTree(c, Lk, mine));
+    c->nown = c->ntop = 0;
+    for (PetscInt s = 0; s < nsuper; s++) {
+      if (mine[s] == 1) c->nown += NCols(Lk, s);
+      if (mine[s] == 2) c->ntop += NCols(Lk, s);
+    }
+    c->n = c->nown + c->ntop;
+    PetscCall(PetscFree(c->keep));
+    PetscCall(PetscMalloc1(c->n, &c->keep));
     for (int part = 1; part <= 2; part++)
       for (PetscInt s = 0; s < nsuper; s++)
-        if (mine[s] == part) {
-          c->snode[i++] = s;
-          for (PetscInt k = super[s]; k < super[s + 1]; k++) c->cols[j++] = k;
-        }
+        if (mine[s] == part)
+          for (PetscInt k = super[s]; k < super[s + 1]; k++) c->keep[j++] = perm[k];
+    PetscCall(PetscFree(mine));
   }
-  { /* the kept blocks in the order of the factor, so that they can be
-       moved down within CHOLMOD's array (Factor) */
-    PetscInt *pos, off = 0, j = 0;
-    PetscCall(PetscMalloc1(nsuper, &pos));
-    for (PetscInt i = 0; i < c->nown + c->ntop; i++) pos[c->snode[i]] = i;
-    for (PetscInt s = 0; s < nsuper; s++) {
-      if (!mine[s]) continue;
-      c->order[j++]   = pos[s];
-      c->voff[pos[s]] = off;
-      off += (PetscInt)(pi[s + 1] - pi[s]) * NCols(c->L, s);
-      nrmax = PetscMax(nrmax, (PetscInt)(pi[s + 1] - pi[s]));
+  cholmod_free_factor(&Lk, &c->common);
+  { /* every row of K belongs to exactly one rank's subtrees or to the top:
+       a check that all ranks cut the same tree */
+    PetscInt owned = c->nown, total, tops[2] = {c->ntop, -c->ntop};
+    PetscCall(MatGetSize(pc->pmat, &N, NULL));
+    PetscCallMPI(MPI_Allreduce(&owned, &total, 1, MPIU_INT, MPI_SUM, comm));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, tops, 2, MPIU_INT, MPI_MAX, comm));
+    PetscCheck(total + c->ntop == N && tops[0] == -tops[1], PETSC_COMM_SELF, PETSC_ERR_PLIB, "The ranks cut different elimination trees (%d + %d of %d rows)", (int)total, (int)c->ntop, (int)N);
+  }
+  PetscCall(LayoutKp(c));
+  /* K_p analyzed in its own order (no reordering, no postordering), so
+     its first nown columns are this rank's subtrees' */
+  PetscCall(PetscFree2(c->snc, c->voff));
+  c->nsn      = 0;
+  c->work_own = 0;
+  if (c->nown > 0) {
+    const int *super, *pi, *perm;
+    c->common.nmethods           = 1;
+    c->common.method[0].ordering = CHOLMOD_NATURAL;
+    c->common.postorder          = 0;
+    WrapKp(c, &S);
+    c->L = cholmod_analyze(&S, &c->common);
+    PetscCheck(c->L && c->L->is_super, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis of this rank's rows failed with status %d", c->common.status);
+    super = (const int *)c->L->super;
+    pi    = (const int *)c->L->pi;
+    perm  = (const int *)c->L->Perm;
+    for (PetscInt i = 0; i < c->n; i++) PetscCheck(perm[i] == i, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD reordered this rank's rows");
+    while (c->nsn < (PetscInt)c->L->nsuper && super[c->nsn] < c->nown) c->nsn++;
+    PetscCall(PetscMalloc2(c->nsn, &c->snc, c->nsn + 1, &c->voff));
+    c->voff[0] = 0;
+    for (PetscInt s = 0; s < c->nsn; s++) {
+      c->snc[s]      = PetscMin(super[s + 1], c->nown) - super[s];
+      c->voff[s + 1] = c->voff[s] + (PetscInt)(pi[s + 1] - pi[s]) * c->snc[s];
+      nrmax          = PetscMax(nrmax, (PetscInt)(pi[s + 1] - pi[s]));
     }
-    c->voff[c->nown + c->ntop] = off;
-    PetscCall(PetscFree(pos));
+    c->work_own = (PetscReal)c->voff[c->nsn];
   }
-  PetscCall(PetscFree(mine));
-  { /* every row belongs to exactly one rank's subtrees or to the top: a
-       check that all ranks cut the same tree */
-    PetscInt    owned = c->nowncols, total, tops[2] = {c->ntopcols, -c->ntopcols};
-    PetscCallMPI(MPI_Allreduce(&owned, &total, 1, MPIU_INT, MPI_SUM, PetscObjectComm((PetscObject)pc)));
-    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, tops, 2, MPIU_INT, MPI_MAX, PetscObjectComm((PetscObject)pc)));
-    PetscCheck(total + c->ntopcols == n && tops[0] == -tops[1], PETSC_COMM_SELF, PETSC_ERR_PLIB, "The ranks cut different elimination trees (%d + %d of %d rows)", (int)total, (int)c->ntopcols, (int)n);
-  }
+  c->work_top = 0.5 * (PetscReal)c->ntop * (c->ntop + 1);
+  nrmax       = PetscMax(nrmax, c->ntop);
+  PetscCall(PetscFree(c->top));
+  PetscCall(PetscFree(c->toprows));
+  PetscCall(PetscMalloc1(c->ntop * c->ntop, &c->top));
+  PetscCall(PetscMalloc1(c->ntop, &c->toprows));
+  for (PetscInt i = 0; i < c->ntop; i++) c->toprows[i] = (int)(c->nown + i);
   PetscCall(PetscFree2(c->w, c->io));
-  PetscCall(PetscMalloc2(4 * nrmax, &c->w, c->nowncols + c->ntopcols, &c->io));
+  PetscCall(PetscMalloc2(4 * nrmax, &c->w, c->n, &c->io));
   /* this rank's rows of a parallel column: its own, and rank 0 the top's */
-  m = c->nowncols + (c->rank == 0 ? c->ntopcols : 0);
+  m = c->nown + (c->rank == 0 ? c->ntop : 0);
   PetscCall(PetscMalloc1(m, &global));
-  for (PetscInt i = 0; i < m; i++) global[i] = perm[c->cols[i]];
+  PetscCall(PetscArraycpy(global, c->keep, m));
   PetscCall(ISCreateGeneral(PETSC_COMM_SELF, m, global, PETSC_OWN_POINTER, &is));
   PetscCall(VecDestroy(&c->col));
   PetscCall(VecDestroy(&c->seq));
   PetscCall(VecScatterDestroy(&c->scatter));
-  PetscCall(MatGetSize(pc->pmat, &N, NULL));
   PetscCall(MatGetLocalSize(pc->pmat, &nlocal, NULL));
-  PetscCall(VecCreateMPIWithArray(PetscObjectComm((PetscObject)pc), 1, nlocal, N, NULL, &c->col));
+  PetscCall(VecCreateMPIWithArray(comm, 1, nlocal, N, NULL, &c->col));
   PetscCall(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, m, c->io, &c->seq));
   PetscCall(VecScatterCreate(c->col, is, c->seq, NULL, &c->scatter));
   PetscCall(ISDestroy(&is));
-  c->symbolic = PETSC_TRUE;
+  c->analyzed = PETSC_TRUE;
   PetscFunctionReturn(0);
 }
 
-/* The numeric factorization (on every rank, the same), then this rank's
- * blocks copied out and CHOLMOD's values freed. */
-static PetscErrorCode Factor(PC pc)
+/* This rank's factorization of K_p, its subtrees' blocks kept (CHOLMOD's
+ * array compacted in place and shrunk) and L made symbolic again.
+ * Returns whether CHOLMOD met a nonpositive pivot. */
+static PetscErrorCode FactorOwn(PC pc, PetscBool *notpd)
 {
   PC_Subtrees       *c = (PC_Subtrees *)pc->data;
   cholmod_sparse     S;
+  const PetscScalar *va;
   PetscScalar       *lx;
   const int         *px;
 
   PetscFunctionBegin;
+  *notpd = PETSC_FALSE;
   if (c->val) c->val = (PetscScalar *)SuiteSparse_free(c->val); /* before CHOLMOD allocates the new factor */
-  PetscCall(WrapAIJ(c->Aseq, &S));
+  if (!c->L) PetscFunctionReturn(0);
+  PetscCall(MatSeqAIJGetArrayRead(c->Aseq, &va));
+  for (PetscInt e = 0; e < c->kp[c->n]; e++) c->kx[e] = va[c->kmap[e]];
+  PetscCall(MatSeqAIJRestoreArrayRead(c->Aseq, &va));
+  WrapKp(c, &S);
   cholmod_factorize(&S, c->L, &c->common);
-  PetscCall(UnwrapAIJ(c->Aseq, &S));
   PetscCall(PetscLogFlops(c->common.fl));
-  PetscCall(PetscInfo(pc, "CHOLMOD: %.0f nonzeros in L, %.1f MB in use, %.1f MB at most\n", c->common.lnz, (double)c->common.memory_inuse / 1048576.0, (double)c->common.memory_usage / 1048576.0));
-  c->failed = PETSC_FALSE;
+  PetscCall(PetscInfo(pc, "CHOLMOD: %.0f nonzeros in this rank's L, %.1f MB in use, %.1f MB at most\n", c->common.lnz, (double)c->common.memory_inuse / 1048576.0, (double)c->common.memory_usage / 1048576.0));
   if (c->common.status == CHOLMOD_NOT_POSDEF) {
-    PetscCall(PetscInfo(pc, "CHOLMOD: the matrix is not positive definite (column %d of %d)\n", (int)c->L->minor, (int)c->L->n));
-    pc->failedreason = PC_FACTOR_NUMERIC_ZEROPIVOT;
-    c->failed        = PETSC_TRUE;
-    c->symbolic      = PETSC_FALSE; /* start again from the analysis next time */
+    PetscCall(PetscInfo(pc, "CHOLMOD: this rank's rows are not positive definite (column %d of %d)\n", (int)c->L->minor, (int)c->L->n));
+    *notpd = PETSC_TRUE;
     PetscFunctionReturn(0);
   }
   PetscCheck(c->common.status >= CHOLMOD_OK, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's factorization failed with status %d", c->common.status);
   PetscCheck(c->L->is_super && c->L->is_ll && c->L->xtype == CHOLMOD_REAL, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD did not give a real supernodal L L^T factor");
-  /* this rank's blocks moved down to the front of CHOLMOD's array, in the
-     factor's order (never upwards), and the array shrunk and kept: no
-     second copy of the factor, even for a moment */
+  /* the subtrees' blocks are the first nsn, each its first snc columns
+     (contiguous, column major): moved down, never up */
   lx = (PetscScalar *)c->L->x;
   px = (const int *)c->L->px;
-  for (PetscInt j = 0; j < c->nown + c->ntop; j++) {
-    PetscInt i = c->order[j], s = c->snode[i];
-    PetscCall(PetscArraymove(lx + c->voff[i], lx + px[s], NRows(c->L, s) * NCols(c->L, s)));
-  }
-  c->nval = c->voff[c->nown + c->ntop];
+  for (PetscInt s = 0; s < c->nsn; s++) PetscCall(PetscArraymove(lx + c->voff[s], lx + px[s], c->voff[s + 1] - c->voff[s]));
   {
     int ok;
-    c->val = (PetscScalar *)SuiteSparse_realloc((size_t)PetscMax(c->nval, 1), c->L->xsize, sizeof(PetscScalar), lx, &ok);
+    c->val = (PetscScalar *)SuiteSparse_realloc((size_t)PetscMax(c->voff[c->nsn], 1), c->L->xsize, sizeof(PetscScalar), lx, &ok);
   }
   /* L keeps its symbolic part (pattern, supernodes, rows) for the next
      factorization of the same pattern: it becomes what cholmod_analyze
@@ -478,6 +561,82 @@ static PetscErrorCode Factor(PC pc)
   PetscFunctionReturn(0);
 }
 
+/* The top's factor: S = K_TT (rank 0) - sum over the ranks of the top rows
+ * of their columns of L times their transpose, summed, then Cholesky
+ * (lower triangle, column major).  Returns whether S is not positive
+ * definite (the same on every rank). */
+static PetscErrorCode FactorTop(PC pc, PetscBool *notpd)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+  PetscInt     t = c->ntop;
+
+  PetscFunctionBegin;
+  *notpd = PETSC_FALSE;
+  if (!t) PetscFunctionReturn(0);
+  PetscCall(PetscArrayzero(c->top, t * t));
+  if (c->rank == 0) {
+    const PetscScalar *va;
+    PetscCall(MatSeqAIJGetArrayRead(c->Aseq, &va));
+    for (PetscInt j = c->nown; j < c->n; j++) /* K_p's upper triangle: (i, j) with i <= j, stored at (j, i) */
+      for (PetscInt e = c->kp[j]; e < c->kp[j + 1]; e++)
+        if (c->ki[e] >= c->nown) c->top[(j - c->nown) + (c->ki[e] - c->nown) * t] += va[c->kmap[e]];
+    PetscCall(MatSeqAIJRestoreArrayRead(c->Aseq, &va));
+  }
+  if (c->L) {
+    const int *pi = (const int *)c->L->pi, *ls = (const int *)c->L->s;
+    for (PetscInt s = 0; s < c->nsn; s++) {
+      const int         *rows = ls + pi[s];
+      PetscInt           nr = pi[s + 1] - pi[s], first = nr;
+      const PetscScalar *blk  = c->val + c->voff[s];
+      while (first > 0 && rows[first - 1] >= c->nown) first--; /* rows ascend: the top's come last */
+      for (PetscInt q = 0; q < c->snc[s]; q++) {
+        const PetscScalar *col = blk + q * nr;
+        for (PetscInt b = first; b < nr; b++) {
+          PetscScalar  lb = col[b];
+          PetscScalar *tb = c->top + (rows[b] - c->nown) * t - c->nown;
+          for (PetscInt a = b; a < nr; a++) tb[rows[a]] -= col[a] * lb;
+        }
+      }
+    }
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, c->top, (PetscMPIInt)(t * t), MPIU_SCALAR, MPIU_SUM, PetscObjectComm((PetscObject)pc)));
+  {
+    PetscBLASInt bt, info;
+    PetscCall(PetscBLASIntCast(t, &bt));
+    PetscCallBLAS("LAPACKpotrf", LAPACKpotrf_("L", &bt, c->top, &bt, &info));
+    PetscCall(PetscLogFlops((PetscLogDouble)t * t * t / 3.0));
+    if (info) {
+      PetscCall(PetscInfo(pc, "LAPACK: the top's Schur complement is not positive definite (column %d of %d)\n", (int)info, (int)t));
+      *notpd = PETSC_TRUE;
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
+/* Factors this rank's part and the top; a nonpositive pivot anywhere fails
+ * the set-up on every rank. */
+static PetscErrorCode Factor(PC pc)
+{
+  PC_Subtrees *c = (PC_Subtrees *)pc->data;
+  PetscBool    own, top;
+  int          bad;
+
+  PetscFunctionBegin;
+  PetscCall(FactorOwn(pc, &own));
+  bad = own;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, PetscObjectComm((PetscObject)pc)));
+  if (!bad) {
+    PetscCall(FactorTop(pc, &top));
+    bad = top;
+  }
+  c->failed = (PetscBool)(bad != 0);
+  if (c->failed) {
+    pc->failedreason = PC_FACTOR_NUMERIC_ZEROPIVOT;
+    c->analyzed      = PETSC_FALSE; /* start again from the analysis next time */
+  }
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode PCSetUp_Subtrees(PC pc)
 {
   PC_Subtrees *c = (PC_Subtrees *)pc->data;
@@ -488,14 +647,14 @@ static PetscErrorCode PCSetUp_Subtrees(PC pc)
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)pc), &c->size));
   if (pc->setupcalled && pc->flag == DIFFERENT_NONZERO_PATTERN) {
     PetscCall(MatDestroy(&c->Aseq));
-    c->symbolic = PETSC_FALSE;
+    c->analyzed = PETSC_FALSE;
   }
   if (c->size == 1) {
     if (c->Aseq != pc->pmat) {
       PetscCall(MatDestroy(&c->Aseq));
       PetscCall(PetscObjectReference((PetscObject)pc->pmat));
       c->Aseq     = pc->pmat;
-      c->symbolic = PETSC_FALSE;
+      c->analyzed = PETSC_FALSE;
     }
   } else PetscCall(MatCreateRedundantMatrix(pc->pmat, c->size, PETSC_COMM_SELF, c->Aseq ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, &c->Aseq));
   PetscCall(PetscObjectTypeCompare((PetscObject)c->Aseq, MATSEQAIJ, &seqaij));
@@ -506,7 +665,7 @@ static PetscErrorCode PCSetUp_Subtrees(PC pc)
     c->common.print      = 0;
     c->started           = PETSC_TRUE;
   }
-  if (!c->symbolic) PetscCall(Analyze(pc));
+  if (!c->analyzed) PetscCall(Analyze(pc));
   PetscCall(Factor(pc));
   PetscFunctionReturn(0);
 }
@@ -515,54 +674,45 @@ static PetscErrorCode PCSetUp_Subtrees(PC pc)
 static PetscErrorCode Solve(PC pc, PetscInt k)
 {
   PC_Subtrees       *c  = (PC_Subtrees *)pc->data;
-  const int         *pi = (const int *)c->L->pi, *rows = (const int *)c->L->s;
-  PetscInt           n  = (PetscInt)c->L->n, nsn = c->nown + c->ntop;
+  const int         *pi = c->L ? (const int *)c->L->pi : NULL, *rows = c->L ? (const int *)c->L->s : NULL;
+  PetscInt           n  = c->n;
   const PetscScalar *v  = c->val;
 
   PetscFunctionBegin;
-  for (PetscInt i = 0; i < c->nown; i++) {
-    PetscInt s = c->snode[i];
-    Substitute(PETSC_TRUE, k, NCols(c->L, s), pi[s + 1] - pi[s], rows + pi[s], v + c->voff[i], c->y, n, c->w);
-  }
-  if (c->size > 1 && c->ntopcols > 0) {
-    const PetscInt *top = c->cols + c->nowncols;
-    if (c->nbuf < k * c->ntopcols) {
-      PetscCall(PetscFree(c->buf));
-      c->nbuf = k * c->ntopcols;
-      PetscCall(PetscMalloc1(c->nbuf, &c->buf));
+  for (PetscInt s = 0; s < c->nsn; s++) Substitute(PETSC_TRUE, k, c->snc[s], pi[s + 1] - pi[s], rows + pi[s], v + c->voff[s], c->y, n, c->w);
+  if (c->ntop > 0) {
+    if (c->size > 1) {
+      if (c->nbuf < k * c->ntop) {
+        PetscCall(PetscFree(c->buf));
+        c->nbuf = k * c->ntop;
+        PetscCall(PetscMalloc1(c->nbuf, &c->buf));
+      }
+      for (PetscInt r = 0; r < k; r++) PetscCall(PetscArraycpy(c->buf + r * c->ntop, c->y + r * n + c->nown, c->ntop));
+      PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, c->buf, (PetscMPIInt)(k * c->ntop), MPIU_SCALAR, MPIU_SUM, PetscObjectComm((PetscObject)pc)));
+      for (PetscInt r = 0; r < k; r++) PetscCall(PetscArraycpy(c->y + r * n + c->nown, c->buf + r * c->ntop, c->ntop));
     }
-    for (PetscInt r = 0; r < k; r++)
-      for (PetscInt j = 0; j < c->ntopcols; j++) c->buf[r * c->ntopcols + j] = c->y[r * n + top[j]];
-    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, c->buf, (PetscMPIInt)(k * c->ntopcols), MPIU_SCALAR, MPIU_SUM, PetscObjectComm((PetscObject)pc)));
-    for (PetscInt r = 0; r < k; r++)
-      for (PetscInt j = 0; j < c->ntopcols; j++) c->y[r * n + top[j]] = c->buf[r * c->ntopcols + j];
+    Substitute(PETSC_TRUE, k, c->ntop, c->ntop, c->toprows, c->top, c->y, n, c->w);
+    Substitute(PETSC_FALSE, k, c->ntop, c->ntop, c->toprows, c->top, c->y, n, c->w);
   }
-  for (PetscInt i = c->nown; i < nsn; i++) {
-    PetscInt s = c->snode[i];
-    Substitute(PETSC_TRUE, k, NCols(c->L, s), pi[s + 1] - pi[s], rows + pi[s], v + c->voff[i], c->y, n, c->w);
-  }
-  for (PetscInt i = nsn - 1; i >= 0; i--) {
-    PetscInt s = c->snode[i];
-    Substitute(PETSC_FALSE, k, NCols(c->L, s), pi[s + 1] - pi[s], rows + pi[s], v + c->voff[i], c->y, n, c->w);
-  }
+  for (PetscInt s = c->nsn - 1; s >= 0; s--) Substitute(PETSC_FALSE, k, c->snc[s], pi[s + 1] - pi[s], rows + pi[s], v + c->voff[s], c->y, n, c->w);
   PetscCall(PetscLogFlops(4.0 * k * (c->work_own + c->work_top)));
   PetscFunctionReturn(0);
 }
 
-/* Column r of the permuted right-hand sides from the parallel b: this
- * rank's rows, the top's from rank 0 and zero elsewhere (the other ranks'
- * updates are summed into them). */
+/* Column r of the right-hand sides in K_p's order from the parallel b:
+ * this rank's rows, the top's from rank 0 and zero elsewhere (the other
+ * ranks' updates are summed into them). */
 static PetscErrorCode Gather(PC pc, Vec b, PetscInt r)
 {
   PC_Subtrees *c = (PC_Subtrees *)pc->data;
-  PetscInt     n = (PetscInt)c->L->n, m = c->nowncols + (c->rank == 0 ? c->ntopcols : 0);
-  PetscScalar *y = c->y + r * n;
+  PetscInt     m = c->nown + (c->rank == 0 ? c->ntop : 0);
+  PetscScalar *y = c->y + r * c->n;
 
   PetscFunctionBegin;
   PetscCall(VecScatterBegin(c->scatter, b, c->seq, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(c->scatter, b, c->seq, INSERT_VALUES, SCATTER_FORWARD));
-  for (PetscInt i = 0; i < m; i++) y[c->cols[i]] = c->io[i];
-  for (PetscInt i = m; i < c->nowncols + c->ntopcols; i++) y[c->cols[i]] = 0;
+  PetscCall(PetscArraycpy(y, c->io, m));
+  PetscCall(PetscArrayzero(y + m, c->n - m));
   PetscFunctionReturn(0);
 }
 
@@ -571,11 +721,10 @@ static PetscErrorCode Gather(PC pc, Vec b, PetscInt r)
 static PetscErrorCode Spread(PC pc, Vec x, PetscInt r)
 {
   PC_Subtrees *c = (PC_Subtrees *)pc->data;
-  PetscInt     n = (PetscInt)c->L->n, m = c->nowncols + (c->rank == 0 ? c->ntopcols : 0);
-  PetscScalar *y = c->y + r * n;
+  PetscInt     m = c->nown + (c->rank == 0 ? c->ntop : 0);
 
   PetscFunctionBegin;
-  for (PetscInt i = 0; i < m; i++) c->io[i] = y[c->cols[i]];
+  PetscCall(PetscArraycpy(c->io, c->y + r * c->n, m));
   PetscCall(VecScatterBegin(c->scatter, c->seq, x, INSERT_VALUES, SCATTER_REVERSE));
   PetscCall(VecScatterEnd(c->scatter, c->seq, x, INSERT_VALUES, SCATTER_REVERSE));
   PetscFunctionReturn(0);
@@ -584,9 +733,9 @@ static PetscErrorCode Spread(PC pc, Vec x, PetscInt r)
 static PetscErrorCode Reserve(PC_Subtrees *c, PetscInt k)
 {
   PetscFunctionBegin;
-  if (c->ny < k * (PetscInt)c->L->n) {
+  if (c->ny < k * c->n) {
     PetscCall(PetscFree(c->y));
-    c->ny = k * (PetscInt)c->L->n;
+    c->ny = k * c->n;
     PetscCall(PetscMalloc1(c->ny, &c->y));
   }
   PetscFunctionReturn(0);
@@ -647,14 +796,18 @@ static PetscErrorCode PCReset_Subtrees(PC pc)
 
   PetscFunctionBegin;
   if (c->L) cholmod_free_factor(&c->L, &c->common);
-  c->symbolic = PETSC_FALSE;
+  c->analyzed = PETSC_FALSE;
   PetscCall(MatDestroy(&c->Aseq));
-  PetscCall(PetscFree4(c->snode, c->voff, c->order, c->cols));
+  PetscCall(PetscFree(c->keep));
+  PetscCall(PetscFree4(c->kp, c->ki, c->kx, c->kmap));
+  PetscCall(PetscFree2(c->snc, c->voff));
+  if (c->val) c->val = (PetscScalar *)SuiteSparse_free(c->val);
+  PetscCall(PetscFree(c->top));
+  PetscCall(PetscFree(c->toprows));
+  PetscCall(PetscFree(c->y));
   PetscCall(PetscFree2(c->w, c->io));
   PetscCall(PetscFree(c->buf));
-  if (c->val) c->val = (PetscScalar *)SuiteSparse_free(c->val);
-  PetscCall(PetscFree(c->y));
-  c->nval = c->ny = c->nbuf = 0;
+  c->ny = c->nbuf = c->n = c->nown = c->ntop = c->nsn = 0;
   PetscCall(VecDestroy(&c->col));
   PetscCall(VecDestroy(&c->seq));
   PetscCall(VecScatterDestroy(&c->scatter));
@@ -677,15 +830,17 @@ static PetscErrorCode PCView_Subtrees(PC pc, PetscViewer viewer)
   PC_Subtrees *c = (PC_Subtrees *)pc->data;
   PetscBool    ascii;
   PetscReal    own[2];
+  PetscInt     N;
 
   PetscFunctionBegin;
   PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
-  if (!ascii || !c->L) PetscFunctionReturn(0);
+  if (!ascii || !c->analyzed) PetscFunctionReturn(0);
   own[0] = c->work_own;
   own[1] = -c->work_own;
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, own, 2, MPIU_REAL, MPIU_MAX, PetscObjectComm((PetscObject)pc)));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "  one Cholesky factor (CHOLMOD, %s ordering): %d rows, %d supernodes, %.0f nonzeros in L\n", c->common.method[c->common.selected].ordering == CHOLMOD_METIS ? "METIS" : "CHOLMOD's default", (int)c->L->n, (int)c->L->nsuper, c->common.lnz));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "  split over %d ranks along its tree: each rank solves its subtrees (%.1f-%.1f%% of the factor's blocks) and the top (%d supernodes, %d rows, %.1f%%)\n", (int)c->size, 100 * -own[1] / c->work_total, 100 * own[0] / c->work_total, (int)c->ntop, (int)c->ntopcols, 100 * c->work_top / c->work_total));
+  PetscCall(MatGetSize(pc->pmat, &N, NULL));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  one Cholesky factor of %d rows (CHOLMOD, %s ordering, %.0f block entries), split over %d ranks along its tree\n", (int)N, c->metis ? "METIS" : "CHOLMOD's default", c->work_total, (int)c->size));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  each rank factors and solves its subtrees (%.1f-%.1f%% of the whole) and the top (%d rows, dense, %.1f%%)\n", 100 * -own[1] / c->work_total, 100 * own[0] / c->work_total, (int)c->ntop, 100 * c->work_top / c->work_total));
   PetscFunctionReturn(0);
 }
 
@@ -695,18 +850,18 @@ PetscErrorCode VKPCCreate_Subtrees(PC pc)
 
   PetscFunctionBegin;
   PetscCall(PetscNew(&c));
-  pc->data                 = c;
-  pc->ops->setup           = PCSetUp_Subtrees;
-  pc->ops->apply           = PCApply_Subtrees;
-  pc->ops->applytranspose  = PCApply_Subtrees; /* K is symmetric */
-  pc->ops->matapply        = PCMatApply_Subtrees;
-  pc->ops->reset           = PCReset_Subtrees;
-  pc->ops->destroy         = PCDestroy_Subtrees;
-  pc->ops->view            = PCView_Subtrees;
+  pc->data                = c;
+  pc->ops->setup          = PCSetUp_Subtrees;
+  pc->ops->apply          = PCApply_Subtrees;
+  pc->ops->applytranspose = PCApply_Subtrees; /* K is symmetric */
+  pc->ops->matapply       = PCMatApply_Subtrees;
+  pc->ops->reset          = PCReset_Subtrees;
+  pc->ops->destroy        = PCDestroy_Subtrees;
+  pc->ops->view           = PCView_Subtrees;
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode PCSubtreesGetWork(PC pc, PetscReal *own, PetscReal *top, PetscReal *total)
+PetscErrorCode PCSubtreesGetSplit(PC pc, PetscInt *nown, PetscInt *ntop, PetscReal *own, PetscReal *top, PetscReal *total)
 {
   PC_Subtrees *c;
   PetscBool    is;
@@ -715,17 +870,19 @@ PetscErrorCode PCSubtreesGetWork(PC pc, PetscReal *own, PetscReal *top, PetscRea
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSUBTREES, &is));
   PetscCheck(is, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_WRONG, "The PC must be of type %s, not %s", PCSUBTREES, ((PetscObject)pc)->type_name);
   c = (PC_Subtrees *)pc->data;
-  PetscCheck(c->L, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "Call PCSetUp() first");
-  *own   = c->work_own;
-  *top   = c->work_top;
-  *total = c->work_total;
+  PetscCheck(c->analyzed, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER, "Call PCSetUp() first");
+  if (nown) *nown = c->nown;
+  if (ntop) *ntop = c->ntop;
+  if (own) *own = c->work_own;
+  if (top) *top = c->work_top;
+  if (total) *total = c->work_total;
   PetscFunctionReturn(0);
 }
 #else
-PetscErrorCode PCSubtreesGetWork(PC pc, PetscReal *own, PetscReal *top, PetscReal *total)
+PetscErrorCode PCSubtreesGetSplit(PC pc, PetscInt *nown, PetscInt *ntop, PetscReal *own, PetscReal *top, PetscReal *total)
 {
   PetscFunctionBegin;
-  (void)own, (void)top, (void)total;
+  (void)nown, (void)ntop, (void)own, (void)top, (void)total;
   SETERRQ(PetscObjectComm((PetscObject)pc), PETSC_ERR_SUP_SYS, "PC %s needs PETSc built with SuiteSparse (CHOLMOD) and 32-bit indices", PCSUBTREES);
 }
 
