@@ -11,7 +11,9 @@
  * sizes of our meshes.  A single Vec goes to rank 0.  Beyond 3 ranks the
  * extra ranks idle and each holds a full factor: use the distributed
  * Cholesky (-pc_type cholesky) or the CMS solver there.  Modelled on
- * PETSc's PCREDUNDANT. */
+ * PETSc's PCREDUNDANT.  The default on up to 3 ranks is now PC subtrees
+ * (pc_subtrees.c), which splits one factor instead of its columns; this
+ * one stays for builds without CHOLMOD and for comparison. */
 #include <vkpd.h>
 #include <petsc/private/pcimpl.h>
 
