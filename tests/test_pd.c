@@ -8,7 +8,8 @@
  *  - TS type pd: steps and time as asked, and without handles, colliders
  *    or gravity linear momentum decays by the scene's drag exactly,
  *    p_n = p_0 / (1 + c dt)^n, to round-off (PD keeps sum M x = sum M y at
- *    every iteration, so this holds for any PD tolerance);
+ *    every iteration, so this holds for any PD tolerance); a last step
+ *    shorter than dt by round-off keeps dt (K is not refactored);
  *  - a handle holds the nodes of every tet that embeds a yarn vertex in its
  *    box, so the held yarn vertices follow the handle exactly;
  *  - K follows a change of the material (VKMaterialSetGamma) by itself;
@@ -388,6 +389,47 @@ static PetscErrorCode TestTSMomentum(VKMaterial mat)
   PetscFunctionReturn(0);
 }
 
+/* The last step to the duration: ptime is a sum of steps, so with dt = 0.1
+ * the third step of 0.3 s is 0.3 - 0.2 = 0.09999999999999998 s, which
+ * would give K a new dt and a refactorization; it keeps dt = 0.1 exactly
+ * (as do the steps before it), while a duration of 2.5 steps still ends
+ * with a half step. */
+static PetscErrorCode TestTSLastStep(VKMaterial mat)
+{
+  VKMesh    m = mat->mesh;
+  PetscReal lo[3], hi[3], dts[2];
+
+  PetscFunctionBegin;
+  for (int pass = 0; pass < 2; pass++) {
+    VKScene s;
+    VKPD    pd;
+    TS      ts;
+    Vec     x;
+    PetscCall(VKSceneCreate(m->comm, &s));
+    PetscCall(VKCurvesBoundingBox(&m->yarn->curves, lo, hi));
+    PetscCall(VKSceneSetUp(s, lo, hi));
+    PetscCall(VKPDCreate(mat, s, &pd));
+    PetscCall(VKPDSetTolerances(pd, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, 3)); /* the steps' accuracy does not matter here */
+    PetscCall(TSCreate(m->comm, &ts));
+    PetscCall(TSSetType(ts, TSPD));
+    PetscCall(VKTSPDSetSolver(ts, pd));
+    PetscCall(VKMeshCreateNodeVec(m, 3, &x));
+    PetscCall(VKMeshGetRestPositions(m, x));
+    PetscCall(TSSetSolution(ts, x));
+    PetscCall(TSSetTimeStep(ts, 0.1));
+    PetscCall(TSSetMaxTime(ts, pass ? 0.25 : 0.3));
+    PetscCall(TSSetExactFinalTime(ts, TS_EXACTFINALTIME_MATCHSTEP));
+    PetscCall(TSSolve(ts, x));
+    dts[pass] = pd->dt;
+    PetscCall(VecDestroy(&x));
+    PetscCall(TSDestroy(&ts));
+    PetscCall(VKPDDestroy(&pd));
+    PetscCall(VKSceneDestroy(&s));
+  }
+  PetscCall(VKTestCheck((PetscBool)(0.3 - 0.2 != 0.1 && dts[0] == 0.1 && PetscAbsReal(dts[1] - 0.05) < 1e-12), NULL, "TS type pd: a last step shorter than dt by round-off keeps dt (%.17g s), a half step is a half step (%.17g s)", (double)dts[0], (double)dts[1]));
+  PetscFunctionReturn(0);
+}
+
 /* A hang-and-stretch trajectory; final positions by node key. */
 /* kind 0: plain PD, direct global step; 1: plain PD, CG over PC cms to
  * 1e-10; 2 and 3: L-BFGS without the projected-Newton switch, with the
@@ -476,6 +518,7 @@ int main(int argc, char **argv)
   PetscCall(TestMaterialChange(mat));
   PetscCall(TestMonotoneAndNewton(mat));
   PetscCall(TestTSMomentum(mat));
+  PetscCall(TestTSLastStep(mat));
   PetscCall(TestRanks(mat));
   PetscCall(VKMaterialDestroy(&mat));
   PetscCall(VKMeshDestroy(&m));
