@@ -42,9 +42,9 @@ for cfg in "defaults:defaults:" "paper, 15 GN its per pose:gn15:-fit_gn_its 15";
   if [ -z "${FIT_BENCH_TABLE_ONLY:-}" ]; then
     rm -rf "$d"; mkdir -p "$d"; cp "$ref/mesh.h5" "$ref/yls.h5" "$d/"
     # shellcheck disable=SC2086
-    run $MPIEXEC -n 2 bin/volknit fit -o "$d" -options_file options/stretch.opts -fit_sample_by even $opts > "$d/fit.log" 2>&1
+    run $MPIEXEC -n 2 bin/volknit fit -o "$d" -options_file options/stretch.opts -fit_nsamples 2 -fit_sample_by even $opts > "$d/fit.log" 2>&1
   else
-    echo "    $MPIEXEC -n 2 bin/volknit fit -o $d -options_file options/stretch.opts -fit_sample_by even $opts" >> "$out/fit_commands"
+    echo "    $MPIEXEC -n 2 bin/volknit fit -o $d -options_file options/stretch.opts -fit_nsamples 2 -fit_sample_by even $opts" >> "$out/fit_commands"
   fi
   j="$d/fit.json"
   if [ ! -s "$j" ]; then echo "| $name | failed: see $d/fit.log |"; continue; fi
