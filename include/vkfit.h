@@ -212,6 +212,8 @@ PETSC_EXTERN PetscReal VKFitDataElasticEnergy(VKFitData, PetscInt k);
  * (energy: largest yarn elastic energy; even: evenly in time), in time
  * order; samples has room for maxs. */
 PETSC_EXTERN PetscErrorCode VKFitDataSelect(VKFitData, PetscInt *nsamples, PetscInt samples[], PetscInt maxs);
+/* Reads (so -help lists) VKFitDataSelect's options without data. */
+PETSC_EXTERN PetscErrorCode VKFitDataSelectHelp(MPI_Comm);
 
 /* ---- checkpoints (checkpoint.c) ------------------------------------------ */
 #define VK_FIT_MAX_SAMPLES 256

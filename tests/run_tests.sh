@@ -408,6 +408,9 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
 else
   not_ok "volknit run -run_fit (the reference run of the fit tests) failed or left no material.h5/sim.h5 (see $fd/ref.log)"
 fi
+# -help lists the sample-frame options too, which are read once the data are loaded
+if timeout "$TIMEOUT" bin/volknit fit -help > "$fd/help.log" 2>&1 && grep -q -- '-fit_nsamples <' "$fd/help.log" && grep -q -- '-fit_sample_by <' "$fd/help.log" && grep -q -- '-fit_frames <' "$fd/help.log"; then ok
+else not_ok "volknit fit -help: does not list -fit_nsamples, -fit_sample_by and -fit_frames (see $fd/help.log)"; fi
 printf '%-22s       : %4d passed, %d failed\n' "fit command" "$((passed - fit_passed))" "$((failed - fit_failed))"
 
 # 6. volknit run sweeps on the 2 x 2 rib stretch: the best uniform material's

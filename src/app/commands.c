@@ -549,6 +549,11 @@ PetscErrorCode VKAppFitFromOptions(VKMaterial mat, VKScene scene, VKFit *fit, VK
   PetscCall(VKMaterialGetComm(mat, &comm));
   PetscCall(VKFitCreate(mat, scene, fit));
   PetscCall(VKFitSetFromOptions(*fit));
+  {
+    PetscBool help;
+    PetscCall(PetscOptionsHasHelp(NULL, &help));
+    if (help) PetscCall(VKFitDataSelectHelp(comm)); /* read with the data otherwise */
+  }
   PetscOptionsBegin(comm, NULL, "Fitting outputs", "volknit fit");
   PetscCall(PetscOptionsName("-fit_view", "Print the fitting's set-up (schedule, shape fit, solvers) before the run", "VKFitView", NULL));
   PetscCall(PetscOptionsStringArray("-fit_joint", "Fit one material to the trajectories of these directories' yls.h5 as well (yarn-level runs of other scenes on the same yarn; up to 4); the i-th scene's options under the prefix fit_joint<i>_, e.g. -prefix_push fit_joint1_ -options_file options/stretch.opts -prefix_pop; with -fit_loss trajectory", "VKFitTrajectoryRunJoint", dirs, &n, &set));

@@ -146,6 +146,30 @@ static int CompareInt(const void *a, const void *b)
   return ia < ib ? -1 : (ia > ib);
 }
 
+/* The options of VKFitDataSelect (read once the data are loaded, so
+ * VKFitDataSelectHelp shows them under -help). */
+static PetscErrorCode SelectOptions(MPI_Comm comm, PetscInt samples[], PetscInt *nfr, PetscBool *given, PetscInt *ns, VKFitSampleBy *by)
+{
+  PetscFunctionBegin;
+  PetscOptionsBegin(comm, NULL, "Sample frames of the fitting (DESIGN section 8)", "VKFitData");
+  PetscCall(PetscOptionsIntArray("-fit_frames", "Frames of the yarn-level run to fit, one after the other (frame 0 is the rest state; default: none, -fit_nsamples picks them)", "VKFitDataSelect", samples, nfr, given));
+  PetscCall(VKOptionsRangeInt("-fit_nsamples", "Number of sample frames when -fit_frames is not given (default: 10, as the paper's ten poses, or every frame of a shorter run)", "VKFitDataSelect", *ns, ns, NULL, 1, PETSC_MAX_INT));
+  PetscCall(PetscOptionsEnum("-fit_sample_by", "How -fit_nsamples frames are picked: largest yarn elastic energy, or evenly in time", "VKFitDataSelect", VKFitSampleBys, (PetscEnum)*by, (PetscEnum *)by, NULL));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKFitDataSelectHelp(MPI_Comm comm)
+{
+  PetscInt      samples[VK_FIT_MAX_SAMPLES] = {0}, nfr = 0, ns = 10; /* no frames listed by default */
+  PetscBool     given;
+  VKFitSampleBy by = VK_FIT_SAMPLE_BY_EVEN;
+
+  PetscFunctionBegin;
+  PetscCall(SelectOptions(comm, samples, &nfr, &given, &ns, &by));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitDataSelect(VKFitData d, PetscInt *nsamples, PetscInt samples[], PetscInt maxs)
 {
   PetscInt      nfr = maxs, ns = PetscMin(10, d->nframes - 1);
@@ -153,11 +177,7 @@ PetscErrorCode VKFitDataSelect(VKFitData d, PetscInt *nsamples, PetscInt samples
   VKFitSampleBy by = VK_FIT_SAMPLE_BY_EVEN;
 
   PetscFunctionBegin;
-  PetscOptionsBegin(d->comm, NULL, "Sample frames of the fitting (DESIGN section 8)", "VKFitData");
-  PetscCall(PetscOptionsIntArray("-fit_frames", "Frames of the yarn-level run to fit, one after the other (frame 0 is the rest state)", "VKFitDataSelect", samples, &nfr, &given));
-  PetscCall(VKOptionsRangeInt("-fit_nsamples", "Number of sample frames when -fit_frames is not given (default: 10, as the paper's ten poses, or every frame of a shorter run)", "VKFitDataSelect", ns, &ns, NULL, 1, PETSC_MAX_INT));
-  PetscCall(PetscOptionsEnum("-fit_sample_by", "How -fit_nsamples frames are picked: largest yarn elastic energy, or evenly in time", "VKFitDataSelect", VKFitSampleBys, (PetscEnum)by, (PetscEnum *)&by, NULL));
-  PetscOptionsEnd();
+  PetscCall(SelectOptions(d->comm, samples, &nfr, &given, &ns, &by));
   if (given) {
     PetscCheck(nfr >= 1, d->comm, PETSC_ERR_ARG_WRONG, "-fit_frames needs a list of frame numbers");
     for (PetscInt i = 0; i < nfr; i++) PetscCheck(samples[i] >= 1 && samples[i] < d->nframes, d->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_frames: frame %d is not among the sample frames 1..%d of %s", (int)samples[i], (int)d->nframes - 1, d->path);
