@@ -72,8 +72,24 @@ typedef struct {
   PetscMPIInt    rank, size;
 } PC_Subtrees;
 
-/* Aseq's CSR arrays read as CSC: it is symmetric, so row i is column i;
- * CHOLMOD reads the upper triangle (stype 1) and ignores the rest. */
+/* CHOLMOD's view of a symmetric matrix in compressed columns (upper
+ * triangle read, stype 1), on arrays it does not own. */
+static void SparseView(PetscInt n, void *p, void *i, void *x, cholmod_sparse *S)
+{
+  PetscMemzero(S, sizeof(*S));
+  S->nrow = S->ncol = (size_t)n;
+  S->nzmax          = (size_t)((int *)p)[n];
+  S->p              = p;
+  S->i              = i;
+  S->x              = x;
+  S->stype          = 1;
+  S->itype          = CHOLMOD_INT;
+  S->xtype          = CHOLMOD_REAL;
+  S->dtype          = CHOLMOD_DOUBLE;
+  S->sorted         = 1;
+  S->packed         = 1;
+}
+
 /* Aseq's CSR arrays read as CSC: it is symmetric, so row i is column i;
  * CHOLMOD reads the upper triangle (stype 1) and ignores the rest. */
 static PetscErrorCode WrapAIJ(Mat A, cholmod_sparse *S)
@@ -87,18 +103,7 @@ static PetscErrorCode WrapAIJ(Mat A, cholmod_sparse *S)
   PetscCall(MatGetRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done));
   PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_SUP, "Cannot get the CSR arrays of the matrix");
   PetscCall(MatSeqAIJGetArrayRead(A, &va));
-  PetscCall(PetscMemzero(S, sizeof(*S)));
-  S->nrow = S->ncol = (size_t)n;
-  S->nzmax          = (size_t)ia[n];
-  S->p              = (void *)ia;
-  S->i              = (void *)ja;
-  S->x              = (void *)va;
-  S->stype          = 1;
-  S->itype          = CHOLMOD_INT;
-  S->xtype          = CHOLMOD_REAL;
-  S->dtype          = CHOLMOD_DOUBLE;
-  S->sorted         = 1;
-  S->packed         = 1;
+  SparseView(n, (void *)ia, (void *)ja, (void *)va, S);
   PetscFunctionReturn(0);
 }
 
@@ -346,7 +351,7 @@ static void Substitute(PetscBool forward, PetscInt k, PetscInt nc, PetscInt nr, 
  * of Aseq (K is symmetric), with the entries of rows i <= j of K_p. */
 static PetscErrorCode LayoutKp(PC_Subtrees *c)
 {
-  PetscInt        N, *inv, nz = 0;
+  PetscInt        N, *inv, *rows, nz = 0, longest = 0;
   const PetscInt *ia, *ja;
   PetscBool       done;
 
@@ -356,13 +361,16 @@ static PetscErrorCode LayoutKp(PC_Subtrees *c)
   PetscCall(PetscMalloc1(N, &inv));
   for (PetscInt g = 0; g < N; g++) inv[g] = -1;
   for (PetscInt j = 0; j < c->n; j++) inv[c->keep[j]] = j;
-  for (PetscInt j = 0; j < c->n; j++)
+  for (PetscInt j = 0; j < c->n; j++) {
+    longest = PetscMax(longest, ia[c->keep[j] + 1] - ia[c->keep[j]]);
     for (PetscInt e = ia[c->keep[j]]; e < ia[c->keep[j] + 1]; e++) nz += inv[ja[e]] >= 0 && inv[ja[e]] <= j;
+  }
   PetscCall(PetscFree4(c->kp, c->ki, c->kx, c->kmap));
   PetscCall(PetscMalloc4(c->n + 1, &c->kp, nz, &c->ki, nz, &c->kx, nz, &c->kmap));
+  PetscCall(PetscMalloc1(longest, &rows));
   c->kp[0] = 0;
   for (PetscInt j = 0; j < c->n; j++) {
-    PetscInt start = c->kp[j], m = 0, *rows;
+    PetscInt start = c->kp[j], m = 0;
     for (PetscInt e = ia[c->keep[j]]; e < ia[c->keep[j] + 1]; e++) {
       PetscInt i = inv[ja[e]];
       if (i < 0 || i > j) continue;
@@ -370,32 +378,15 @@ static PetscErrorCode LayoutKp(PC_Subtrees *c)
       c->kmap[start + m] = e;
       m++;
     }
-    PetscCall(PetscMalloc1(m, &rows)); /* rows ascending, as CHOLMOD likes them */
-    for (PetscInt q = 0; q < m; q++) rows[q] = c->ki[start + q];
+    for (PetscInt q = 0; q < m; q++) rows[q] = c->ki[start + q]; /* rows ascending, as CHOLMOD likes them */
     PetscCall(PetscSortIntWithArray(m, rows, c->kmap + start));
     for (PetscInt q = 0; q < m; q++) c->ki[start + q] = (int)rows[q];
-    PetscCall(PetscFree(rows));
     c->kp[j + 1] = (int)(start + m);
   }
+  PetscCall(PetscFree(rows));
   PetscCall(PetscFree(inv));
   PetscCall(MatRestoreRowIJ(c->Aseq, 0, PETSC_FALSE, PETSC_FALSE, &N, &ia, &ja, &done));
   PetscFunctionReturn(0);
-}
-
-static void WrapKp(PC_Subtrees *c, cholmod_sparse *S)
-{
-  PetscMemzero(S, sizeof(*S));
-  S->nrow = S->ncol = (size_t)c->n;
-  S->nzmax          = (size_t)c->kp[c->n];
-  S->p              = c->kp;
-  S->i              = c->ki;
-  S->x              = c->kx;
-  S->stype          = 1;
-  S->itype          = CHOLMOD_INT;
-  S->xtype          = CHOLMOD_REAL;
-  S->dtype          = CHOLMOD_DOUBLE;
-  S->sorted         = 1;
-  S->packed         = 1;
 }
 
 /* Orders K (METIS nested dissection, whose separators make a tree that
@@ -468,7 +459,7 @@ static PetscErrorCode Analyze(PC pc)
     c->common.nmethods           = 1;
     c->common.method[0].ordering = CHOLMOD_NATURAL;
     c->common.postorder          = 0;
-    WrapKp(c, &S);
+    SparseView(c->n, c->kp, c->ki, c->kx, &S);
     c->L = cholmod_analyze(&S, &c->common);
     PetscCheck(c->L && c->L->is_super, PETSC_COMM_SELF, PETSC_ERR_LIB, "CHOLMOD's analysis of this rank's rows failed with status %d", c->common.status);
     super = (const int *)c->L->super;
@@ -529,7 +520,7 @@ static PetscErrorCode FactorOwn(PC pc, PetscBool *notpd)
   PetscCall(MatSeqAIJGetArrayRead(c->Aseq, &va));
   for (PetscInt e = 0; e < c->kp[c->n]; e++) c->kx[e] = va[c->kmap[e]];
   PetscCall(MatSeqAIJRestoreArrayRead(c->Aseq, &va));
-  WrapKp(c, &S);
+  SparseView(c->n, c->kp, c->ki, c->kx, &S);
   cholmod_factorize(&S, c->L, &c->common);
   PetscCall(PetscLogFlops(c->common.fl));
   PetscCall(PetscInfo(pc, "CHOLMOD: %.0f nonzeros in this rank's L, %.1f MB in use, %.1f MB at most\n", c->common.lnz, (double)c->common.memory_inuse / 1048576.0, (double)c->common.memory_usage / 1048576.0));
