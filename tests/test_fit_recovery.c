@@ -523,10 +523,26 @@ int main(int argc, char **argv)
     PetscCall(VKTestCheck((PetscBool)(rises == 0 && below == 0 && fit->hist[fit->nhist - 1].loss <= loss1), NULL, "then every parameter (%d iterations): the loss never rises (%.4e -> %.4e), no parameter below the floor (%d)", (int)(fit->nhist - first), (double)loss1, (double)fit->hist[fit->nhist - 1].loss, (int)below));
   }
   { /* Gauss-Newton 20 against gradient descent 200, every parameter, from the uniform start */
-    p.fit->rtol = 0;
+    p.fit->rtol    = 0;
+    p.fit->gd_rtol = 0; /* all 200: no hand-over to Gauss-Newton */
     PetscCall(LossAfter(&p, 200, 0, gamma, &lossGD));
     PetscCall(LossAfter(&p, 0, 20, gamma, &lossGN));
     PetscCall(VKTestCheck((PetscBool)(lossGN < lossGD), NULL, "Gauss-Newton in 20 iterations reaches a lower loss (%.4e) than gradient descent in 200 (%.4e), from %.4e", (double)lossGN, (double)lossGD, (double)loss0));
+  }
+  { /* -fit_gd_rtol: gradient descent hands over to Gauss-Newton after the
+     * first iteration that lowers the loss by less than that fraction */
+    VKFit     fit = p.fit;
+    PetscInt  ngd = 0, ngn = 0, slow = -1;
+    PetscReal loss;
+    fit->gd_rtol = 0.5; /* more than one step of 0.01 |gamma| can take */
+    PetscCall(LossAfter(&p, 15, 3, gamma, &loss));
+    for (PetscInt i = 1; i < fit->nhist; i++) {
+      ngd += fit->hist[i].method == VK_FIT_GD;
+      ngn += fit->hist[i].method == VK_FIT_GN;
+      if (slow < 0 && fit->hist[i].method == VK_FIT_GD && fit->hist[i - 1].loss - fit->hist[i].loss < 0.5 * fit->hist[i - 1].loss) slow = fit->hist[i].iteration;
+    }
+    PetscCall(VKTestCheck((PetscBool)(slow == 1 && ngd == 1 && ngn >= 1 && loss < fit->hist[0].loss), NULL, "-fit_gd_rtol 0.5: %d gradient-descent iteration(s) (the first that gained less than half: %d), then %d Gauss-Newton, loss %.4e -> %.4e", (int)ngd, (int)slow, (int)ngn, (double)fit->hist[0].loss, (double)loss));
+    fit->gd_rtol = 1e-3;
   }
   PetscCall(VecDestroy(&gamma));
   PetscCall(DestroyProblem(&p));

@@ -35,6 +35,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->gd_its        = 15;
   fit->gn_its        = 30;
   fit->gd_step       = 0.01;
+  fit->gd_rtol       = 1e-3;
   fit->kappa         = 1e-3;
   fit->kkt_workspace = 20; /* MUMPS's default ICNTL(14) */
   fit->rtol          = 1e-6;
@@ -170,6 +171,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(VKOptionsRangeInt("-fit_gd_its", "Gradient-descent iterations per stage (before Gauss-Newton)", "VKFitOptimize", fit->gd_its, &fit->gd_its, NULL, 0, PETSC_MAX_INT));
   PetscCall(VKOptionsRangeInt("-fit_gn_its", "Gauss-Newton iterations per stage", "VKFitOptimize", fit->gn_its, &fit->gn_its, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-fit_gd_step", "Gradient-descent step as a fraction of |gamma|", "VKFitOptimize", fit->gd_step, &fit->gd_step, NULL));
+  PetscCall(PetscOptionsReal("-fit_gd_rtol", "Gradient descent hands over to Gauss-Newton after an iteration that lowered the loss by less than this fraction of it (0: always -fit_gd_its iterations)", "VKFitOptimize", fit->gd_rtol, &fit->gd_rtol, NULL));
   PetscCall(PetscOptionsReal("-fit_kappa", "Levenberg-Marquardt damping of Gauss-Newton, relative: kappa = fit_kappa |grad| / |gamma|", "VKFitOptimize", fit->kappa, &fit->kappa, NULL));
   PetscCall(PetscOptionsReal("-fit_rtol", "Accept a step only when it lowers the loss by more than this fraction of it (a phase, GD or GN, ends when no halving of the step does)", "VKFitOptimize", fit->rtol, &fit->rtol, NULL));
   PetscCall(VKOptionsRangeInt("-fit_max_halvings", "Step halvings allowed while the loss rises", "VKFitOptimize", fit->max_halvings, &fit->max_halvings, NULL, 0, PETSC_MAX_INT));
@@ -206,6 +208,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->eq_newton_its >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_newton_its must be >= 1, got %d", (int)fit->eq_newton_its);
   PetscCheck(fit->gd_its >= 0 && fit->gn_its >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_its and -fit_gn_its must be >= 0, got %d and %d", (int)fit->gd_its, (int)fit->gn_its);
   PetscCheck(fit->gd_step > 0 && fit->gd_step < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_step must be in (0, 1), got %g", (double)fit->gd_step);
+  PetscCheck(fit->gd_rtol >= 0 && fit->gd_rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gd_rtol must be in [0, 1), got %g", (double)fit->gd_rtol);
   PetscCheck(fit->kappa >= 0 && isfinite(fit->kappa), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_kappa must be >= 0 and finite, got %g", (double)fit->kappa);
   PetscCheck(fit->rtol >= 0 && fit->rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_rtol must be in [0, 1), got %g", (double)fit->rtol);
   PetscCheck(fit->max_halvings >= 0 && fit->max_pivots >= 0, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_max_halvings and -fit_max_pivots must be >= 0");

@@ -63,7 +63,7 @@ struct _n_VKFit {
   char      kkt_workspace_option[256]; /* the option the fit set to raise it ("" if none) */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
-  PetscReal gd_step, kappa, rtol, gamma_min_rel, gamma_min[2], gamma_max_rel, gamma_max[2];
+  PetscReal gd_step, gd_rtol, kappa, rtol, gamma_min_rel, gamma_min[2], gamma_max_rel, gamma_max[2];
   PetscBool best_uniform;              /* start from the best uniform material (uniform.c) */
   PetscReal uniform_range[2];          /* its search interval, Pa */
   PetscReal uniform_g, uniform_loss;   /* its result (uniform_g 0: not searched in this run) */
