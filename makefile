@@ -29,8 +29,9 @@ PKG_LIBS   = $(shell pkg-config --libs $(PKGS))
 # by the PC subtrees (src/sim/pc_subtrees.c).
 SUITESPARSE_CFLAGS ?= -I/usr/include/suitesparse
 SUITESPARSE_LIBS   ?= -lcholmod -lsuitesparseconfig
-# LAPACK (which petsc-dev brings): the dense factor of its separators there.
-LAPACK_LIBS        ?= -llapack
+# LAPACK and BLAS (which petsc-dev brings): the dense factor of its separators
+# there, and their Schur complement by BLAS syrk.
+LAPACK_LIBS        ?= -llapack -lblas
 CFLAGS     = $(CSTD) $(OPT) $(ARCH) $(WARN) -Iinclude $(PKG_CFLAGS) $(SUITESPARSE_CFLAGS)
 LDLIBS     = $(PKG_LIBS) $(SUITESPARSE_LIBS) $(LAPACK_LIBS) -lmetis -lm
 MPIEXEC   ?= mpiexec

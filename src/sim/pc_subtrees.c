@@ -573,22 +573,30 @@ static PetscErrorCode FactorTop(PC pc, PetscBool *notpd)
         if (c->ki[e] >= c->nown) c->top[(j - c->nown) + (c->ki[e] - c->nown) * t] += va[c->kmap[e]];
     PetscCall(MatSeqAIJRestoreArrayRead(c->Aseq, &va));
   }
-  if (c->L) {
-    const int *pi = (const int *)c->L->pi, *ls = (const int *)c->L->s;
+  if (c->L) { /* per supernode, W = B B^T (BLAS syrk) for B its top rows, scattered into S */
+    const int   *pi = (const int *)c->L->pi, *ls = (const int *)c->L->s;
+    PetscInt     kmax = 0;
+    PetscScalar *W;
+    for (PetscInt s = 0; s < c->nsn; s++) kmax = PetscMax(kmax, pi[s + 1] - pi[s]);
+    PetscCall(PetscMalloc1(kmax * kmax + 1, &W));
     for (PetscInt s = 0; s < c->nsn; s++) {
-      const int         *rows = ls + pi[s];
-      PetscInt           nr = pi[s + 1] - pi[s], first = nr;
-      const PetscScalar *blk  = c->val + c->voff[s];
+      const int        *rows = ls + pi[s];
+      PetscInt          nr = pi[s + 1] - pi[s], first = nr, k;
+      const PetscScalar one = 1, zero = 0;
+      PetscBLASInt      bk, bn, bld;
       while (first > 0 && rows[first - 1] >= c->nown) first--; /* rows ascend: the top's come last */
-      for (PetscInt q = 0; q < c->snc[s]; q++) {
-        const PetscScalar *col = blk + q * nr;
-        for (PetscInt b = first; b < nr; b++) {
-          PetscScalar  lb = col[b];
-          PetscScalar *tb = c->top + (rows[b] - c->nown) * t - c->nown;
-          for (PetscInt a = b; a < nr; a++) tb[rows[a]] -= col[a] * lb;
-        }
+      k = nr - first;
+      if (!k || !c->snc[s]) continue;
+      PetscCall(PetscBLASIntCast(k, &bk));
+      PetscCall(PetscBLASIntCast(c->snc[s], &bn));
+      PetscCall(PetscBLASIntCast(nr, &bld));
+      PetscCallBLAS("BLASsyrk", BLASsyrk_("L", "N", &bk, &bn, &one, c->val + c->voff[s] + first, &bld, &zero, W, &bk));
+      for (PetscInt b = 0; b < k; b++) {
+        PetscScalar *tb = c->top + (rows[first + b] - c->nown) * t - c->nown;
+        for (PetscInt a = b; a < k; a++) tb[rows[first + a]] -= W[a + b * k];
       }
     }
+    PetscCall(PetscFree(W));
   }
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, c->top, (PetscMPIInt)(t * t), MPIU_SCALAR, MPIU_SUM, PetscObjectComm((PetscObject)pc)));
   {
