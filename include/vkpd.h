@@ -194,6 +194,14 @@ PETSC_EXTERN PetscErrorCode VKPDSetConstantForce(VKPD, Vec f);
 /* The material changed (fitting): K is reassembled and refactored. */
 PETSC_EXTERN PetscErrorCode VKPDMaterialChanged(VKPD);
 
+/* The change d of the first guess that a smooth motion predicts for the
+ * next VKPDSolve, d = dt^2 (a_n - g) with a_n the last step's
+ * acceleration (not copied; used by that solve only).  The solve starts at
+ * x + beta d, beta in [0, 1] the weight that predicted the step before
+ * best (learned after each solve from its answer), and only with
+ * -pd_extrapolate (the default).  d = NULL: no extrapolation, and beta
+ * starts again from 0 (the first steps of a run). */
+PETSC_EXTERN PetscErrorCode VKPDSetExtrapolation(VKPD, Vec d);
 /* Minimize Phi for target y with the handles at time t; x holds the initial
  * guess and receives the result; prev (optional) is the position at the
  * start of the step, the reference of collider friction and of the

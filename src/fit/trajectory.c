@@ -10,6 +10,9 @@
  * Euler at the simulation's step, handles at their times,
  *   M (x_{n+1} - y_n)/h^2 + grad E(x_{n+1}; gamma) = 0,
  *   y_n = x_n + (h/h') (x_n - x_{n-1}) + h^2 g,
+ * each step's equilibrium started where volknit sim's TS pd starts it (y,
+ * then from the third step the extrapolation of VKPDSetExtrapolation), so
+ * that both take the same branch where tets invert,
  * against the shape-fit targets xhat_k at every frame time t_k:
  *   L(gamma) = sum_k eps_k(x(t_k)).
  * The parameters move in the span of the r lowest harmonics of the tet
@@ -59,6 +62,7 @@ struct _n_VKFitTrajectory {
   PetscInt   inverted_max;       /* most tets inverted at one step's equilibrium */
   VKFitFrame f;                  /* the step being solved */
   Vec        xold, xcur, grad, As;
+  Vec        xold2, dext;        /* x two steps back; the extrapolation of the first guess */
   PetscInt   rmax;               /* sensitivity storage: 2 rmax columns, three generations */
   Vec       *S[3], *Gb;
   Vec        gref, dlog;         /* the prior's reference material (the first stage's start), and scratch */
@@ -122,6 +126,8 @@ PetscErrorCode VKFitTrajectoryCreate(VKFit fit, PetscInt nf, const PetscReal t[]
     PetscCall(VecDuplicate(xhat[k], &T->xk[k]));
   }
   PetscCall(VecDuplicate(xhat[0], &T->xold));
+  PetscCall(VecDuplicate(xhat[0], &T->xold2));
+  PetscCall(VecDuplicate(xhat[0], &T->dext));
   PetscCall(VecDuplicate(xhat[0], &T->xcur));
   PetscCall(VecDuplicate(xhat[0], &T->grad));
   PetscCall(VecDuplicate(xhat[0], &T->As));
@@ -166,6 +172,8 @@ PetscErrorCode VKFitTrajectoryDestroy(VKFitTrajectory *p)
   PetscCall(PetscFree2(T->xhat, T->xk));
   PetscCall(PetscFree3(T->t, T->eps_hat, T->lossf));
   PetscCall(VecDestroy(&T->xold));
+  PetscCall(VecDestroy(&T->xold2));
+  PetscCall(VecDestroy(&T->dext));
   PetscCall(VecDestroy(&T->xcur));
   PetscCall(VecDestroy(&T->grad));
   PetscCall(VecDestroy(&T->As));
@@ -330,7 +338,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
 {
   VKFit           fit = T->fit;
   const VKLayout *L   = VKMeshLayout(fit->mesh);
-  PetscReal       dt  = VKFitTrajectoryStep(fit), t = 0, hprev = dt;
+  PetscReal       dt  = VKFitTrajectoryStep(fit), t = 0, hprev = dt, hprev2 = dt;
   const PetscReal *g  = fit->gravity;
 
   PetscFunctionBegin;
@@ -386,14 +394,25 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
       for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) ya[i] += h * h * g[i % 3];
       PetscCall(VecRestoreArray(T->f.y, &ya));
       PetscCall(VecCopy(T->f.y, T->f.x));
+      if (T->steps >= 3) { /* the first guess volknit sim's TS pd takes: d = h^2 ((v_n - v_{n-1})/h_n - g) */
+        PetscReal c1 = h * h / (hprev * hprev), c2 = h * h / (hprev * hprev2);
+        PetscCall(VecAXPBYPCZ(T->dext, c1, -(c1 + c2), 0, T->xcur, T->xold));
+        PetscCall(VecAXPY(T->dext, c2, T->xold2));
+        PetscCall(VecGetArray(T->dext, &ya));
+        for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) ya[i] -= h * h * g[i % 3];
+        PetscCall(VecRestoreArray(T->dext, &ya));
+        PetscCall(VKPDSetExtrapolation(fit->pd, T->dext));
+      } else PetscCall(VKPDSetExtrapolation(fit->pd, NULL));
       PetscCall(VKFitEquilibriumTry(fit, &T->f, &st, ok));
       T->eq_worst     = PetscMax(T->eq_worst, st.residual / st.tolerance);
       T->inverted_max = PetscMax(T->inverted_max, st.inverted);
       if (!*ok) break;
       if (r) PetscCall(Sensitivities(T, r, h, a));
+      PetscCall(VecCopy(T->xold, T->xold2));
       PetscCall(VecCopy(T->xcur, T->xold));
       PetscCall(VecCopy(T->f.x, T->xcur));
-      hprev = h;
+      hprev2 = hprev;
+      hprev  = h;
       t += h;
     }
     if (*ok) PetscCall(AddFrame(T, k, r, loss, grad, P));

@@ -61,6 +61,7 @@ PetscErrorCode VKPDCreate(VKMaterial mat, VKScene scene, VKPD *pdout)
   pd->newton_rtol = 1e-10;
   pd->contact_weight = 1;
   pd->contact_active = PETSC_TRUE;
+  pd->extrapolate    = PETSC_TRUE;
   pd->contact_set_tol = 0.1;
   PetscCall(KSPCreate(pd->comm, &pd->ksp));
   PetscCall(SubSolverPrefixes(pd));
@@ -96,6 +97,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(KSPDestroy(&pd->pksp));
   PetscCall(VecDestroy(&pd->xc));
   PetscCall(VecDestroy(&pd->ydamp));
+  PetscCall(VecDestroy(&pd->extrap_base));
   PetscCall(VecDestroy(&pd->bc));
   PetscCall(VecDestroy(&pd->rc));
   for (int c = 0; c < 3; c++) PetscCall(VecDestroy(&pd->xd[c]));
@@ -345,6 +347,7 @@ PetscErrorCode VKPDSetFromOptions(VKPD pd)
   PetscCall(PetscOptionsBool("-pd_fixed_its", "Run exactly -pd_max_it iterations and measure no residual (status 'unmeasured')", "VKPDSolve", pd->fixed_its, &pd->fixed_its, NULL));
   PetscCall(VKOptionsRangeInt("-pd_lbfgs_m", "L-BFGS history length (-pd_type lbfgs)", "VKPDSolve", pd->lbfgs_m, &pd->lbfgs_m, NULL, 1, PETSC_MAX_INT));
   PetscCall(VKOptionsRangeInt("-pd_lbfgs_switch", "L-BFGS iterations after which projected Newton (PSD-projected exact Hessian, KSP prefix -pd_pnewton_) finishes the solve (0: never)", "VKPDSolve", pd->lbfgs_switch, &pd->lbfgs_switch, NULL, 0, PETSC_MAX_INT));
+  PetscCall(PetscOptionsBool("-pd_extrapolate", "First guess of each step: the inertial target plus the last step's acceleration, weighted by how well it predicted the step before (VKPDSetExtrapolation; false: the inertial target)", "VKPDSolve", pd->extrapolate, &pd->extrapolate, NULL));
   PetscCall(PetscOptionsBool("-pd_contact_active_set", "With colliders and -pd_type lbfgs, K holds the collider weight only on the nodes in contact at the start of the step or at its first guess, its diagonal updated and refactored when that set changes (false: on every free node, factored once)", "VKPDSolve", pd->contact_active, &pd->contact_active, NULL));
   PetscCall(PetscOptionsReal("-pd_contact_set_tol", "With -pd_contact_active_set, K is refactored when more than this fraction of the contact set changed since it was built (0: at every change)", "VKPDSolve", pd->contact_set_tol, &pd->contact_set_tol, NULL));
   PetscCall(PetscOptionsBool("-pd_monitor", "Print Phi and |grad Phi| at every PD iteration", "VKPDSolve", pd->monitor, &pd->monitor, NULL));

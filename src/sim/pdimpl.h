@@ -26,6 +26,11 @@ struct _n_VKPD {
    * and its target becomes (y + c dt x_n)/(1 + c dt) (VKPDInertiaScale) */
   PetscReal  damping;
   Vec        ydamp;
+  /* the extrapolated first guess (VKPDSetExtrapolation): the next solve
+   * starts at x0 + beta d; extrap_d is the caller's, for one solve */
+  PetscBool  extrapolate;
+  Vec        extrap_d, extrap_base;
+  PetscReal  extrap_beta;
   /* options */
   VKPDType  type;
   PetscReal ftol, rtol, atol;

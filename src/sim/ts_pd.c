@@ -7,6 +7,9 @@
  * and sets TS_DIVERGED_NONLINEAR_SOLVE, so the caller still has the last
  * good state.  A solve that ends above its tolerance is counted and
  * warned about on stderr, or, with VKTSPDSetStrict, fails like that.
+ * From the third step the PD also gets the extrapolation of the motion,
+ * d = dt^2 ((v_n - v_{n-1})/dt_{n-1} - g), for its first guess
+ * (VKPDSetExtrapolation, -pd_extrapolate).
  * With TS_EXACTFINALTIME_MATCHSTEP (-ts_exact_final_time matchstep) the
  * step that would pass the final time is shortened to end on it (a
  * sliver of less than 1e-6 dt left before it is absorbed into the step
@@ -18,6 +21,9 @@
 typedef struct {
   VKPD        pd;
   Vec         v, y, xprev;
+  Vec         vprev, d; /* v_{n-1}; the extrapolation d of the step */
+  PetscInt    nv;       /* velocities computed so far (steps taken) */
+  PetscReal   dtprev;   /* the step that made v */
   VKTSPDStats stats;
   PetscBool   strict;
 } TS_PD;
@@ -35,7 +41,31 @@ static PetscErrorCode TSSetUp_PD(TS ts)
     PetscCall(VecSet(p->v, 0));
     PetscCall(VecDuplicate(ts->vec_sol, &p->y));
     PetscCall(VecDuplicate(ts->vec_sol, &p->xprev));
+    PetscCall(VecDuplicate(ts->vec_sol, &p->vprev));
+    PetscCall(VecDuplicate(ts->vec_sol, &p->d));
   }
+  PetscFunctionReturn(0);
+}
+
+/* d = dt^2 ((v_n - v_{n-1})/dt_{n-1} - g) once two velocities are known
+ * (the initial one is the caller's, so not before the third step). */
+static PetscErrorCode Extrapolation(TS_PD *p, PetscReal dt, const PetscReal g[])
+{
+  PetscScalar *da;
+  PetscInt     n;
+
+  PetscFunctionBegin;
+  if (p->nv < 2) {
+    PetscCall(VKPDSetExtrapolation(p->pd, NULL));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(VecWAXPY(p->d, -1, p->vprev, p->v));
+  PetscCall(VecScale(p->d, dt * dt / p->dtprev));
+  PetscCall(VecGetLocalSize(p->d, &n));
+  PetscCall(VecGetArray(p->d, &da));
+  for (PetscInt i = 0; i < n; i++) da[i] -= dt * dt * g[i % 3];
+  PetscCall(VecRestoreArray(p->d, &da));
+  PetscCall(VKPDSetExtrapolation(p->pd, p->d));
   PetscFunctionReturn(0);
 }
 
@@ -68,6 +98,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   for (PetscInt i = 0; i < n; i++) ya[i] += dt * dt * g[i % 3];
   PetscCall(VecRestoreArray(p->y, &ya));
   PetscCall(VecCopy(p->y, x));
+  PetscCall(Extrapolation(p, dt, g));
   PetscCall(VKPDSolve(pd, t1, p->y, p->xprev, x, &s->last));
   /* stopped at the round-off floor above the requested tolerance: the
    * accuracy asked for was not reached, so the step is unconverged too */
@@ -93,8 +124,11 @@ static PetscErrorCode TSStep_PD(TS ts)
     ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
     PetscFunctionReturn(0);
   }
+  PetscCall(VecCopy(p->v, p->vprev));
   PetscCall(VecWAXPY(p->v, -1, p->xprev, x));
   PetscCall(VecScale(p->v, 1 / dt));
+  p->dtprev = dt;
+  p->nv++;
   ts->ptime = last ? ts->max_time : ts->ptime + dt;
   /* a step that starts at the round-off floor (at rest) says nothing about
    * the relative residual PD reaches */
@@ -128,6 +162,9 @@ static PetscErrorCode TSReset_PD(TS ts)
   PetscCall(VecDestroy(&p->v));
   PetscCall(VecDestroy(&p->y));
   PetscCall(VecDestroy(&p->xprev));
+  PetscCall(VecDestroy(&p->vprev));
+  PetscCall(VecDestroy(&p->d));
+  p->nv = 0;
   PetscFunctionReturn(0);
 }
 
