@@ -166,7 +166,8 @@ PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v
  * iterations (step -fit_gd_step relative to |gamma|), then -fit_gn_its
  * Gauss-Newton iterations (KKT, step 1), halving the step while the loss
  * rises, each phase ending when the relative loss decrease falls below
- * -fit_rtol.  r > 0 moves gamma in the span of the r lowest harmonics
+ * -fit_rtol (gradient descent hands over to Gauss-Newton already below
+ * -fit_gd_rtol).  r > 0 moves gamma in the span of the r lowest harmonics
  * (gamma = gamma0 + B q), r = 0 moves every parameter.  gamma stays above
  * the floor gamma_min (projection of every trial; frozen and pivoted
  * parameters in the full space) and below the ceiling gamma_max

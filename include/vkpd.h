@@ -194,14 +194,17 @@ PETSC_EXTERN PetscErrorCode VKPDSetConstantForce(VKPD, Vec f);
 /* The material changed (fitting): K is reassembled and refactored. */
 PETSC_EXTERN PetscErrorCode VKPDMaterialChanged(VKPD);
 
-/* The change d of the first guess that a smooth motion predicts for the
- * next VKPDSolve, d = dt^2 (a_n - g) with a_n the last step's
- * acceleration (not copied; used by that solve only).  The solve starts at
- * x + beta d, beta in [0, 1] the weight that predicted the step before
- * best (learned after each solve from its answer), and only with
- * -pd_extrapolate (the default).  d = NULL: no extrapolation, and beta
- * starts again from 0 (the first steps of a run). */
-PETSC_EXTERN PetscErrorCode VKPDSetExtrapolation(VKPD, Vec d);
+/* The motion so far, for the first guess of the next VKPDSolve (a step of
+ * h): x0 = x_n, x1 = x_{n-1}, x2 = x_{n-2}, h1 = t_n - t_{n-1}, h2 = t_{n-1}
+ * - t_{n-2}.  That solve starts at its guess + beta d, d = h^2 (a_n - g)
+ * = h^2 ((x0 - x1)/h1 - (x1 - x2)/h2)/h1 - h^2 g on the free rows, beta in
+ * [0, 1] the weight that predicted the last converged step best (learned
+ * after each), and only with -pd_extrapolate (the default).  The vectors
+ * are read here, not kept.  x2 = NULL: no extrapolation, and beta starts
+ * again from 0 (the first two steps of a run). */
+PETSC_EXTERN PetscErrorCode VKPDSetExtrapolation(VKPD, PetscReal h, Vec x0, Vec x1, Vec x2, PetscReal h1, PetscReal h2);
+/* -pd_extrapolate: whether the first guesses follow VKPDSetExtrapolation. */
+PETSC_EXTERN PetscErrorCode VKPDSetExtrapolate(VKPD, PetscBool);
 /* Minimize Phi for target y with the handles at time t; x holds the initial
  * guess and receives the result; prev (optional) is the position at the
  * start of the step, the reference of collider friction and of the

@@ -241,6 +241,14 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
       fit->pd_type = (VKPDType)t;
       PetscCall(VKPDSetType(fit->pd, fit->pd_type));
     }
+    /* and its steps start where volknit sim starts them (-pd_extrapolate,
+     * unless -fit_pd_extrapolate says otherwise) */
+    PetscCall(PetscOptionsHasName(NULL, NULL, "-fit_pd_extrapolate", &given));
+    if (!given) {
+      PetscBool on = PETSC_TRUE;
+      PetscCall(PetscOptionsGetBool(NULL, NULL, "-pd_extrapolate", &on, NULL));
+      PetscCall(VKPDSetExtrapolate(fit->pd, on));
+    }
   }
   PetscCall(KSPSetFromOptions(fit->kadj));
   PetscCall(KSPSetFromOptions(fit->kkkt));
@@ -282,7 +290,7 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
   if (fit->loss == VK_FIT_LOSS_TRAJECTORY) PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting the trajectory: rolled out from rest at dt %g s, compared at every frame, prior weight %g; equilibrium of each step to %g relative (%s, then up to %d Newton iterations)\n", (double)VKFitTrajectoryStep(fit), (double)fit->traj_prior, (double)fit->eq_rtol, VKPDTypes[fit->pd_type], (int)fit->eq_newton_its));
   else PetscCall(PetscViewerASCIIPrintf(viewer, "Fitting sample frames: frame interval %g s, inertia %s, equilibrium to %g relative (PD, then up to %d Newton iterations)\n", (double)fit->dt, VKFitInertias[fit->inertia], (double)fit->eq_rtol, (int)fit->eq_newton_its));
   PetscCall(PetscViewerASCIIPushTab(viewer));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: %d GD iterations (step %g |gamma|), %d GN iterations (kappa %g |grad|/|gamma|), steps accepted above %g relative decrease, up to %d halvings%s; floor %g and ceiling %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, fit->step_memory ? " from the last accepted step" : " from the full step", (double)fit->gamma_min_rel, (double)fit->gamma_max_rel));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "schedule per stage: up to %d GD iterations (step %g |gamma|, on to GN below %g relative decrease), %d GN iterations (kappa %g |grad|/|gamma|), steps accepted above %g relative decrease, up to %d halvings%s; floor %g and ceiling %g x mean; harmonic stages r =", (int)fit->gd_its, (double)fit->gd_step, (double)fit->gd_rtol, (int)fit->gn_its, (double)fit->kappa, (double)fit->rtol, (int)fit->max_halvings, fit->step_memory ? " from the last accepted step" : " from the full step", (double)fit->gamma_min_rel, (double)fit->gamma_max_rel));
   PetscCall(PetscViewerASCIIUseTabs(viewer, PETSC_FALSE));
   for (PetscInt i = 0; i < fit->nharm; i++) PetscCall(PetscViewerASCIIPrintf(viewer, " %d,", (int)fit->harm_r[i]));
   PetscCall(PetscViewerASCIIPrintf(viewer, " then full\n"));

@@ -62,7 +62,7 @@ struct _n_VKFitTrajectory {
   PetscInt   inverted_max;       /* most tets inverted at one step's equilibrium */
   VKFitFrame f;                  /* the step being solved */
   Vec        xold, xcur, grad, As;
-  Vec        xold2, dext;        /* x two steps back; the extrapolation of the first guess */
+  Vec        xold2;              /* x two steps back, for the extrapolated first guess */
   PetscInt   rmax;               /* sensitivity storage: 2 rmax columns, three generations */
   Vec       *S[3], *Gb;
   Vec        gref, dlog;         /* the prior's reference material (the first stage's start), and scratch */
@@ -127,7 +127,6 @@ PetscErrorCode VKFitTrajectoryCreate(VKFit fit, PetscInt nf, const PetscReal t[]
   }
   PetscCall(VecDuplicate(xhat[0], &T->xold));
   PetscCall(VecDuplicate(xhat[0], &T->xold2));
-  PetscCall(VecDuplicate(xhat[0], &T->dext));
   PetscCall(VecDuplicate(xhat[0], &T->xcur));
   PetscCall(VecDuplicate(xhat[0], &T->grad));
   PetscCall(VecDuplicate(xhat[0], &T->As));
@@ -173,7 +172,6 @@ PetscErrorCode VKFitTrajectoryDestroy(VKFitTrajectory *p)
   PetscCall(PetscFree3(T->t, T->eps_hat, T->lossf));
   PetscCall(VecDestroy(&T->xold));
   PetscCall(VecDestroy(&T->xold2));
-  PetscCall(VecDestroy(&T->dext));
   PetscCall(VecDestroy(&T->xcur));
   PetscCall(VecDestroy(&T->grad));
   PetscCall(VecDestroy(&T->As));
@@ -394,15 +392,8 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
       for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) ya[i] += h * h * g[i % 3];
       PetscCall(VecRestoreArray(T->f.y, &ya));
       PetscCall(VecCopy(T->f.y, T->f.x));
-      if (T->steps >= 3) { /* the first guess volknit sim's TS pd takes: d = h^2 ((v_n - v_{n-1})/h_n - g) */
-        PetscReal c1 = h * h / (hprev * hprev), c2 = h * h / (hprev * hprev2);
-        PetscCall(VecAXPBYPCZ(T->dext, c1, -(c1 + c2), 0, T->xcur, T->xold));
-        PetscCall(VecAXPY(T->dext, c2, T->xold2));
-        PetscCall(VecGetArray(T->dext, &ya));
-        for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) ya[i] -= h * h * g[i % 3];
-        PetscCall(VecRestoreArray(T->dext, &ya));
-        PetscCall(VKPDSetExtrapolation(fit->pd, T->dext));
-      } else PetscCall(VKPDSetExtrapolation(fit->pd, NULL));
+      if (T->steps >= 3) PetscCall(VKPDSetExtrapolation(fit->pd, h, T->xcur, T->xold, T->xold2, hprev, hprev2)); /* as volknit sim's TS pd */
+      else PetscCall(VKPDSetExtrapolation(fit->pd, h, NULL, NULL, NULL, 0, 0));
       PetscCall(VKFitEquilibriumTry(fit, &T->f, &st, ok));
       T->eq_worst     = PetscMax(T->eq_worst, st.residual / st.tolerance);
       T->inverted_max = PetscMax(T->inverted_max, st.inverted);

@@ -577,7 +577,11 @@ static PetscErrorCode FactorTop(PC pc, PetscBool *notpd)
     const int   *pi = (const int *)c->L->pi, *ls = (const int *)c->L->s;
     PetscInt     kmax = 0;
     PetscScalar *W;
-    for (PetscInt s = 0; s < c->nsn; s++) kmax = PetscMax(kmax, pi[s + 1] - pi[s]);
+    for (PetscInt s = 0; s < c->nsn; s++) { /* the most top rows of one supernode */
+      PetscInt nr = pi[s + 1] - pi[s], first = nr;
+      while (first > 0 && ls[pi[s] + first - 1] >= c->nown) first--;
+      kmax = PetscMax(kmax, nr - first);
+    }
     PetscCall(PetscMalloc1(kmax * kmax + 1, &W));
     for (PetscInt s = 0; s < c->nsn; s++) {
       const int        *rows = ls + pi[s];

@@ -98,6 +98,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(VecDestroy(&pd->xc));
   PetscCall(VecDestroy(&pd->ydamp));
   PetscCall(VecDestroy(&pd->extrap_base));
+  PetscCall(VecDestroy(&pd->extrap_d));
   PetscCall(VecDestroy(&pd->bc));
   PetscCall(VecDestroy(&pd->rc));
   for (int c = 0; c < 3; c++) PetscCall(VecDestroy(&pd->xd[c]));

@@ -21,12 +21,15 @@
  * does, so that it never ends above plain PD for long.  -pd_type lbfgs
  * iterates in pd_lbfgs.c with the same evaluations.
  * First guess: the caller's (the inertial target y), moved by beta d when
- * the caller gives the extrapolation d = dt^2 (a_n - g) of a smooth motion
- * (VKPDSetExtrapolation); beta is the least-squares weight that would have
- * predicted the last answer from its guess, clamped to [0, 1].  A falling
- * or swinging patch gets beta near 1 and L-BFGS fewer iterations (8 x 7 rib
- * hang: 21.8 -> 13.2 a step); a quasi-static one whose velocity only
+ * the caller gives the last three positions (VKPDSetExtrapolation):
+ * d = h^2 (a_n - g) on the free rows, a_n the last step's acceleration;
+ * beta is the least-squares weight that would have predicted the last
+ * converged answer from its guess, clamped to [0, 1].  A falling or
+ * swinging patch gets beta near 1 and L-BFGS fewer iterations (8 x 7 rib
+ * hang: 21.8 -> 13.5 a step); a quasi-static one whose velocity only
  * jitters (the stretch between handles) gets beta near 0, the guess y.
+ * A step that fails from the extrapolated guess (a non-finite Phi) is
+ * solved again from y.
  * (Started from y, PD keeps sum M x = sum M y at every iteration; from
  * the extrapolated guess only at convergence, to the step's tolerance.) */
 #include <vkpd.h>
@@ -473,17 +476,45 @@ static PetscErrorCode UpdateContactSet(VKPD pd, PetscReal t, Vec x, Vec prev)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKPDSetExtrapolation(VKPD pd, Vec d)
+PetscErrorCode VKPDSetExtrapolation(VKPD pd, PetscReal h, Vec x0, Vec x1, Vec x2, PetscReal h1, PetscReal h2)
+{
+  PetscReal    c1, c2;
+  PetscScalar *da;
+  PetscInt     n;
+
+  PetscFunctionBegin;
+  pd->extrap_pending = PETSC_FALSE;
+  if (!x0 || !x1 || !x2) {
+    pd->extrap_beta = 0;
+    PetscFunctionReturn(0);
+  }
+  PetscCheck(h > 0 && h1 > 0 && h2 > 0, pd->comm, PETSC_ERR_ARG_OUTOFRANGE, "VKPDSetExtrapolation: steps must be positive, got %g, %g, %g", (double)h, (double)h1, (double)h2);
+  PetscCall(VKPDSetUp(pd)); /* the held rows */
+  if (!pd->extrap_d) PetscCall(VecDuplicate(x0, &pd->extrap_d));
+  c1 = h * h / (h1 * h1);
+  c2 = h * h / (h1 * h2);
+  PetscCall(VecAXPBYPCZ(pd->extrap_d, c1, -(c1 + c2), 0, x0, x1));
+  PetscCall(VecAXPY(pd->extrap_d, c2, x2));
+  PetscCall(VecGetLocalSize(pd->extrap_d, &n));
+  PetscCall(VecGetArray(pd->extrap_d, &da));
+  for (PetscInt i = 0; i < n; i++) da[i] -= h * h * pd->gravity[i % 3];
+  PetscCall(VecRestoreArray(pd->extrap_d, &da));
+  PetscCall(VKPDZeroEliminatedRows(pd, pd->extrap_d)); /* held and frozen nodes stay where the step puts them */
+  pd->extrap_pending = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPDSetExtrapolate(VKPD pd, PetscBool on)
 {
   PetscFunctionBegin;
-  pd->extrap_d = d;
-  if (!d) pd->extrap_beta = 0;
+  pd->extrapolate = on;
   PetscFunctionReturn(0);
 }
 
 /* The weight of d that would have predicted the answer x from the guess
- * base best: <x - base, d>/<d, d>, clamped to [0, 1] (base is spent). */
-static PetscErrorCode LearnExtrapolation(VKPD pd, Vec d, Vec x)
+ * base best: <x - base, d>/<d, d>, clamped to [0, 1] (base is spent; d is
+ * zero on the held rows, so they do not count). */
+static PetscErrorCode LearnExtrapolation(VKPD pd, Vec x)
 {
   PetscScalar dots[2];
   Vec         w[2];
@@ -491,19 +522,37 @@ static PetscErrorCode LearnExtrapolation(VKPD pd, Vec d, Vec x)
   PetscFunctionBegin;
   PetscCall(VecAYPX(pd->extrap_base, -1, x));
   w[0] = pd->extrap_base;
-  w[1] = d;
-  PetscCall(VecMDot(d, 2, w, dots));
+  w[1] = pd->extrap_d;
+  PetscCall(VecMDot(pd->extrap_d, 2, w, dots));
   pd->extrap_beta = PetscRealPart(dots[1]) > 0 ? PetscMin(PetscMax(PetscRealPart(dots[0]) / PetscRealPart(dots[1]), 0), 1) : 0;
+  PetscFunctionReturn(0);
+}
+
+/* The iterations from the guess x: handles, contact set, the solver, the
+ * Newton polish. */
+static PetscErrorCode Iterate(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *st)
+{
+  PetscFunctionBegin;
+  PetscCall(VKPDApplyHandles(pd, t, x));
+  PetscCall(UpdateContactSet(pd, t, x, prev));
+  PetscCall(InertialTarget(pd, y));
+  pd->t    = t;
+  pd->prev = prev;
+  if (pd->type == VK_PD_TYPE_LBFGS) {
+    PetscCall(VKPDIterateLBFGS(pd, y, x, st));
+    if (st->reason == VK_PD_DIVERGED_NAN && st->fail_iteration == 0 && prev) PetscCall(VecCopy(prev, x));
+  } else PetscCall(IteratePD(pd, y, x, prev, st));
+  if (st->reason > 0 && st->reason != VK_PD_CONVERGED_ITS && pd->newton_its > 0) PetscCall(VKPDNewton(pd, t, y, x, st));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats *st)
 {
-  Vec d = pd->extrapolate ? pd->extrap_d : NULL;
-
-  PetscLogDouble t0 = VKWallTime();
+  PetscBool      extrap = (PetscBool)(pd->extrapolate && pd->extrap_pending);
+  PetscLogDouble t0     = VKWallTime();
 
   PetscFunctionBegin;
+  pd->extrap_pending = PETSC_FALSE; /* the extrapolation is for this solve only */
   PetscCall(VKPDSetUp(pd));
   PetscCall(PetscMemzero(st, sizeof(*st)));
   if (pd->hist_cap < pd->max_it + 1) {
@@ -529,23 +578,25 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
     PetscCall(VecRestoreArrayRead(prev, &pa));
     PetscCall(VecRestoreArray(x, &xa));
   }
-  pd->extrap_d = NULL; /* for this solve only */
-  if (d) {
+  if (extrap) {
     if (!pd->extrap_base) PetscCall(VecDuplicate(x, &pd->extrap_base));
     PetscCall(VecCopy(x, pd->extrap_base));
-    if (pd->extrap_beta > 0) PetscCall(VecAXPY(x, pd->extrap_beta, d));
+    if (pd->extrap_beta > 0) PetscCall(VecAXPY(x, pd->extrap_beta, pd->extrap_d));
   }
-  PetscCall(VKPDApplyHandles(pd, t, x));
-  PetscCall(UpdateContactSet(pd, t, x, prev));
-  PetscCall(InertialTarget(pd, y));
-  pd->t    = t;
-  pd->prev = prev;
-  if (pd->type == VK_PD_TYPE_LBFGS) {
-    PetscCall(VKPDIterateLBFGS(pd, y, x, st));
-    if (st->reason == VK_PD_DIVERGED_NAN && st->fail_iteration == 0 && prev) PetscCall(VecCopy(prev, x));
-  } else PetscCall(IteratePD(pd, y, x, prev, st));
-  if (st->reason > 0 && st->reason != VK_PD_CONVERGED_ITS && pd->newton_its > 0) PetscCall(VKPDNewton(pd, t, y, x, st));
-  if (d && st->reason > 0) PetscCall(LearnExtrapolation(pd, d, x));
+  PetscCall(Iterate(pd, t, y, prev, x, st));
+  if (extrap && pd->extrap_beta > 0 && st->reason == VK_PD_DIVERGED_NAN) { /* once more from the caller's guess */
+    PetscReal tl = st->time_local, tg = st->time_global;
+    PetscCall(PetscInfo(NULL, "PD step from the extrapolated guess failed (%s): once more from the inertial target\n", VKPDReasonName(st->reason)));
+    PetscCall(VecCopy(pd->extrap_base, x));
+    PetscCall(PetscMemzero(st, sizeof(*st)));
+    pd->hist_n = 0;
+    PetscCall(Iterate(pd, t, y, prev, x, st));
+    st->time_local += tl;
+    st->time_global += tg;
+    pd->extrap_beta = 0;
+    extrap          = PETSC_FALSE;
+  }
+  if (extrap && VKPDReasonConverged(st->reason)) PetscCall(LearnExtrapolation(pd, x));
   st->time_other = VKWallTime() - t0 - st->time_local - st->time_global;
   PetscFunctionReturn(0);
 }

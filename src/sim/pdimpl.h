@@ -27,8 +27,8 @@ struct _n_VKPD {
   PetscReal  damping;
   Vec        ydamp;
   /* the extrapolated first guess (VKPDSetExtrapolation): the next solve
-   * starts at x0 + beta d; extrap_d is the caller's, for one solve */
-  PetscBool  extrapolate;
+   * starts at its guess + beta d (pending: d is set for it) */
+  PetscBool  extrapolate, extrap_pending;
   Vec        extrap_d, extrap_base;
   PetscReal  extrap_beta;
   /* options */

@@ -7,9 +7,9 @@
  * and sets TS_DIVERGED_NONLINEAR_SOLVE, so the caller still has the last
  * good state.  A solve that ends above its tolerance is counted and
  * warned about on stderr, or, with VKTSPDSetStrict, fails like that.
- * From the third step the PD also gets the extrapolation of the motion,
- * d = dt^2 ((v_n - v_{n-1})/dt_{n-1} - g), for its first guess
- * (VKPDSetExtrapolation, -pd_extrapolate).
+ * From the third step of a run the PD also gets the last three positions,
+ * to start from the extrapolated motion (VKPDSetExtrapolation,
+ * -pd_extrapolate).
  * With TS_EXACTFINALTIME_MATCHSTEP (-ts_exact_final_time matchstep) the
  * step that would pass the final time is shortened to end on it (a
  * sliver of less than 1e-6 dt left before it is absorbed into the step
@@ -21,9 +21,9 @@
 typedef struct {
   VKPD        pd;
   Vec         v, y, xprev;
-  Vec         vprev, d; /* v_{n-1}; the extrapolation d of the step */
-  PetscInt    nv;       /* velocities computed so far (steps taken) */
-  PetscReal   dtprev;   /* the step that made v */
+  Vec         x1, x2; /* x_{n-1}, x_{n-2} */
+  PetscInt    nx;     /* how many of them are known */
+  PetscReal   h1, h2; /* t_n - t_{n-1}, t_{n-1} - t_{n-2} */
   VKTSPDStats stats;
   PetscBool   strict;
 } TS_PD;
@@ -41,31 +41,9 @@ static PetscErrorCode TSSetUp_PD(TS ts)
     PetscCall(VecSet(p->v, 0));
     PetscCall(VecDuplicate(ts->vec_sol, &p->y));
     PetscCall(VecDuplicate(ts->vec_sol, &p->xprev));
-    PetscCall(VecDuplicate(ts->vec_sol, &p->vprev));
-    PetscCall(VecDuplicate(ts->vec_sol, &p->d));
+    PetscCall(VecDuplicate(ts->vec_sol, &p->x1));
+    PetscCall(VecDuplicate(ts->vec_sol, &p->x2));
   }
-  PetscFunctionReturn(0);
-}
-
-/* d = dt^2 ((v_n - v_{n-1})/dt_{n-1} - g) once two velocities are known
- * (the initial one is the caller's, so not before the third step). */
-static PetscErrorCode Extrapolation(TS_PD *p, PetscReal dt, const PetscReal g[])
-{
-  PetscScalar *da;
-  PetscInt     n;
-
-  PetscFunctionBegin;
-  if (p->nv < 2) {
-    PetscCall(VKPDSetExtrapolation(p->pd, NULL));
-    PetscFunctionReturn(0);
-  }
-  PetscCall(VecWAXPY(p->d, -1, p->vprev, p->v));
-  PetscCall(VecScale(p->d, dt * dt / p->dtprev));
-  PetscCall(VecGetLocalSize(p->d, &n));
-  PetscCall(VecGetArray(p->d, &da));
-  for (PetscInt i = 0; i < n; i++) da[i] -= dt * dt * g[i % 3];
-  PetscCall(VecRestoreArray(p->d, &da));
-  PetscCall(VKPDSetExtrapolation(p->pd, p->d));
   PetscFunctionReturn(0);
 }
 
@@ -98,7 +76,9 @@ static PetscErrorCode TSStep_PD(TS ts)
   for (PetscInt i = 0; i < n; i++) ya[i] += dt * dt * g[i % 3];
   PetscCall(VecRestoreArray(p->y, &ya));
   PetscCall(VecCopy(p->y, x));
-  PetscCall(Extrapolation(p, dt, g));
+  if (ts->steps == 0) p->nx = 0; /* a new run */
+  if (p->nx == 2) PetscCall(VKPDSetExtrapolation(pd, dt, p->xprev, p->x1, p->x2, p->h1, p->h2));
+  else PetscCall(VKPDSetExtrapolation(pd, dt, NULL, NULL, NULL, 0, 0));
   PetscCall(VKPDSolve(pd, t1, p->y, p->xprev, x, &s->last));
   /* stopped at the round-off floor above the requested tolerance: the
    * accuracy asked for was not reached, so the step is unconverged too */
@@ -124,11 +104,13 @@ static PetscErrorCode TSStep_PD(TS ts)
     ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
     PetscFunctionReturn(0);
   }
-  PetscCall(VecCopy(p->v, p->vprev));
+  PetscCall(VecCopy(p->x1, p->x2));
+  PetscCall(VecCopy(p->xprev, p->x1));
+  p->h2 = p->h1;
+  p->h1 = dt;
+  p->nx = PetscMin(p->nx + 1, 2);
   PetscCall(VecWAXPY(p->v, -1, p->xprev, x));
   PetscCall(VecScale(p->v, 1 / dt));
-  p->dtprev = dt;
-  p->nv++;
   ts->ptime = last ? ts->max_time : ts->ptime + dt;
   /* a step that starts at the round-off floor (at rest) says nothing about
    * the relative residual PD reaches */
@@ -162,9 +144,9 @@ static PetscErrorCode TSReset_PD(TS ts)
   PetscCall(VecDestroy(&p->v));
   PetscCall(VecDestroy(&p->y));
   PetscCall(VecDestroy(&p->xprev));
-  PetscCall(VecDestroy(&p->vprev));
-  PetscCall(VecDestroy(&p->d));
-  p->nv = 0;
+  PetscCall(VecDestroy(&p->x1));
+  PetscCall(VecDestroy(&p->x2));
+  p->nx = 0;
   PetscFunctionReturn(0);
 }
 
