@@ -143,6 +143,8 @@ static inline PetscReal VKSumValue(const VKSum *s)
 }
 
 PETSC_EXTERN PetscLogDouble VKWallTime(void);
+/* v_i += a c_(i mod 3) on a node vector (x, y, z per node; nodevec.c). */
+PETSC_EXTERN PetscErrorCode VKVecAddPerNode(Vec v, PetscReal a, const PetscReal c[3]);
 /* ksp: KSPPREONLY with a MUMPS factorization of the given type (PCLU,
  * PCCHOLESKY) as its PC (direct_solver.c). */
 PETSC_EXTERN PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor);

@@ -49,10 +49,7 @@ PetscErrorCode VKFitFrameCreateSpaced(VKFit fit, PetscInt index, PetscReal t, Pe
   PetscCall(VecDuplicate(xhat, &f->y));
   PetscCall(VecCopy(xhat1, f->y)); /* xhat1 and xhat2 may be one Vec */
   PetscCall(VecAXPBY(f->y, -h / hprev, 1 + h / hprev, xhat2));
-  PetscCall(VecGetArray(f->y, &ya));
-  for (PetscInt i = 0; i < L->nEnd - L->nStart; i++)
-    for (int r = 0; r < 3; r++) ya[3 * i + r] += h * h * fit->gravity[r];
-  PetscCall(VecRestoreArray(f->y, &ya));
+  PetscCall(VKVecAddPerNode(f->y, h * h, fit->gravity));
   if (fit->inertia != VK_FIT_INERTIA_IMPLICIT) { /* M (y - xhat)/dt^2 = M (g - a_data), or M g */
     const PetscScalar *xa;
     PetscScalar       *fa;

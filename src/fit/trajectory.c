@@ -335,7 +335,6 @@ static PetscErrorCode AddFrame(VKFitTrajectory T, PetscInt k, PetscInt r, PetscR
 PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r, PetscReal *loss, PetscReal lossf[], PetscReal grad[], PetscReal P[], PetscBool *ok)
 {
   VKFit           fit = T->fit;
-  const VKLayout *L   = VKMeshLayout(fit->mesh);
   PetscReal       dt  = VKFitTrajectoryStep(fit), t = 0, hprev = dt, hprev2 = dt;
   const PetscReal *g  = fit->gravity;
 
@@ -378,7 +377,6 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
   for (PetscInt k = 0; k < T->nf && *ok; k++) {
     while (t < T->t[k] - 1e-9 * dt && *ok) {
       PetscReal    h = PetscMin(dt, T->t[k] - t), a;
-      PetscScalar *ya;
       VKFitEqStats st;
       if (T->t[k] - (t + h) < 1e-6 * dt) h = T->t[k] - t; /* no sliver of a step before the frame */
       a = h / hprev;
@@ -388,9 +386,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
       PetscCall(VecCopy(T->xcur, T->f.xhat)); /* the step's force scale about where it starts */
       PetscCall(VecCopy(T->xcur, T->f.xprev));
       PetscCall(VecAXPBYPCZ(T->f.y, 1 + a, -a, 0, T->xcur, T->xold));
-      PetscCall(VecGetArray(T->f.y, &ya));
-      for (PetscInt i = 0; i < 3 * (L->nEnd - L->nStart); i++) ya[i] += h * h * g[i % 3];
-      PetscCall(VecRestoreArray(T->f.y, &ya));
+      PetscCall(VKVecAddPerNode(T->f.y, h * h, g));
       PetscCall(VecCopy(T->f.y, T->f.x));
       if (T->steps >= 3) PetscCall(VKPDSetExtrapolation(fit->pd, h, T->xcur, T->xold, T->xold2, hprev, hprev2)); /* as volknit sim's TS pd */
       else PetscCall(VKPDSetExtrapolation(fit->pd, h, NULL, NULL, NULL, 0, 0));

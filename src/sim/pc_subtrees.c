@@ -552,6 +552,17 @@ static PetscErrorCode FactorOwn(PC pc, PetscBool *notpd)
   PetscFunctionReturn(0);
 }
 
+/* The first of supernode s's rows that belong to the top (its rows ascend,
+ * so the top's come last); NRows when it has none. */
+static PetscInt FirstTopRow(const PC_Subtrees *c, PetscInt s)
+{
+  const int *pi = (const int *)c->L->pi, *rows = (const int *)c->L->s + pi[s];
+  PetscInt   first = pi[s + 1] - pi[s];
+
+  while (first > 0 && rows[first - 1] >= c->nown) first--;
+  return first;
+}
+
 /* The top's factor: S = K_TT (rank 0) - sum over the ranks of the top rows
  * of their columns of L times their transpose, summed, then Cholesky
  * (lower triangle, column major).  Returns whether S is not positive
@@ -577,19 +588,13 @@ static PetscErrorCode FactorTop(PC pc, PetscBool *notpd)
     const int   *pi = (const int *)c->L->pi, *ls = (const int *)c->L->s;
     PetscInt     kmax = 0;
     PetscScalar *W;
-    for (PetscInt s = 0; s < c->nsn; s++) { /* the most top rows of one supernode */
-      PetscInt nr = pi[s + 1] - pi[s], first = nr;
-      while (first > 0 && ls[pi[s] + first - 1] >= c->nown) first--;
-      kmax = PetscMax(kmax, nr - first);
-    }
+    for (PetscInt s = 0; s < c->nsn; s++) kmax = PetscMax(kmax, pi[s + 1] - pi[s] - FirstTopRow(c, s)); /* the most top rows of one supernode */
     PetscCall(PetscMalloc1(kmax * kmax + 1, &W));
     for (PetscInt s = 0; s < c->nsn; s++) {
       const int        *rows = ls + pi[s];
-      PetscInt          nr = pi[s + 1] - pi[s], first = nr, k;
+      PetscInt          nr = pi[s + 1] - pi[s], first = FirstTopRow(c, s), k = nr - first;
       const PetscScalar one = 1, zero = 0;
       PetscBLASInt      bk, bn, bld;
-      while (first > 0 && rows[first - 1] >= c->nown) first--; /* rows ascend: the top's come last */
-      k = nr - first;
       if (!k || !c->snc[s]) continue;
       PetscCall(PetscBLASIntCast(k, &bk));
       PetscCall(PetscBLASIntCast(c->snc[s], &bn));

@@ -478,9 +478,7 @@ static PetscErrorCode UpdateContactSet(VKPD pd, PetscReal t, Vec x, Vec prev)
 
 PetscErrorCode VKPDSetExtrapolation(VKPD pd, PetscReal h, Vec x0, Vec x1, Vec x2, PetscReal h1, PetscReal h2)
 {
-  PetscReal    c1, c2;
-  PetscScalar *da;
-  PetscInt     n;
+  PetscReal c1, c2;
 
   PetscFunctionBegin;
   pd->extrap_pending = PETSC_FALSE;
@@ -495,10 +493,7 @@ PetscErrorCode VKPDSetExtrapolation(VKPD pd, PetscReal h, Vec x0, Vec x1, Vec x2
   c2 = h * h / (h1 * h2);
   PetscCall(VecAXPBYPCZ(pd->extrap_d, c1, -(c1 + c2), 0, x0, x1));
   PetscCall(VecAXPY(pd->extrap_d, c2, x2));
-  PetscCall(VecGetLocalSize(pd->extrap_d, &n));
-  PetscCall(VecGetArray(pd->extrap_d, &da));
-  for (PetscInt i = 0; i < n; i++) da[i] -= h * h * pd->gravity[i % 3];
-  PetscCall(VecRestoreArray(pd->extrap_d, &da));
+  PetscCall(VKVecAddPerNode(pd->extrap_d, -h * h, pd->gravity));
   PetscCall(VKPDZeroEliminatedRows(pd, pd->extrap_d)); /* held and frozen nodes stay where the step puts them */
   pd->extrap_pending = PETSC_TRUE;
   PetscFunctionReturn(0);

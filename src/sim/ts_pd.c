@@ -15,6 +15,7 @@
  * sliver of less than 1e-6 dt left before it is absorbed into the step
  * before); the time step itself is kept for any later TSSolve.  Modelled on PETSc's own TS implementations (TSStep_Euler). */
 #include <vksim.h>
+#include <vkutil.h>
 #include "pdimpl.h"
 #include <petsc/private/tsimpl.h>
 
@@ -55,8 +56,6 @@ static PetscErrorCode TSStep_PD(TS ts)
   PetscReal       dt = ts->time_step, t1 = ts->ptime + dt, rel;
   PetscBool       last = PETSC_FALSE, roundoff;
   const PetscReal *g = pd->gravity;
-  PetscScalar    *ya;
-  PetscInt        n;
   VKTSPDStats    *s = &p->stats;
 
   PetscFunctionBegin;
@@ -71,10 +70,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   PetscCall(VKPDSetStepNumber(pd, ts->steps + 1));
   PetscCall(VecCopy(x, p->xprev));
   PetscCall(VecWAXPY(p->y, dt, p->v, x));
-  PetscCall(VecGetLocalSize(p->y, &n));
-  PetscCall(VecGetArray(p->y, &ya));
-  for (PetscInt i = 0; i < n; i++) ya[i] += dt * dt * g[i % 3];
-  PetscCall(VecRestoreArray(p->y, &ya));
+  PetscCall(VKVecAddPerNode(p->y, dt * dt, g));
   PetscCall(VecCopy(p->y, x));
   if (ts->steps == 0) p->nx = 0; /* a new run */
   if (p->nx == 2) PetscCall(VKPDSetExtrapolation(pd, dt, p->xprev, p->x1, p->x2, p->h1, p->h2));
