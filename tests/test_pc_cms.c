@@ -16,6 +16,7 @@
  *  - overlapping domains and rows in no domain are refused with a message.
  * ranks: 1 2 3
  */
+#include <string.h>
 #include <vkpd.h>
 #include <slepcsys.h>
 #include "vktest.h"
@@ -146,6 +147,25 @@ static PetscErrorCode TestModes(Mat K, PetscInt ndom)
     PetscCall(MatNorm(G, NORM_FROBENIUS, &d));
     PetscCall(VKTestCheck((PetscBool)(d <= 1e-9 * gn), NULL, "%d domain(s) per rank: K_r from its blocks equals Q^T K Q to %.1e relative (<= 1e-9)", (int)ndom, (double)(d / gn)));
     PetscCall(MatDestroy(&G));
+  }
+  { /* -pd_global_pc_view states the sizes a cycle streams: Q's and K_r's stored entries */
+    PetscViewer v;
+    MatInfo     qi, ri;
+    char        path[64], line[512], expect[128];
+    PetscBool   found = PETSC_FALSE;
+    FILE       *fp;
+    PetscCall(MatGetInfo(Q, MAT_GLOBAL_SUM, &qi));
+    PetscCall(MatGetInfo(Kr, MAT_GLOBAL_SUM, &ri));
+    PetscCall(PetscSNPrintf(expect, sizeof(expect), "stored entries: Q %.0f (boundary modes Psi dense per domain), K_r %.0f", (double)qi.nz_used, (double)ri.nz_used));
+    PetscCall(PetscSNPrintf(path, sizeof(path), "tests/out/test_pc_cms_view.%d.txt", (int)size));
+    PetscCall(PetscViewerASCIIOpen(PETSC_COMM_WORLD, path, &v));
+    PetscCall(PCView(pc, v));
+    PetscCall(PetscViewerDestroy(&v));
+    PetscCall(PetscFOpen(PETSC_COMM_SELF, path, "r", &fp));
+    while (!found && fgets(line, sizeof(line), fp)) found = (PetscBool)(strstr(line, expect) != NULL);
+    PetscCall(PetscFClose(PETSC_COMM_SELF, fp));
+    PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD)); /* every rank has read it before the next view rewrites it */
+    PetscCall(VKTestCheck(found, NULL, "%d domain(s) per rank: PCView states '%s'", (int)ndom, expect));
   }
   PetscCall(MatGetOwnershipRangeColumn(Q, &cs, &ce));
   PetscCall(MatCreateVecs(Q, NULL, &q));

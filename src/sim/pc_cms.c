@@ -881,6 +881,12 @@ static PetscErrorCode PCView_CMS(PC pc, PetscViewer viewer)
   PetscCall(PetscViewerASCIIPrintf(viewer, "  %d domains: %d interior rows (at most %d in a domain), %d boundary rows (at most %d in a domain)\n", (int)cms->ndomains, (int)cms->ninterior, (int)cms->nint_max, (int)cms->nboundary, (int)cms->nbnd_max));
   PetscCall(PetscViewerASCIIPrintf(viewer, "  the last set-up built the pieces of %d of the %d domains (the others' K_II and K_IB were unchanged)\n", (int)cms->rebuilt, (int)cms->ndomains));
   PetscCall(PetscViewerASCIIPrintf(viewer, "  reduced space: %d columns (%d boundary, %d modes, eigenvalues of K_II in [%g, %g])\n", (int)(cms->nboundary + cms->nmodes), (int)cms->nboundary, (int)cms->nmodes, (double)(cms->nmodes ? cms->lambda_min : 0), (double)cms->lambda_max));
+  { /* what one cycle streams besides K: Q (mostly the dense Psi) twice, and K_r's factor (sized in the coarse solver's view below) */
+    MatInfo q, r;
+    PetscCall(MatGetInfo(cms->Q, MAT_GLOBAL_SUM, &q));
+    PetscCall(MatGetInfo(cms->Kr, MAT_GLOBAL_SUM, &r));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "  stored entries: Q %.0f (boundary modes Psi dense per domain), K_r %.0f\n", (double)q.nz_used, (double)r.nz_used));
+  }
   PetscCall(PetscViewerASCIIPushTab(viewer));
   PetscCall(PCView(cms->mg, viewer));
   PetscCall(PetscViewerASCIIPopTab(viewer));
