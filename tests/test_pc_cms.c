@@ -4,7 +4,8 @@
  *  - with 1, 2 and 4 domains per rank: CG converges, the true relative
  *    residual is <= 1e-10, and x equals the distributed MUMPS solve to
  *    the accuracy that residual allows (1e-8);
- *  - K_r, assembled from Schur blocks and eigenvalues, equals Q^T K Q;
+ *  - K_r, assembled from Schur blocks and eigenvalues, equals Q^T K Q,
+ *    and the PC's view states Q's and K_r's stored entries;
  *  - every interior mode column of the subspace is an eigenvector of its
  *    domain's K_II: |K q - lambda q| <= 1e-8 lambda |q| on the rows where
  *    q lives, and it vanishes on every boundary row;
@@ -18,6 +19,7 @@
  */
 #include <string.h>
 #include <vkpd.h>
+#include <vkio.h>
 #include <slepcsys.h>
 #include "vktest.h"
 #include "laplacian.h"
@@ -151,13 +153,15 @@ static PetscErrorCode TestModes(Mat K, PetscInt ndom)
   { /* -pd_global_pc_view states the sizes a cycle streams: Q's and K_r's stored entries */
     PetscViewer v;
     MatInfo     qi, ri;
-    char        path[64], line[512], expect[128];
+    char        dir[PETSC_MAX_PATH_LEN] = "tests/out/pc_cms", path[PETSC_MAX_PATH_LEN], line[512], expect[128];
     PetscBool   found = PETSC_FALSE;
     FILE       *fp;
     PetscCall(MatGetInfo(Q, MAT_GLOBAL_SUM, &qi));
     PetscCall(MatGetInfo(Kr, MAT_GLOBAL_SUM, &ri));
     PetscCall(PetscSNPrintf(expect, sizeof(expect), "stored entries: Q %.0f (boundary modes Psi dense per domain), K_r %.0f", (double)qi.nz_used, (double)ri.nz_used));
-    PetscCall(PetscSNPrintf(path, sizeof(path), "tests/out/test_pc_cms_view.%d.txt", (int)size));
+    PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
+    PetscCall(VKMakeDirectory(PETSC_COMM_WORLD, dir));
+    PetscCall(VKPathJoin(dir, "pc_view.txt", path, sizeof(path)));
     PetscCall(PetscViewerASCIIOpen(PETSC_COMM_WORLD, path, &v));
     PetscCall(PCView(pc, v));
     PetscCall(PetscViewerDestroy(&v));
