@@ -479,15 +479,20 @@ static PetscErrorCode Trajectory(VKMaterial mat, PetscReal rtol, PetscInt newton
 /* The extrapolated first guess (VKPDSetExtrapolation from the TS): a patch
  * hanging from its top edge, 20 steps of L-BFGS at the default tolerance,
  * with and without it: the same motion to the steps' tolerance, fewer
- * iterations, and a weight learned inside (0, 1]. */
+ * iterations, and a weight learned inside (0, 1].  Then FIXED_ITS L-BFGS
+ * iterations a step (-pd_fixed_its), with and without it: the weight is
+ * learned from those steps too, and the motion ends closer to the
+ * converged one. */
+#define FIXED_ITS 10
 static PetscErrorCode TestTSExtrapolation(VKMaterial mat)
 {
   VKMesh    m = mat->mesh;
-  PetscReal *xk[2], d = 0, scale = 0, beta = 0, lo[3], hi[3];
+  PetscReal *xk[4], d = 0, scale = 0, beta = 0, betafix = 0, dfix[2] = {0, 0}, lo[3], hi[3];
   PetscInt  its[2];
 
   PetscFunctionBegin;
-  for (int on = 0; on < 2; on++) {
+  for (int run = 0; run < 4; run++) {
+    int on = run % 2, fixed = run / 2;
     VKScene     s;
     VKSim       sim;
     VKTSPDStats st;
@@ -508,12 +513,23 @@ static PetscErrorCode TestTSExtrapolation(VKMaterial mat)
     PetscCall(VKSimSetQuiet(sim, PETSC_TRUE));
     PetscCall(VKPDSetType(VKTestSimPD(sim), VK_PD_TYPE_LBFGS));
     PetscCall(VKPDSetExtrapolate(VKTestSimPD(sim), (PetscBool)on));
+    if (fixed) {
+      PetscCall(VKPDSetTolerances(VKTestSimPD(sim), PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, FIXED_ITS));
+      PetscCall(VKPDSetFixedIterations(VKTestSimPD(sim), PETSC_TRUE));
+    }
     PetscCall(TSSetTimeStep(VKTestSimTS(sim), 1.0 / 150));
     PetscCall(TSSetMaxTime(VKTestSimTS(sim), 20.0 / 150));
     PetscCall(VKSimRun(sim));
     PetscCall(VKSimGetStatus(sim, &status));
     PetscCall(VKTSPDGetStats(VKTestSimTS(sim), &st));
-    PetscCall(VKTestCheck((PetscBool)(!strcmp(status, "completed") && st.steps == 20), NULL, "hang, extrapolated first guess %s: %d steps, status %s", on ? "on" : "off", (int)st.steps, status));
+    PetscCall(VKTestCheck((PetscBool)(!strcmp(status, fixed ? "unmeasured" : "completed") && st.steps == 20), NULL, "hang, extrapolated first guess %s%s: %d steps, status %s", on ? "on" : "off", fixed ? ", a fixed count of iterations a step" : "", (int)st.steps, status));
+    if (fixed) {
+      if (on) betafix = VKTestSimPD(sim)->extrap_beta;
+      PetscCall(VKTestGatherByKey(m, VKTestSimX(sim), &xk[run]));
+      PetscCall(VKSimDestroy(&sim));
+      PetscCall(VKSceneDestroy(&s));
+      continue;
+    }
     its[on] = st.iterations;
     if (on) { /* the held nodes (the handle's and the frozen ones) stay at rest */
       VKPD               pd = VKTestSimPD(sim);
@@ -544,8 +560,12 @@ static PetscErrorCode TestTSExtrapolation(VKMaterial mat)
     scale = PetscMax(scale, PetscAbsReal(xk[0][i]));
   }
   PetscCall(VKTestCheck((PetscBool)(d <= 1e-4 * scale && its[1] < its[0] && beta > 0), NULL, "hang, 20 L-BFGS steps: the extrapolated first guess ends %.1e of the patch size from the inertial one, in %d iterations against %d (last weight %.3f)", (double)(d / scale), (int)its[1], (int)its[0], (double)beta));
-  PetscCall(PetscFree(xk[0]));
-  PetscCall(PetscFree(xk[1]));
+  for (int on = 0; on < 2; on++) { /* RMS distance from the converged run's end */
+    for (PetscInt i = 0; i < 3 * m->nv; i++) dfix[on] += PetscSqr(xk[2 + on][i] - xk[0][i]);
+    dfix[on] = PetscSqrtReal(dfix[on] / (3 * m->nv));
+  }
+  PetscCall(VKTestCheck((PetscBool)(betafix > 0 && dfix[1] < 0.5 * dfix[0]), NULL, "hang, 20 steps of %d L-BFGS iterations: a weight learned from them (%.3f), and the motion ends %.1e of the patch size (RMS) from the converged one, against %.1e from the inertial guess", FIXED_ITS, (double)betafix, (double)(dfix[1] / scale), (double)(dfix[0] / scale)));
+  for (int run = 0; run < 4; run++) PetscCall(PetscFree(xk[run]));
   PetscFunctionReturn(0);
 }
 
