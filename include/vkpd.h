@@ -198,8 +198,9 @@ PETSC_EXTERN PetscErrorCode VKPDMaterialChanged(VKPD);
  * h): x0 = x_n, x1 = x_{n-1}, x2 = x_{n-2}, h1 = t_n - t_{n-1}, h2 = t_{n-1}
  * - t_{n-2}.  That solve starts at its guess + beta d, d = h^2 (a_n - g)
  * = h^2 ((x0 - x1)/h1 - (x1 - x2)/h2)/h1 - h^2 g on the free rows, beta in
- * [0, 1] the weight that predicted the last converged step best (learned
- * after each), and only with -pd_extrapolate (the default).  The vectors
+ * [0, 1] the weight that predicted the last accepted step best (learned
+ * after each converged or -pd_fixed_its step), and only with
+ * -pd_extrapolate (the default).  The vectors
  * are read here, not kept.  x2 = NULL: no extrapolation, and beta starts
  * again from 0 (the first two steps of a run). */
 PETSC_EXTERN PetscErrorCode VKPDSetExtrapolation(VKPD, PetscReal h, Vec x0, Vec x1, Vec x2, PetscReal h1, PetscReal h2);

@@ -211,6 +211,13 @@ PetscErrorCode VKPDGetFixedIterations(VKPD pd, PetscBool *fixed)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKPDSetExtrapolate(VKPD pd, PetscBool on)
+{
+  PetscFunctionBegin;
+  pd->extrapolate = on;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKPDSetChebyshev(VKPD pd, PetscReal rho, PetscInt delay)
 {
   PetscFunctionBegin;

@@ -499,13 +499,6 @@ PetscErrorCode VKPDSetExtrapolation(VKPD pd, PetscReal h, Vec x0, Vec x1, Vec x2
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKPDSetExtrapolate(VKPD pd, PetscBool on)
-{
-  PetscFunctionBegin;
-  pd->extrapolate = on;
-  PetscFunctionReturn(0);
-}
-
 /* The weight of d that would have predicted the answer x from the guess
  * base best: <x - base, d>/<d, d>, clamped to [0, 1] (base is spent; d is
  * zero on the held rows, so they do not count). */
