@@ -58,8 +58,8 @@ PETSC_EXTERN PetscErrorCode PCSubtreesGetSplit(PC, PetscInt *nown, PetscInt *nto
  * (DESIGN §9), a two-level PCMG whose coarse space holds every boundary
  * row and the lowest interior modes of each domain.  Its domains are
  * disjoint sets of a rank's own rows (default: one per rank), its options
- * -pc_cms_modes (under the PC's prefix) and, for the PCMG, the prefix
- * <pc prefix>cms_. */
+ * -pc_cms_modes and -pc_cms_diagonal_update (under the PC's prefix) and,
+ * for the PCMG, the prefix <pc prefix>cms_. */
 #define PCCMS "cms"
 PETSC_EXTERN PetscErrorCode VKPCCreate_CMS(PC);
 /* Collective; domains equal to the current ones (as sets, on every rank)
@@ -74,6 +74,14 @@ PETSC_EXTERN PetscErrorCode PCCMSGetSubspace(PC, Mat *Q, Mat *Kr, PetscInt *nbou
  * a new matrix of the same pattern rebuilds only the domains whose K_II
  * or K_IB changed. */
 PETSC_EXTERN PetscErrorCode PCCMSGetRebuiltDomains(PC, PetscInt *rebuilt, PetscInt *total);
+/* Collective: whether a domain whose K_II changed on its diagonal alone
+ * (PD's collider weights) keeps its modes, K_r gaining Q_d^T dD Q_d
+ * (default), or is rebuilt; -pc_cms_diagonal_update. */
+PETSC_EXTERN PetscErrorCode PCCMSSetDiagonalUpdate(PC, PetscBool);
+/* After set-up: how many domains (over all ranks) the last set-up kept
+ * across a change of their K_II's diagonal alone, and how many so over
+ * every set-up of the PC. */
+PETSC_EXTERN PetscErrorCode PCCMSGetDiagonalUpdates(PC, PetscInt *last, PetscInt *all);
 /* Registers the PC types columns and cms and the TS type pd (src/sim/package.c);
  * the driver calls it at start-up, VKPDCreate and VKSimCreate for library
  * users. */

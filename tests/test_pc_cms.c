@@ -14,6 +14,11 @@
  *  - new values in the same pattern are used by the next solve; a change
  *    inside one domain rebuilds that domain only, to a Q and K_r equal
  *    to a full set-up's, and a change on boundary rows rebuilds none;
+ *  - a change of one domain's K_II on its diagonal alone (collider
+ *    weights) keeps Q as it was, K_r equals the Galerkin product Q^T K Q
+ *    of the new K with it, CG converges; undone, K_r is the first
+ *    set-up's again; with the update switched off the domain is rebuilt
+ *    to a full set-up's Q and K_r;
  *  - overlapping domains and rows in no domain are refused with a message.
  * ranks: 1 2 3
  */
@@ -421,6 +426,90 @@ static PetscErrorCode TestRebuild(PetscInt m)
   PetscFunctionReturn(0);
 }
 
+/* |K_r - Q^T K Q| / |Q^T K Q| for the PC's Q and K_r. */
+static PetscErrorCode GalerkinDifference(Mat K, PC pc, PetscReal *d)
+{
+  Mat Q, Kr, G;
+
+  PetscFunctionBegin;
+  PetscCall(PCCMSGetSubspace(pc, &Q, &Kr, NULL));
+  PetscCall(MatPtAP(K, Q, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &G));
+  PetscCall(RelativeDifference(Kr, G, d));
+  PetscCall(MatDestroy(&G));
+  PetscFunctionReturn(0);
+}
+
+/* dw added to the diagonal of every third interior row of rank 0's first
+ * domain (of 2): rows whose z-neighbours, hence all their neighbours, are
+ * in that domain, as a collider's weight on the nodes it touches. */
+static PetscErrorCode AddDiagonal(Mat K, PetscInt m, PetscScalar dw)
+{
+  PetscInt    rs, re, hi;
+  PetscMPIInt rank;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCall(MatGetOwnershipRange(K, &rs, &re));
+  hi = rs + (re - rs) / 2;
+  if (!rank)
+    for (PetscInt r = rs + m * m; r + m * m < hi; r += 3) PetscCall(MatSetValue(K, r, r, dw, ADD_VALUES));
+  PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode TestDiagonalChange(PetscInt m)
+{
+  KSP                ksp;
+  PC                 pc;
+  Mat                K, Q, Kr, Q0, Kr0;
+  PetscInt           rebuilt, updated, all, its, its0;
+  PetscReal          dq, dk, dg, res, diff;
+  KSPConvergedReason reason;
+
+  PetscFunctionBegin;
+  PetscCall(Laplacian(m, 0.1, &K));
+  PetscCall(CMSKSP(K, 2, PETSC_FALSE, &ksp));
+  PetscCall(SolveAndCompare(K, ksp, &res, &diff, &its0, &reason));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCCMSGetSubspace(pc, &Q, &Kr, NULL));
+  PetscCall(MatDuplicate(Q, MAT_COPY_VALUES, &Q0));
+  PetscCall(MatDuplicate(Kr, MAT_COPY_VALUES, &Kr0));
+
+  /* a weight of 5x the diagonal (6.1) on a third of the domain's interior rows */
+  PetscCall(AddDiagonal(K, m, 30));
+  PetscCall(KSPSetOperators(ksp, K, K));
+  PetscCall(KSPSetUp(ksp));
+  PetscCall(PCCMSGetRebuiltDomains(pc, &rebuilt, NULL));
+  PetscCall(PCCMSGetDiagonalUpdates(pc, &updated, &all));
+  PetscCall(PCCMSGetSubspace(pc, &Q, &Kr, NULL));
+  PetscCall(RelativeDifference(Q, Q0, &dq));
+  PetscCall(RelativeDifference(Kr, Kr0, &dk));
+  PetscCall(GalerkinDifference(K, pc, &dg));
+  PetscCall(VKTestCheck((PetscBool)(rebuilt == 0 && updated == 1 && all == 1 && dq == 0 && dk > 1e-3 && dg <= 1e-10), NULL, "a change of one domain's K_II on the diagonal rebuilds %d domains (0) and keeps %d (1); Q unchanged (%.1e), K_r changed by %.1e relative and equal to Q^T K Q of the new K to %.1e (<= 1e-10)", (int)rebuilt, (int)updated, (double)dq, (double)dk, (double)dg));
+  PetscCall(SolveAndCompare(K, ksp, &res, &diff, &its, &reason));
+  PetscCall(VKTestCheck((PetscBool)(reason > 0 && res <= 1e-10 && diff <= 1e-8), NULL, "with the kept subspace CG converges in %d iterations (%d before the change): residual %.1e, from MUMPS %.1e", (int)its, (int)its0, (double)res, (double)diff));
+
+  PetscCall(AddDiagonal(K, m, -30));
+  PetscCall(KSPSetOperators(ksp, K, K));
+  PetscCall(KSPSetUp(ksp));
+  PetscCall(PCCMSGetDiagonalUpdates(pc, &updated, &all));
+  PetscCall(PCCMSGetSubspace(pc, &Q, &Kr, NULL));
+  PetscCall(RelativeDifference(Kr, Kr0, &dk));
+  PetscCall(VKTestCheck((PetscBool)(updated == 1 && all == 2 && dk <= 1e-13), NULL, "the change undone: K_r is the first set-up's again to %.1e (<= 1e-13)", (double)dk));
+
+  PetscCall(PCCMSSetDiagonalUpdate(pc, PETSC_FALSE));
+  PetscCall(AddDiagonal(K, m, 30));
+  PetscCall(SetUpAfterChange(K, ksp, pc, &rebuilt, NULL, &dq, &dk));
+  PetscCall(PCCMSGetDiagonalUpdates(pc, &updated, NULL));
+  PetscCall(VKTestCheck((PetscBool)(rebuilt == 1 && updated == 0 && dq <= 1e-13 && dk <= 1e-13), NULL, "with -pc_cms_diagonal_update false the same change rebuilds %d domain(s) (1), to a full set-up's Q and K_r and cycle (%.1e, %.1e <= 1e-13)", (int)rebuilt, (double)dq, (double)dk));
+  PetscCall(MatDestroy(&Q0));
+  PetscCall(MatDestroy(&Kr0));
+  PetscCall(KSPDestroy(&ksp));
+  PetscCall(MatDestroy(&K));
+  PetscFunctionReturn(0);
+}
+
 /* Domains that overlap, or leave a row out: an error naming it. */
 static PetscErrorCode TestBadDomains(Mat K)
 {
@@ -481,6 +570,7 @@ int main(int argc, char **argv)
   PetscCall(MatDestroy(&K));
   PetscCall(TestEliminated(12));
   PetscCall(TestRebuild(16));
+  PetscCall(TestDiagonalChange(16));
   {
     int rc = VKTestFinish();
     PetscCall(SlepcFinalize());

@@ -21,7 +21,9 @@
  * rebuilds only the domains whose K_II or K_IB changed: those with an
  * interior row whose values differ from the copy of this rank's rows kept
  * from the last set-up.  K_r is then recomputed in place and refactored
- * numerically, within the set-up.
+ * numerically, within the set-up.  A domain whose K_II changed on its
+ * diagonal alone (PD's collider weights) keeps its pieces, and K_r gains
+ * Q_d^T dD Q_d (pc_cms_diagonal.c; -pc_cms_diagonal_update).
  *
  * The solve is PETSc's two-level machinery: a PCMG (prefix
  * <pc prefix>cms_) with interpolation Q, the coarse operator K_r = Q^T K Q
@@ -31,42 +33,11 @@
  * cycle as its initial inverse Hessian (KSP preonly; PCMatApply runs the
  * three coordinates as one block); plain PD runs CG over it to the
  * requested residual. */
-#include <vkpd.h>
+#include "pc_cmsimpl.h"
 #include <vklog.h>
 #include <vkutil.h>
 #include <slepceps.h>
-#include <petsc/private/pcimpl.h>
 
-/* One domain's pieces, kept between set-ups so that a new matrix that
- * changes only some domains rebuilds only theirs. */
-typedef struct {
-  IS         isI, isB;  /* interior and boundary rows (global numbers) */
-  Mat        S;         /* K_BI Psi (dense nB x nB, symmetrized): its part of the Schur complement */
-  PetscInt   k;         /* interior modes */
-  PetscInt   mode0;     /* global reduced column of its first mode */
-  PetscReal *lambda;    /* their eigenvalues */
-} CMSDomain;
-
-typedef struct {
-  PetscInt   n;     /* this rank's domains as given (PCCMSSetSubdomains) */
-  IS        *is;    /* their rows (global numbers, owned by this rank) */
-  PetscInt   modes; /* interior modes per domain (-pc_cms_modes) */
-  /* the structure of the last full set-up */
-  PetscInt   ndom;  /* domains in use: n, or 1 (this rank's rows) */
-  CMSDomain *dom;
-  PetscBool *bnd;   /* per local row: on its domain's boundary */
-  PetscInt  *col;   /* per local boundary row: its reduced column */
-  PetscInt  *rowptr;  /* per local row: where its values start in rowvals */
-  PetscScalar *rowvals; /* the values of this rank's rows of K at the last set-up */
-  PetscInt   nghost, *gidx, *ghost; /* rows on other ranks that boundary rows couple to, and their reduced columns (-1: interior) */
-  Mat        Q;     /* the subspace: rows of K by reduced columns */
-  Mat        Kr;    /* the reduced matrix Q^T K Q */
-  PC         mg;    /* the two-level solve */
-  /* what the set-up found, for PCView (sums and extremes over all ranks) */
-  PetscInt   nb_local; /* this rank's boundary columns of Q (its first ones) */
-  PetscInt   ndomains, ninterior, nboundary, nmodes, nint_max, nbnd_max, rebuilt;
-  PetscReal  lambda_min, lambda_max;
-} PC_CMS;
 
 static PetscErrorCode PCCMSSetSubdomains_CMS(PC pc, PetscInt n, IS is[])
 {
@@ -98,6 +69,22 @@ static PetscErrorCode PCCMSSetModes_CMS(PC pc, PetscInt k)
   PetscCheck(k >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-pc_cms_modes must be >= 0, got %d", (int)k);
   cms->modes      = k;
   pc->setupcalled = 0;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode PCCMSSetDiagonalUpdate_CMS(PC pc, PetscBool flg)
+{
+  PetscFunctionBegin;
+  ((PC_CMS *)pc->data)->diagonal_update = flg;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode PCCMSSetDiagonalUpdate(PC pc, PetscBool flg)
+{
+  PetscFunctionBegin;
+  PetscValidHeaderSpecific(pc, PC_CLASSID, 1);
+  PetscValidLogicalCollectiveBool(pc, flg, 2);
+  PetscTryMethod(pc, "PCCMSSetDiagonalUpdate_C", (PC, PetscBool), (pc, flg));
   PetscFunctionReturn(0);
 }
 
@@ -151,6 +138,17 @@ PetscErrorCode PCCMSGetRebuiltDomains(PC pc, PetscInt *rebuilt, PetscInt *total)
   PetscCall(GetSetUpCMS(pc, "PCCMSGetRebuiltDomains", &cms));
   if (rebuilt) *rebuilt = cms->rebuilt;
   if (total) *total = cms->ndomains;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode PCCMSGetDiagonalUpdates(PC pc, PetscInt *last, PetscInt *all)
+{
+  PC_CMS *cms = NULL;
+
+  PetscFunctionBegin;
+  PetscCall(GetSetUpCMS(pc, "PCCMSGetDiagonalUpdates", &cms));
+  if (last) *last = cms->updated;
+  if (all) *all = cms->updated_all;
   PetscFunctionReturn(0);
 }
 
@@ -281,12 +279,14 @@ static PetscErrorCode DestroyStructure(PC_CMS *cms)
     PetscCall(ISDestroy(&cms->dom[d].isI));
     PetscCall(ISDestroy(&cms->dom[d].isB));
     PetscCall(MatDestroy(&cms->dom[d].S));
+    PetscCall(MatDestroy(&cms->dom[d].C));
     PetscCall(PetscFree(cms->dom[d].lambda));
   }
   PetscCall(PetscFree(cms->dom));
   PetscCall(PetscFree2(cms->bnd, cms->col));
   PetscCall(PetscFree(cms->rowptr));
   PetscCall(PetscFree(cms->rowvals));
+  PetscCall(PetscFree(cms->dbuilt));
   PetscCall(PetscFree(cms->gidx));
   PetscCall(PetscFree(cms->ghost));
   cms->nghost = 0;
@@ -446,11 +446,13 @@ static PetscErrorCode BuildDomain(PC pc, PetscInt d, Mat Kii, Mat Kib)
 /* changed[d] for every local domain whose K_II or K_IB differs from the
  * last set-up's: those with an interior row whose values changed (an
  * interior row couples inside its domain only, so its row is its part of
- * K_II and K_IB); every domain when the structure is new.  Values are
+ * K_II and K_IB); every domain when the structure is new.  With
+ * -pc_cms_diagonal_update, a domain whose interior rows changed on the
+ * diagonal alone is flagged in diagonal[] instead.  Values are
  * compared as numbers, so that -0 equals +0: a first assembly may store
  * either where contributions cancel.  A's values are then kept for the
  * next set-up. */
-static PetscErrorCode FindChangedDomains(PC pc, Mat A, const PetscInt dom[], PetscBool changed[])
+static PetscErrorCode FindChangedDomains(PC pc, Mat A, const PetscInt dom[], PetscBool changed[], PetscBool diagonal[])
 {
   PC_CMS   *cms = (PC_CMS *)pc->data;
   PetscInt  rs, re;
@@ -471,32 +473,34 @@ static PetscErrorCode FindChangedDomains(PC pc, Mat A, const PetscInt dom[], Pet
     for (PetscInt d = 0; d < cms->ndom; d++) changed[d] = PETSC_TRUE;
   }
   for (PetscInt i = 0; i < re - rs; i++) {
+    const PetscInt    *cols;
     const PetscScalar *v;
     PetscScalar       *kept = cms->rowvals + cms->rowptr[i];
     PetscInt           nc;
-    PetscCall(MatGetRow(A, rs + i, &nc, NULL, &v));
+    PetscCall(MatGetRow(A, rs + i, &nc, &cols, &v));
     PetscCheck(nc == cms->rowptr[i + 1] - cms->rowptr[i], PETSC_COMM_SELF, PETSC_ERR_PLIB, "PC cms: row %d has %d entries, %d at the last set-up, under the same nonzero pattern", (int)(rs + i), (int)nc, (int)(cms->rowptr[i + 1] - cms->rowptr[i]));
-    if (!cms->bnd[i] && !changed[dom[i]])
-      for (PetscInt j = 0; j < nc; j++)
-        if (v[j] != kept[j]) {
-          changed[dom[i]] = PETSC_TRUE;
-          break;
-        }
+    if (!cms->bnd[i])
+      for (PetscInt j = 0; j < nc && !changed[dom[i]]; j++) {
+        if (v[j] == kept[j]) continue;
+        if (cols[j] == rs + i && cms->diagonal_update) diagonal[dom[i]] = PETSC_TRUE;
+        else changed[dom[i]] = PETSC_TRUE;
+      }
     PetscCall(PetscArraycpy(kept, v, nc));
-    PetscCall(MatRestoreRow(A, rs + i, &nc, NULL, &v));
+    PetscCall(MatRestoreRow(A, rs + i, &nc, &cols, &v));
   }
   PetscFunctionReturn(0);
 }
 
 /* Q for the matrix A: a full build when the structure is new (first
  * set-up, new pattern, new domains, or rows that moved between interior
- * and boundary), else only the domains whose K_II or K_IB changed. */
+ * and boundary), else only the domains whose K_II or K_IB changed (and a
+ * correction of K_r for those whose K_II changed on the diagonal alone). */
 static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
 {
   PC_CMS   *cms = (PC_CMS *)pc->data;
   MPI_Comm  comm;
-  PetscInt  ndom, rs, re, m, *dom, rebuilt = 0;
-  PetscBool *bnd, *changed;
+  PetscInt  ndom, rs, re, m, *dom, rebuilt = 0, updated;
+  PetscBool *bnd, *changed, *diagonal;
   IS        *is;
   Mat       *Kii, *Kib;
 
@@ -516,11 +520,12 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
   if (!reuse) {
     PetscCall(DestroyStructure(cms));
     PetscCall(PetscMalloc2(m + 1, &cms->bnd, m + 1, &cms->col));
+    PetscCall(PetscMalloc1(m + 1, &cms->dbuilt));
     PetscCall(PetscArraycpy(cms->bnd, bnd, m));
     PetscCall(BuildStructure(pc, A, ndom, dom));
   }
-  PetscCall(PetscCalloc1(ndom + 1, &changed));
-  PetscCall(FindChangedDomains(pc, A, dom, changed));
+  PetscCall(PetscCalloc2(ndom + 1, &changed, ndom + 1, &diagonal));
+  PetscCall(FindChangedDomains(pc, A, dom, changed, diagonal));
   {
     IS *isI, *isB;
     PetscCall(PetscMalloc2(ndom + 1, &isI, ndom + 1, &isB));
@@ -540,11 +545,12 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
     }
   PetscCall(MatDestroySubMatrices(rebuilt, &Kii));
   PetscCall(MatDestroySubMatrices(rebuilt, &Kib));
-  PetscCall(PetscFree(changed));
   PetscCall(MatAssemblyBegin(cms->Q, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(cms->Q, MAT_FINAL_ASSEMBLY));
+  PetscCall(PCCMSDiagonalChange(pc, A, changed, diagonal, &updated));
+  PetscCall(PetscFree2(changed, diagonal));
   { /* counts for PCView */
-    PetscInt  loc[5] = {ndom, 0, cms->nb_local, 0, rebuilt}, glob[5], mx[2] = {0, 0}, gmx[2];
+    PetscInt  loc[6] = {ndom, 0, cms->nb_local, 0, rebuilt, updated}, glob[6], mx[2] = {0, 0}, gmx[2];
     PetscReal l[2] = {-PETSC_MAX_REAL, 0}, gl[2];
     for (PetscInt d = 0; d < ndom; d++) {
       PetscInt nI, nB;
@@ -559,7 +565,7 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
         l[1] = PetscMax(l[1], cms->dom[d].lambda[j]);
       }
     }
-    PetscCall(MPIU_Allreduce(loc, glob, 5, MPIU_INT, MPI_SUM, comm));
+    PetscCall(MPIU_Allreduce(loc, glob, 6, MPIU_INT, MPI_SUM, comm));
     PetscCall(MPIU_Allreduce(mx, gmx, 2, MPIU_INT, MPI_MAX, comm));
     PetscCall(MPIU_Allreduce(l, gl, 2, MPIU_REAL, MPIU_MAX, comm));
     cms->ndomains   = glob[0];
@@ -567,6 +573,8 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
     cms->nboundary  = glob[2];
     cms->nmodes     = glob[3];
     cms->rebuilt    = glob[4];
+    cms->updated    = glob[5];
+    cms->updated_all += glob[5];
     cms->nint_max   = gmx[0];
     cms->nbnd_max   = gmx[1];
     cms->lambda_min = -gl[0];
@@ -642,9 +650,12 @@ static PetscInt ReducedColumn(PC_CMS *cms, PetscInt rs, PetscInt re, PetscInt j,
 /* K_r = Q^T K Q from its blocks (every domain's rows are on one rank, so
  * every row of K_r is assembled where it is owned): on the boundary rows
  * K_BB plus each domain's Schur term K_BI Psi, on the modes their
- * eigenvalues (Psi makes the modes K-orthogonal to the boundary columns).
- * Exactly symmetric; the same pattern when the structure is kept. */
-static PetscErrorCode AssembleReduced(PC pc, Mat A)
+ * eigenvalues (Psi makes the modes K-orthogonal to the boundary columns),
+ * plus the correction C of a domain kept across a change of its K_II's
+ * diagonal.  Exactly symmetric; the same pattern when the structure is
+ * kept, unless a domain's first correction needs room (*created: K_r is a
+ * new matrix). */
+static PetscErrorCode AssembleReduced(PC pc, Mat A, PetscBool *created)
 {
   PC_CMS  *cms = (PC_CMS *)pc->data;
   PetscInt rs, re, nghost, *gidx, *ghost, *cols, cap = 64;
@@ -652,6 +663,13 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A)
 
   PetscFunctionBegin;
   PetscCall(MatGetOwnershipRange(A, &rs, &re));
+  if (cms->Kr) { /* a new coupling of modes and boundary columns: a new pattern */
+    PetscBool grow = PETSC_FALSE, any;
+    for (PetscInt d = 0; d < cms->ndom; d++) grow = (PetscBool)(grow || (cms->dom[d].C && !cms->dom[d].C_in_Kr));
+    PetscCall(MPIU_Allreduce(&grow, &any, 1, MPIU_BOOL, MPI_LOR, PetscObjectComm((PetscObject)pc)));
+    if (any) PetscCall(MatDestroy(&cms->Kr));
+  }
+  if (created) *created = (PetscBool)!cms->Kr;
   if (!cms->Kr) { /* kept with the structure */
     PetscCall(PetscFree(cms->gidx));
     PetscCall(PetscFree(cms->ghost));
@@ -661,7 +679,7 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A)
   gidx   = cms->gidx;
   ghost  = cms->ghost;
   if (!cms->Kr) { /* preallocation: a bound per row */
-    PetscInt  m = cms->nb_local, *dnnz, *onnz, cs, ce, r = 0;
+    PetscInt  m = cms->nb_local, *dnnz, *onnz, cs, ce;
     for (PetscInt d = 0; d < cms->ndom; d++) m += cms->dom[d].k;
     PetscCall(PetscCalloc2(m + 1, &dnnz, m + 1, &onnz));
     PetscCallMPI(MPI_Scan(&m, &ce, 1, MPIU_INT, MPI_SUM, PetscObjectComm((PetscObject)pc)));
@@ -674,7 +692,7 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A)
       for (PetscInt b = 0; b < nB; b++) {
         const PetscInt *kc;
         PetscInt        nc, row = cms->col[rb[b] - rs] - cs;
-        dnnz[row] = cms->dom[d].S ? nB : 0;
+        dnnz[row] = (cms->dom[d].S ? nB : 0) + (cms->dom[d].C ? cms->dom[d].k : 0);
         PetscCall(MatGetRow(A, rb[b], &nc, &kc, NULL));
         for (PetscInt j = 0; j < nc; j++) {
           PetscInt c = ReducedColumn(cms, rs, re, kc[j], nghost, gidx, ghost);
@@ -684,11 +702,11 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A)
         }
         PetscCall(MatRestoreRow(A, rb[b], &nc, &kc, NULL));
         dnnz[row] = PetscMin(dnnz[row], ce - cs);
-        r++;
       }
       PetscCall(ISRestoreIndices(cms->dom[d].isB, &rb));
+      cms->dom[d].C_in_Kr = (PetscBool)(cms->dom[d].C != NULL);
+      for (PetscInt j = 0; j < cms->dom[d].k; j++) dnnz[cms->dom[d].mode0 + j - cs] = cms->dom[d].C ? nB + cms->dom[d].k : 1; /* the modes */
     }
-    for (; r < m; r++) dnnz[r] = 1; /* the modes */
     PetscCall(MatCreateAIJ(PetscObjectComm((PetscObject)pc), m, m, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnnz, 0, onnz, &cms->Kr));
     PetscCall(MatSetOption(cms->Kr, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
     PetscCall(PetscFree2(dnnz, onnz));
@@ -735,6 +753,21 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A)
       PetscCall(PetscFree(bc));
       PetscCall(ISRestoreIndices(D->isB, &rb));
     }
+    if (D->C) { /* symmetric, over its boundary columns then its modes */
+      const PetscInt    *rb;
+      const PetscScalar *ca;
+      PetscInt           nB, *idx;
+      PetscCall(ISGetLocalSize(D->isB, &nB));
+      PetscCall(ISGetIndices(D->isB, &rb));
+      PetscCall(PetscMalloc1(nB + D->k, &idx));
+      for (PetscInt b = 0; b < nB; b++) idx[b] = cms->col[rb[b] - rs];
+      for (PetscInt j = 0; j < D->k; j++) idx[nB + j] = D->mode0 + j;
+      PetscCall(MatDenseGetArrayRead(D->C, &ca));
+      PetscCall(MatSetValues(cms->Kr, nB + D->k, idx, nB + D->k, idx, ca, ADD_VALUES));
+      PetscCall(MatDenseRestoreArrayRead(D->C, &ca));
+      PetscCall(PetscFree(idx));
+      PetscCall(ISRestoreIndices(D->isB, &rb));
+    }
   }
   PetscCall(MatAssemblyBegin(cms->Kr, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(cms->Kr, MAT_FINAL_ASSEMBLY));
@@ -757,13 +790,22 @@ static PetscErrorCode SetUpTwoLevel(PC pc)
    * Cholesky of the product, symmetric only to round-off, gave NaN on the
    * 30 x 30 rib with 8 domains on 2 ranks), and after a per-domain
    * rebuild only the changed domains' Schur terms are new. */
-  if (cms->mg && cms->Kr) PetscCall(AssembleReduced(pc, pc->pmat));
-  else {
+  if (cms->mg && cms->Kr) {
+    PetscBool created;
+    PetscCall(AssembleReduced(pc, pc->pmat, &created));
+    if (created) { /* a domain's first diagonal correction widened K_r's pattern */
+      KSP coarse;
+      PetscCall(PetscInfo(pc, "PC cms: K_r gets a new nonzero pattern for the modes of a domain kept across a diagonal change\n"));
+      PetscCall(MatSetOption(cms->Kr, MAT_SPD, PETSC_TRUE));
+      PetscCall(PCMGGetCoarseSolve(cms->mg, &coarse));
+      PetscCall(KSPSetOperators(coarse, cms->Kr, cms->Kr));
+    }
+  } else {
     const char *prefix;
     KSP         smooth, coarse;
     PC          sub;
     PetscCall(MatDestroy(&cms->Kr));
-    PetscCall(AssembleReduced(pc, pc->pmat));
+    PetscCall(AssembleReduced(pc, pc->pmat, NULL));
     PetscCall(MatSetOption(cms->Kr, MAT_SPD, PETSC_TRUE));
     PetscCall(PCDestroy(&cms->mg));
     PetscCall(PCCreate(PetscObjectComm((PetscObject)pc), &cms->mg));
@@ -863,6 +905,7 @@ static PetscErrorCode PCSetFromOptions_CMS(PC pc, PetscOptionItems *PetscOptions
   PetscFunctionBegin;
   PetscOptionsHeadBegin(PetscOptionsObject, "CMS options (DESIGN section 9)");
   PetscCall(VKOptionsRangeInt("-pc_cms_modes", "Interior modes per domain: the lowest eigenvectors of K_II (paper Eq. 32)", "PCCMSSetModes", k, &k, NULL, 0, PETSC_MAX_INT));
+  PetscCall(PetscOptionsBool("-pc_cms_diagonal_update", "A domain whose K_II changed on its diagonal alone (collider weights) keeps its modes, and K_r gains Q_d^T dD Q_d (false: the domain is rebuilt)", "PCCMSSetDiagonalUpdate", cms->diagonal_update, &cms->diagonal_update, NULL));
   PetscOptionsHeadEnd();
   if (k != cms->modes) PetscCall(PCCMSSetModes_CMS(pc, k));
   PetscFunctionReturn(0);
@@ -879,7 +922,7 @@ static PetscErrorCode PCView_CMS(PC pc, PetscViewer viewer)
   PetscCall(PetscViewerASCIIPrintf(viewer, "  CMS: %d interior modes per domain\n", (int)cms->modes));
   if (!cms->mg) PetscFunctionReturn(0);
   PetscCall(PetscViewerASCIIPrintf(viewer, "  %d domains: %d interior rows (at most %d in a domain), %d boundary rows (at most %d in a domain)\n", (int)cms->ndomains, (int)cms->ninterior, (int)cms->nint_max, (int)cms->nboundary, (int)cms->nbnd_max));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "  the last set-up built the pieces of %d of the %d domains (the others' K_II and K_IB were unchanged)\n", (int)cms->rebuilt, (int)cms->ndomains));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  the last set-up built the pieces of %d of the %d domains (the others' K_II and K_IB were unchanged) and kept %d whose K_II changed on the diagonal alone (K_r += Q_d^T dD Q_d; -pc_cms_diagonal_update %s; %d kept so over all set-ups)\n", (int)cms->rebuilt, (int)cms->ndomains, (int)cms->updated, cms->diagonal_update ? "true" : "false", (int)cms->updated_all));
   PetscCall(PetscViewerASCIIPrintf(viewer, "  reduced space: %d columns (%d boundary, %d modes, eigenvalues of K_II in [%g, %g])\n", (int)(cms->nboundary + cms->nmodes), (int)cms->nboundary, (int)cms->nmodes, (double)(cms->nmodes ? cms->lambda_min : 0), (double)cms->lambda_max));
   { /* what one cycle streams besides K: Q (mostly the dense Psi) twice, and K_r's factor (sized in the coarse solver's view below) */
     MatInfo q, r;
@@ -913,6 +956,7 @@ static PetscErrorCode PCDestroy_CMS(PC pc)
   PetscCall(PetscFree(cms->is));
   PetscCall(PetscObjectComposeFunction((PetscObject)pc, "PCCMSSetSubdomains_C", NULL));
   PetscCall(PetscObjectComposeFunction((PetscObject)pc, "PCCMSSetModes_C", NULL));
+  PetscCall(PetscObjectComposeFunction((PetscObject)pc, "PCCMSSetDiagonalUpdate_C", NULL));
   PetscCall(PetscFree(pc->data));
   PetscFunctionReturn(0);
 }
@@ -924,6 +968,7 @@ PetscErrorCode VKPCCreate_CMS(PC pc)
   PetscFunctionBegin;
   PetscCall(PetscNew(&cms));
   cms->modes           = 20;
+  cms->diagonal_update = PETSC_TRUE;
   pc->data             = cms;
   pc->ops->setup       = PCSetUp_CMS;
   pc->ops->apply       = PCApply_CMS;
@@ -934,5 +979,6 @@ PetscErrorCode VKPCCreate_CMS(PC pc)
   pc->ops->destroy     = PCDestroy_CMS;
   PetscCall(PetscObjectComposeFunction((PetscObject)pc, "PCCMSSetSubdomains_C", PCCMSSetSubdomains_CMS));
   PetscCall(PetscObjectComposeFunction((PetscObject)pc, "PCCMSSetModes_C", PCCMSSetModes_CMS));
+  PetscCall(PetscObjectComposeFunction((PetscObject)pc, "PCCMSSetDiagonalUpdate_C", PCCMSSetDiagonalUpdate_CMS));
   PetscFunctionReturn(0);
 }
