@@ -67,8 +67,9 @@ PETSC_EXTERN PetscErrorCode VKPCCreate_CMS(PC);
 PETSC_EXTERN PetscErrorCode PCCMSSetSubdomains(PC, PetscInt n, IS is[]);
 PETSC_EXTERN PetscErrorCode PCCMSSetModes(PC, PetscInt k);
 /* After set-up: the subspace Q and the reduced matrix K_r = Q^T K Q (both
- * owned by the PC) and how many of this rank's columns of Q are boundary
- * columns; the rest are interior modes. */
+ * owned by the PC; a later set-up may replace either, so get them again)
+ * and how many of this rank's columns of Q are boundary columns; the rest
+ * are interior modes. */
 PETSC_EXTERN PetscErrorCode PCCMSGetSubspace(PC, Mat *Q, Mat *Kr, PetscInt *nboundary);
 /* After set-up: how many domains (over all ranks) the last set-up rebuilt;
  * a new matrix of the same pattern rebuilds only the domains whose K_II
@@ -78,10 +79,11 @@ PETSC_EXTERN PetscErrorCode PCCMSGetRebuiltDomains(PC, PetscInt *rebuilt, PetscI
  * (PD's collider weights) keeps its modes, K_r gaining Q_d^T dD Q_d
  * (default), or is rebuilt; -pc_cms_diagonal_update. */
 PETSC_EXTERN PetscErrorCode PCCMSSetDiagonalUpdate(PC, PetscBool);
-/* After set-up: how many domains (over all ranks) the last set-up kept
- * across a change of their K_II's diagonal alone, and how many so over
- * every set-up of the PC. */
-PETSC_EXTERN PetscErrorCode PCCMSGetDiagonalUpdates(PC, PetscInt *last, PetscInt *all);
+/* After set-up, over all ranks: how many domains the last set-up kept
+ * across a change of their K_II's diagonal alone, how many so over every
+ * set-up of the PC, and how many domain builds (factor, boundary and
+ * interior modes) every set-up of the PC made together. */
+PETSC_EXTERN PetscErrorCode PCCMSGetUpdateCounts(PC, PetscInt *kept, PetscInt *kept_all, PetscInt *built_all);
 /* Registers the PC types columns and cms and the TS type pd (src/sim/package.c);
  * the driver calls it at start-up, VKPDCreate and VKSimCreate for library
  * users. */

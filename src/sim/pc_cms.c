@@ -141,14 +141,15 @@ PetscErrorCode PCCMSGetRebuiltDomains(PC pc, PetscInt *rebuilt, PetscInt *total)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode PCCMSGetDiagonalUpdates(PC pc, PetscInt *last, PetscInt *all)
+PetscErrorCode PCCMSGetUpdateCounts(PC pc, PetscInt *kept, PetscInt *kept_all, PetscInt *built_all)
 {
   PC_CMS *cms = NULL;
 
   PetscFunctionBegin;
-  PetscCall(GetSetUpCMS(pc, "PCCMSGetDiagonalUpdates", &cms));
-  if (last) *last = cms->updated;
-  if (all) *all = cms->updated_all;
+  PetscCall(GetSetUpCMS(pc, "PCCMSGetUpdateCounts", &cms));
+  if (kept) *kept = cms->updated;
+  if (kept_all) *kept_all = cms->updated_all;
+  if (built_all) *built_all = cms->rebuilt_all;
   PetscFunctionReturn(0);
 }
 
@@ -575,6 +576,7 @@ static PetscErrorCode BuildSubspace(PC pc, Mat A, PetscBool reuse)
     cms->rebuilt    = glob[4];
     cms->updated    = glob[5];
     cms->updated_all += glob[5];
+    cms->rebuilt_all += glob[4];
     cms->nint_max   = gmx[0];
     cms->nbnd_max   = gmx[1];
     cms->lambda_min = -gl[0];
@@ -665,7 +667,7 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A, PetscBool *created)
   PetscCall(MatGetOwnershipRange(A, &rs, &re));
   if (cms->Kr) { /* a new coupling of modes and boundary columns: a new pattern */
     PetscBool grow = PETSC_FALSE, any;
-    for (PetscInt d = 0; d < cms->ndom; d++) grow = (PetscBool)(grow || (cms->dom[d].C && !cms->dom[d].C_in_Kr));
+    for (PetscInt d = 0; d < cms->ndom; d++) grow = (PetscBool)(grow || (cms->dom[d].C && !cms->dom[d].C_in_Kr && cms->dom[d].k)); /* without modes C falls in S's block */
     PetscCall(MPIU_Allreduce(&grow, &any, 1, MPIU_BOOL, MPI_LOR, PetscObjectComm((PetscObject)pc)));
     if (any) PetscCall(MatDestroy(&cms->Kr));
   }

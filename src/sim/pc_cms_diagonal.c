@@ -12,42 +12,53 @@
  * term per changed row.  The preconditioner is then no longer exact CMS for
  * the new K but still a two-level method with an exact coarse operator,
  * and the smoothing corrects what the kept modes miss; no factorization of
- * K_II and no eigensolve is repeated. */
+ * K_II and no eigensolve is repeated.  However large the diagonal change
+ * grows, the domain keeps its modes until its K_II or K_IB changes off the
+ * diagonal: only the preconditioner's quality can suffer, never its
+ * exactness (-pc_cms_diagonal_update false rebuilds instead). */
 #include "pc_cmsimpl.h"
 
 /* C = Q_d^T diag(delta) Q_d over the domain's interior rows whose delta is
  * not 0, computed on its upper triangle and mirrored (exactly symmetric). */
 static PetscErrorCode DomainCorrection(PC_CMS *cms, CMSDomain *D, PetscInt rs, const PetscScalar diag[])
 {
-  const PetscInt *ri;
-  PetscInt        nI, nB, n;
+  const PetscInt *ri, *rb;
+  PetscInt        nI, nB, n, *idx;
   PetscScalar    *c;
 
   PetscFunctionBegin;
   PetscCall(ISGetLocalSize(D->isI, &nI));
   PetscCall(ISGetLocalSize(D->isB, &nB));
   n = nB + D->k;
+  PetscCall(PetscMalloc1(n + 1, &idx)); /* C's columns in Q: the domain's boundary columns, then its modes */
+  PetscCall(ISGetIndices(D->isB, &rb));
+  for (PetscInt b = 0; b < nB; b++) idx[b] = cms->col[rb[b] - rs];
+  PetscCall(ISRestoreIndices(D->isB, &rb));
+  for (PetscInt j = 0; j < D->k; j++) idx[nB + j] = D->mode0 + j;
   if (!D->C) PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, n, n, NULL, &D->C));
   PetscCall(MatZeroEntries(D->C));
   PetscCall(MatDenseGetArray(D->C, &c));
   PetscCall(ISGetIndices(D->isI, &ri));
   for (PetscInt r = 0; r < nI; r++) {
+    const PetscInt    *qc;
     const PetscScalar *q;
     PetscInt           nc;
     PetscScalar        delta = diag[ri[r] - rs] - cms->dbuilt[ri[r] - rs];
     if (delta == 0) continue;
-    /* the row holds the domain's boundary columns, then its modes, in
-     * increasing order as BuildDomain wrote them */
-    PetscCall(MatGetRow(cms->Q, ri[r], &nc, NULL, &q));
+    /* BuildDomain wrote every column of the row (zeros too), and they
+     * increase as idx does */
+    PetscCall(MatGetRow(cms->Q, ri[r], &nc, &qc, &q));
     PetscCheck(nc == n, PETSC_COMM_SELF, PETSC_ERR_PLIB, "PC cms: row %d of Q has %d entries, its domain %d columns", (int)ri[r], (int)nc, (int)n);
+    for (PetscInt b = 0; b < n; b++) PetscCheck(qc[b] == idx[b], PETSC_COMM_SELF, PETSC_ERR_PLIB, "PC cms: row %d of Q has column %d where its domain's column %d belongs", (int)ri[r], (int)qc[b], (int)idx[b]);
     for (PetscInt b = 0; b < n; b++) {
       PetscScalar s = delta * q[b];
       if (s == 0) continue;
       for (PetscInt a = 0; a <= b; a++) c[a + b * n] += s * q[a];
     }
-    PetscCall(MatRestoreRow(cms->Q, ri[r], &nc, NULL, &q));
+    PetscCall(MatRestoreRow(cms->Q, ri[r], &nc, &qc, &q));
   }
   PetscCall(ISRestoreIndices(D->isI, &ri));
+  PetscCall(PetscFree(idx));
   for (PetscInt b = 0; b < n; b++)
     for (PetscInt a = 0; a < b; a++) c[b + a * n] = c[a + b * n];
   PetscCall(MatDenseRestoreArray(D->C, &c));
@@ -69,7 +80,7 @@ PetscErrorCode PCCMSDiagonalChange(PC pc, Mat A, const PetscBool rebuilt[], cons
   PetscFunctionBegin;
   *updated = 0;
   PetscCall(MatGetOwnershipRange(A, &rs, NULL));
-  PetscCall(MatCreateVecs(A, &d, NULL));
+  PetscCall(MatCreateVecs(A, NULL, &d));
   PetscCall(MatGetDiagonal(A, d));
   PetscCall(VecGetArrayRead(d, &da));
   for (PetscInt dom = 0; dom < cms->ndom; dom++) {

@@ -43,7 +43,7 @@ typedef struct {
   /* what the set-up found, for PCView (sums and extremes over all ranks) */
   PetscInt   nb_local; /* this rank's boundary columns of Q (its first ones) */
   PetscInt   ndomains, ninterior, nboundary, nmodes, nint_max, nbnd_max, rebuilt, updated;
-  PetscInt   updated_all; /* domains kept across a diagonal change, summed over every set-up of this PC */
+  PetscInt   updated_all, rebuilt_all; /* domains kept across a diagonal change, and domain builds, summed over every set-up of this PC */
   PetscReal  lambda_min, lambda_max;
 } PC_CMS;
 
