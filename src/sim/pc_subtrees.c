@@ -40,7 +40,9 @@
 #include <cholmod.h>
 
 typedef struct {
-  Mat            Aseq;      /* the whole operator on this rank (its values feed K_p) */
+  Mat            Aseq;      /* the whole operator on this rank, for the analysis (on one rank: the operator itself) */
+  Mat           *ksub;      /* on several ranks, after the analysis: K(keep, keep) alone, rows ascending (MatCreateSubMatrices) */
+  IS             iskeep;    /* keep, ascending */
   cholmod_common common;
   PetscBool      started;   /* common initialized */
   PetscBool      analyzed;  /* the tree cut and K_p laid out for Aseq's pattern */
@@ -52,7 +54,7 @@ typedef struct {
   PetscInt      *keep;      /* K_p's rows as rows of K */
   int           *kp, *ki;   /* column starts, row indices */
   PetscScalar   *kx;        /* values */
-  PetscInt      *kmap;      /* kx[e] is Aseq's value kmap[e] */
+  PetscInt      *kmap;      /* kx[e] is value kmap[e] of Values(c) */
   cholmod_factor *L;        /* of K_p (NULL without own rows); symbolic between factorizations */
   /* the subtrees' part of L: its supernodes 0 .. nsn-1, the last of them
      maybe reaching into the top, of which only its first snc columns count */
@@ -347,23 +349,39 @@ static void Substitute(PetscBool forward, PetscInt k, PetscInt nc, PetscInt nr, 
 }
 
 
-/* K_p's upper triangle in CHOLMOD's column form: column j is row keep[j]
- * of Aseq (K is symmetric), with the entries of rows i <= j of K_p. */
+/* The matrix whose values K_p's take (kmap): K(keep, keep) on several
+ * ranks, the operator itself on one. */
+static Mat Values(const PC_Subtrees *c) { return c->ksub ? c->ksub[0] : c->Aseq; }
+
+/* K_p's upper triangle in CHOLMOD's column form: column j is row src[j] of
+ * V = Values(c) (K is symmetric), with the entries of rows i <= j of K_p;
+ * src[j] is keep[j] in the whole operator, its rank among the ascending
+ * keep in K(keep, keep). */
 static PetscErrorCode LayoutKp(PC_Subtrees *c)
 {
-  PetscInt        N, *inv, *rows, nz = 0, longest = 0;
-  const PetscInt *ia, *ja;
+  Mat             V = Values(c);
+  PetscInt        N, *inv, *src, *rows, nz = 0, longest = 0;
+  const PetscInt *ia, *ja, *sorted;
   PetscBool       done;
 
   PetscFunctionBegin;
-  PetscCall(MatGetRowIJ(c->Aseq, 0, PETSC_FALSE, PETSC_FALSE, &N, &ia, &ja, &done));
+  PetscCall(MatGetRowIJ(V, 0, PETSC_FALSE, PETSC_FALSE, &N, &ia, &ja, &done));
   PetscCheck(done, PETSC_COMM_SELF, PETSC_ERR_SUP, "Cannot get the CSR arrays of the matrix");
-  PetscCall(PetscMalloc1(N, &inv));
+  PetscCall(PetscMalloc2(N, &inv, c->n + 1, &src));
   for (PetscInt g = 0; g < N; g++) inv[g] = -1;
-  for (PetscInt j = 0; j < c->n; j++) inv[c->keep[j]] = j;
+  if (c->ksub) {
+    PetscCall(ISGetIndices(c->iskeep, &sorted));
+    for (PetscInt j = 0; j < c->n; j++) {
+      PetscCall(PetscFindInt(c->keep[j], c->n, sorted, &src[j]));
+      PetscCheck(src[j] >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Row %d of K_p is not in its index set", (int)c->keep[j]);
+    }
+    PetscCall(ISRestoreIndices(c->iskeep, &sorted));
+  } else
+    for (PetscInt j = 0; j < c->n; j++) src[j] = c->keep[j];
+  for (PetscInt j = 0; j < c->n; j++) inv[src[j]] = j;
   for (PetscInt j = 0; j < c->n; j++) {
-    longest = PetscMax(longest, ia[c->keep[j] + 1] - ia[c->keep[j]]);
-    for (PetscInt e = ia[c->keep[j]]; e < ia[c->keep[j] + 1]; e++) nz += inv[ja[e]] >= 0 && inv[ja[e]] <= j;
+    longest = PetscMax(longest, ia[src[j] + 1] - ia[src[j]]);
+    for (PetscInt e = ia[src[j]]; e < ia[src[j] + 1]; e++) nz += inv[ja[e]] >= 0 && inv[ja[e]] <= j;
   }
   PetscCall(PetscFree4(c->kp, c->ki, c->kx, c->kmap));
   PetscCall(PetscMalloc4(c->n + 1, &c->kp, nz, &c->ki, nz, &c->kx, nz, &c->kmap));
@@ -371,7 +389,7 @@ static PetscErrorCode LayoutKp(PC_Subtrees *c)
   c->kp[0] = 0;
   for (PetscInt j = 0; j < c->n; j++) {
     PetscInt start = c->kp[j], m = 0;
-    for (PetscInt e = ia[c->keep[j]]; e < ia[c->keep[j] + 1]; e++) {
+    for (PetscInt e = ia[src[j]]; e < ia[src[j] + 1]; e++) {
       PetscInt i = inv[ja[e]];
       if (i < 0 || i > j) continue;
       c->ki[start + m]   = (int)i;
@@ -384,8 +402,8 @@ static PetscErrorCode LayoutKp(PC_Subtrees *c)
     c->kp[j + 1] = (int)(start + m);
   }
   PetscCall(PetscFree(rows));
-  PetscCall(PetscFree(inv));
-  PetscCall(MatRestoreRowIJ(c->Aseq, 0, PETSC_FALSE, PETSC_FALSE, &N, &ia, &ja, &done));
+  PetscCall(PetscFree2(inv, src));
+  PetscCall(MatRestoreRowIJ(V, 0, PETSC_FALSE, PETSC_FALSE, &N, &ia, &ja, &done));
   PetscFunctionReturn(0);
 }
 
@@ -447,6 +465,17 @@ static PetscErrorCode Analyze(PC pc)
     PetscCallMPI(MPI_Allreduce(&owned, &total, 1, MPIU_INT, MPI_SUM, comm));
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, tops, 2, MPIU_INT, MPI_MAX, comm));
     PetscCheck(total + c->ntop == N && tops[0] == -tops[1], PETSC_COMM_SELF, PETSC_ERR_PLIB, "The ranks cut different elimination trees (%d + %d of %d rows)", (int)total, (int)c->ntop, (int)N);
+  }
+  if (c->size > 1) { /* from here on each rank holds only its rows and the top's of K: the whole operator was needed for the ordering alone */
+    PetscInt *sorted;
+    PetscCall(PetscMalloc1(c->n + 1, &sorted));
+    PetscCall(PetscArraycpy(sorted, c->keep, c->n));
+    PetscCall(PetscSortInt(c->n, sorted));
+    PetscCall(ISDestroy(&c->iskeep));
+    PetscCall(ISCreateGeneral(PETSC_COMM_SELF, c->n, sorted, PETSC_OWN_POINTER, &c->iskeep));
+    if (c->ksub) PetscCall(MatDestroySubMatrices(1, &c->ksub));
+    PetscCall(MatCreateSubMatrices(pc->pmat, 1, &c->iskeep, &c->iskeep, MAT_INITIAL_MATRIX, &c->ksub));
+    PetscCall(MatDestroy(&c->Aseq));
   }
   PetscCall(LayoutKp(c));
   /* K_p analyzed in its own order (no reordering, no postordering), so
@@ -517,9 +546,9 @@ static PetscErrorCode FactorOwn(PC pc, PetscBool *notpd)
   *notpd = PETSC_FALSE;
   if (c->val) c->val = (PetscScalar *)SuiteSparse_free(c->val); /* before CHOLMOD allocates the new factor */
   if (!c->L) PetscFunctionReturn(0);
-  PetscCall(MatSeqAIJGetArrayRead(c->Aseq, &va));
+  PetscCall(MatSeqAIJGetArrayRead(Values(c), &va));
   for (PetscInt e = 0; e < c->kp[c->n]; e++) c->kx[e] = va[c->kmap[e]];
-  PetscCall(MatSeqAIJRestoreArrayRead(c->Aseq, &va));
+  PetscCall(MatSeqAIJRestoreArrayRead(Values(c), &va));
   SparseView(c->n, c->kp, c->ki, c->kx, &S);
   cholmod_factorize(&S, c->L, &c->common);
   PetscCall(PetscLogFlops(c->common.fl));
@@ -578,11 +607,11 @@ static PetscErrorCode FactorTop(PC pc, PetscBool *notpd)
   PetscCall(PetscArrayzero(c->top, t * t));
   if (c->rank == 0) {
     const PetscScalar *va;
-    PetscCall(MatSeqAIJGetArrayRead(c->Aseq, &va));
+    PetscCall(MatSeqAIJGetArrayRead(Values(c), &va));
     for (PetscInt j = c->nown; j < c->n; j++) /* K_p's upper triangle: (i, j) with i <= j, stored at (j, i) */
       for (PetscInt e = c->kp[j]; e < c->kp[j + 1]; e++)
         if (c->ki[e] >= c->nown) c->top[(j - c->nown) + (c->ki[e] - c->nown) * t] += va[c->kmap[e]];
-    PetscCall(MatSeqAIJRestoreArrayRead(c->Aseq, &va));
+    PetscCall(MatSeqAIJRestoreArrayRead(Values(c), &va));
   }
   if (c->L) { /* per supernode, W = B B^T (BLAS syrk) for B its top rows, scattered into S */
     const int   *pi = (const int *)c->L->pi, *ls = (const int *)c->L->s;
@@ -653,10 +682,7 @@ static PetscErrorCode PCSetUp_Subtrees(PC pc)
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)pc), &c->rank));
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)pc), &c->size));
-  if (pc->setupcalled && pc->flag == DIFFERENT_NONZERO_PATTERN) {
-    PetscCall(MatDestroy(&c->Aseq));
-    c->analyzed = PETSC_FALSE;
-  }
+  if (pc->setupcalled && pc->flag == DIFFERENT_NONZERO_PATTERN) c->analyzed = PETSC_FALSE;
   if (c->size == 1) {
     if (c->Aseq != pc->pmat) {
       PetscCall(MatDestroy(&c->Aseq));
@@ -664,9 +690,15 @@ static PetscErrorCode PCSetUp_Subtrees(PC pc)
       c->Aseq     = pc->pmat;
       c->analyzed = PETSC_FALSE;
     }
-  } else PetscCall(MatCreateRedundantMatrix(pc->pmat, c->size, PETSC_COMM_SELF, c->Aseq ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, &c->Aseq));
-  PetscCall(PetscObjectTypeCompare((PetscObject)c->Aseq, MATSEQAIJ, &seqaij));
-  PetscCheck(seqaij, PETSC_COMM_SELF, PETSC_ERR_SUP, "PC %s needs an AIJ matrix, not %s", PCSUBTREES, ((PetscObject)c->Aseq)->type_name);
+  } else if (!c->analyzed) { /* the whole operator on every rank, for the ordering; Analyze keeps K(keep, keep) only */
+    if (c->ksub) PetscCall(MatDestroySubMatrices(1, &c->ksub));
+    PetscCall(MatDestroy(&c->Aseq));
+    PetscCall(MatCreateRedundantMatrix(pc->pmat, c->size, PETSC_COMM_SELF, MAT_INITIAL_MATRIX, &c->Aseq));
+  } else PetscCall(MatCreateSubMatrices(pc->pmat, 1, &c->iskeep, &c->iskeep, MAT_REUSE_MATRIX, &c->ksub)); /* new values, same pattern */
+  if (c->Aseq) {
+    PetscCall(PetscObjectTypeCompare((PetscObject)c->Aseq, MATSEQAIJ, &seqaij));
+    PetscCheck(seqaij, PETSC_COMM_SELF, PETSC_ERR_SUP, "PC %s needs an AIJ matrix, not %s", PCSUBTREES, ((PetscObject)c->Aseq)->type_name);
+  }
   if (!c->started) {
     cholmod_start(&c->common);
     c->common.supernodal = CHOLMOD_SUPERNODAL; /* the solves need the supernodal form */
@@ -806,6 +838,8 @@ static PetscErrorCode PCReset_Subtrees(PC pc)
   if (c->L) cholmod_free_factor(&c->L, &c->common);
   c->analyzed = PETSC_FALSE;
   PetscCall(MatDestroy(&c->Aseq));
+  if (c->ksub) PetscCall(MatDestroySubMatrices(1, &c->ksub));
+  PetscCall(ISDestroy(&c->iskeep));
   PetscCall(PetscFree(c->keep));
   PetscCall(PetscFree4(c->kp, c->ki, c->kx, c->kmap));
   PetscCall(PetscFree2(c->snc, c->voff));
