@@ -3,7 +3,10 @@
  * ranks along its elimination tree.
  *
  * Every rank orders the whole operator the same way (CHOLMOD's analysis,
- * METIS nested dissection) and so finds the same tree of supernodes.  The
+ * METIS nested dissection) and so finds the same tree of supernodes; the
+ * whole operator is gathered on every rank for this analysis alone, and
+ * afterwards each rank holds only the rows it factors, K(own + top, own +
+ * top), gathered again in place when the values change.  The
  * tree is cut into disjoint subtrees, each given to one rank, and a top
  * part (the separators above the cut).  A rank factors only its own rows
  * and the top's, K_p = K(own + top, own + top) in that order (CHOLMOD,
