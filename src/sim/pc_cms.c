@@ -38,7 +38,6 @@
 #include <vkutil.h>
 #include <slepceps.h>
 
-
 static PetscErrorCode PCCMSSetSubdomains_CMS(PC pc, PetscInt n, IS is[])
 {
   PC_CMS *cms = (PC_CMS *)pc->data;
