@@ -355,6 +355,29 @@ static PetscErrorCode CheckNothingRebuilt(Mat K, KSP ksp, PC pc, const char what
   PetscFunctionReturn(0);
 }
 
+/* Stiffer springs between x-neighbours inside rank 0's first domain of 2
+ * (SplitRows' [rs, hi)), as a material change does; K is assembled by the
+ * caller. */
+static PetscErrorCode StiffenFirstDomain(Mat K, PetscInt m)
+{
+  PetscInt    rs, re, hi;
+  PetscMPIInt rank;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCall(MatGetOwnershipRange(K, &rs, &re));
+  hi = rs + (re - rs) / 2;
+  if (!rank)
+    for (PetscInt r = rs; r + 1 < hi; r++) {
+      if (r % m == m - 1) continue;
+      PetscCall(MatSetValue(K, r, r, 0.5, ADD_VALUES));
+      PetscCall(MatSetValue(K, r + 1, r + 1, 0.5, ADD_VALUES));
+      PetscCall(MatSetValue(K, r, r + 1, -0.5, ADD_VALUES));
+      PetscCall(MatSetValue(K, r + 1, r, -0.5, ADD_VALUES));
+    }
+  PetscFunctionReturn(0);
+}
+
 /* A material change confined to one domain (rank 0's first of 2): the
  * next set-up rebuilds that domain only, and its Q and K_r equal those of
  * a full set-up on the new matrix; a change on a boundary row only
@@ -378,14 +401,7 @@ static PetscErrorCode TestRebuild(PetscInt m)
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(MatGetOwnershipRange(K, &rs, &re));
   hi = rs + (re - rs) / 2; /* SplitRows' first domain is [rs, hi) */
-  if (!rank) /* stiffer springs between x-neighbours inside that domain, as a material change does */
-    for (PetscInt r = rs; r + 1 < hi; r++) {
-      if (r % m == m - 1) continue;
-      PetscCall(MatSetValue(K, r, r, 0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r + 1, r + 1, 0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r, r + 1, -0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r + 1, r, -0.5, ADD_VALUES));
-    }
+  PetscCall(StiffenFirstDomain(K, m));
   PetscCall(SetUpAfterChange(K, ksp, pc, &rebuilt, &total, &dq, &dk));
   PetscCall(VKTestCheck((PetscBool)(rebuilt == 1 && total == 2 * size && dq <= 1e-13 && dk <= 1e-13), NULL, "a change inside one domain of %d rebuilds %d domain(s) (1); Q and K_r and the cycle differ from a full set-up's by %.1e and %.1e (<= 1e-13)", (int)total, (int)rebuilt, (double)dq, (double)dk));
   PetscCall(SolveAndCompare(K, ksp, &res, &diff, &its, &reason));
@@ -482,17 +498,14 @@ static PetscErrorCode TestDiagonalChange(PetscInt m)
   KSP                ksp;
   PC                 pc;
   Mat                K, Q, Kr, Q0, Kr0;
-  PetscInt           rebuilt, kept, built, its, its0, rs, re, hi;
+  PetscInt           rebuilt, kept, built, its, its0;
   PetscReal          dq, dk, res, diff;
-  PetscMPIInt        rank, size;
+  PetscMPIInt        size;
   KSPConvergedReason reason;
 
   PetscFunctionBegin;
-  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscCall(Laplacian(m, 0.1, &K));
-  PetscCall(MatGetOwnershipRange(K, &rs, &re));
-  hi = rs + (re - rs) / 2;
   PetscCall(CMSKSP(K, 2, PETSC_FALSE, &ksp));
   PetscCall(SolveAndCompare(K, ksp, &res, &diff, &its0, &reason));
   PetscCall(KSPGetPC(ksp, &pc));
@@ -514,14 +527,7 @@ static PetscErrorCode TestDiagonalChange(PetscInt m)
 
   /* stiffer x-springs in that domain (off the diagonal) while it carries a
    * correction: rebuilt, to a full set-up's Q and K_r, the correction gone */
-  if (!rank)
-    for (PetscInt r = rs; r + 1 < hi; r++) {
-      if (r % m == m - 1) continue;
-      PetscCall(MatSetValue(K, r, r + 1, -0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r + 1, r, -0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r, r, 0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r + 1, r + 1, 0.5, ADD_VALUES));
-    }
+  PetscCall(StiffenFirstDomain(K, m));
   PetscCall(SetUpAfterChange(K, ksp, pc, &rebuilt, NULL, &dq, &dk));
   PetscCall(PCCMSGetUpdateCounts(pc, &kept, NULL, &built));
   PetscCall(VKTestCheck((PetscBool)(rebuilt == 1 && kept == 0 && built == 2 * size + 1 && dq <= 1e-13 && dk <= 1e-13), NULL, "a change off the diagonal in that domain rebuilds %d domain(s) (1; %d builds in all, %d), to a full set-up's Q and K_r and cycle (%.1e, %.1e <= 1e-13)", (int)rebuilt, (int)built, (int)(2 * size + 1), (double)dq, (double)dk));
