@@ -376,6 +376,26 @@ static PetscErrorCode BuildStructure(PC pc, Mat A, PetscInt ndom, const PetscInt
   PetscFunctionReturn(0);
 }
 
+/* Domain D's reduced columns, as its interior rows of Q hold them: its
+ * boundary columns (in the order of isB, ascending), then its modes;
+ * *n = nB + k of them in *cols (PetscMalloc'ed).  rs: this rank's first
+ * row. */
+PetscErrorCode PCCMSDomainColumns(const PC_CMS *cms, const CMSDomain *D, PetscInt rs, PetscInt *n, PetscInt **cols)
+{
+  const PetscInt *rb;
+  PetscInt        nB;
+
+  PetscFunctionBegin;
+  PetscCall(ISGetLocalSize(D->isB, &nB));
+  *n = nB + D->k;
+  PetscCall(PetscMalloc1(*n + 1, cols));
+  PetscCall(ISGetIndices(D->isB, &rb));
+  for (PetscInt b = 0; b < nB; b++) (*cols)[b] = cms->col[rb[b] - rs];
+  PetscCall(ISRestoreIndices(D->isB, &rb));
+  for (PetscInt j = 0; j < D->k; j++) (*cols)[nB + j] = D->mode0 + j;
+  PetscFunctionReturn(0);
+}
+
 /* Domain d's columns of Q from its K_II and K_IB: the boundary modes
  * Psi = -K_II^-1 K_IB and the interior modes, written into its interior
  * rows (Q must be assembled afterwards); and its part of K_r, the
@@ -385,9 +405,9 @@ static PetscErrorCode BuildDomain(PC pc, PetscInt d, Mat Kii, Mat Kib)
   PC_CMS            *cms = (PC_CMS *)pc->data;
   CMSDomain         *D   = &cms->dom[d];
   Mat                F, Psi = NULL, Phi = NULL;
-  const PetscInt    *ri, *rb;
+  const PetscInt    *ri;
   const PetscScalar *pa = NULL, *fa = NULL;
-  PetscInt          *cols, nI, nB, rs;
+  PetscInt          *cols, nI, nB, nc, rs;
   PetscScalar       *vals;
 
   PetscFunctionBegin;
@@ -422,22 +442,20 @@ static PetscErrorCode BuildDomain(PC pc, PetscInt d, Mat Kii, Mat Kib)
   }
   PetscCall(MatDestroy(&F));
   PetscCall(ISGetIndices(D->isI, &ri));
-  PetscCall(ISGetIndices(D->isB, &rb));
-  PetscCall(PetscMalloc2(nB + D->k, &cols, nB + D->k, &vals));
-  for (PetscInt b = 0; b < nB; b++) cols[b] = cms->col[rb[b] - rs];
-  for (PetscInt j = 0; j < D->k; j++) cols[nB + j] = D->mode0 + j;
+  PetscCall(PCCMSDomainColumns(cms, D, rs, &nc, &cols));
+  PetscCall(PetscMalloc1(nc, &vals));
   if (Psi) PetscCall(MatDenseGetArrayRead(Psi, &pa));
   if (Phi) PetscCall(MatDenseGetArrayRead(Phi, &fa));
   for (PetscInt r = 0; r < nI; r++) { /* dense arrays are column-major with leading dimension nI */
     for (PetscInt b = 0; b < nB; b++) vals[b] = pa[b * nI + r];
     for (PetscInt j = 0; j < D->k; j++) vals[nB + j] = fa[j * nI + r];
-    PetscCall(MatSetValues(cms->Q, 1, &ri[r], nB + D->k, cols, vals, INSERT_VALUES));
+    PetscCall(MatSetValues(cms->Q, 1, &ri[r], nc, cols, vals, INSERT_VALUES));
   }
   if (Psi) PetscCall(MatDenseRestoreArrayRead(Psi, &pa));
   if (Phi) PetscCall(MatDenseRestoreArrayRead(Phi, &fa));
-  PetscCall(PetscFree2(cols, vals));
+  PetscCall(PetscFree(cols));
+  PetscCall(PetscFree(vals));
   PetscCall(ISRestoreIndices(D->isI, &ri));
-  PetscCall(ISRestoreIndices(D->isB, &rb));
   PetscCall(MatDestroy(&Psi));
   PetscCall(MatDestroy(&Phi));
   PetscFunctionReturn(0);
@@ -740,34 +758,22 @@ static PetscErrorCode AssembleReduced(PC pc, Mat A, PetscBool *created)
       PetscInt c = D->mode0 + j;
       PetscCall(MatSetValue(cms->Kr, c, c, D->lambda[j], ADD_VALUES));
     }
-    if (D->S) { /* symmetric: its column b is its row b */
-      const PetscInt    *rb;
-      const PetscScalar *sa;
-      PetscInt           nB, *bc;
-      PetscCall(ISGetLocalSize(D->isB, &nB));
-      PetscCall(ISGetIndices(D->isB, &rb));
-      PetscCall(PetscMalloc1(nB, &bc));
-      for (PetscInt b = 0; b < nB; b++) bc[b] = cms->col[rb[b] - rs];
-      PetscCall(MatDenseGetArrayRead(D->S, &sa));
-      for (PetscInt b = 0; b < nB; b++) PetscCall(MatSetValues(cms->Kr, 1, &bc[b], nB, bc, sa + b * nB, ADD_VALUES));
-      PetscCall(MatDenseRestoreArrayRead(D->S, &sa));
-      PetscCall(PetscFree(bc));
-      PetscCall(ISRestoreIndices(D->isB, &rb));
-    }
-    if (D->C) { /* symmetric, over its boundary columns then its modes */
-      const PetscInt    *rb;
-      const PetscScalar *ca;
-      PetscInt           nB, *idx;
-      PetscCall(ISGetLocalSize(D->isB, &nB));
-      PetscCall(ISGetIndices(D->isB, &rb));
-      PetscCall(PetscMalloc1(nB + D->k, &idx));
-      for (PetscInt b = 0; b < nB; b++) idx[b] = cms->col[rb[b] - rs];
-      for (PetscInt j = 0; j < D->k; j++) idx[nB + j] = D->mode0 + j;
-      PetscCall(MatDenseGetArrayRead(D->C, &ca));
-      PetscCall(MatSetValues(cms->Kr, nB + D->k, idx, nB + D->k, idx, ca, ADD_VALUES));
-      PetscCall(MatDenseRestoreArrayRead(D->C, &ca));
+    if (D->S || D->C) { /* both symmetric: column b is row b */
+      const PetscScalar *a;
+      PetscInt           n, nB, *idx;
+      PetscCall(PCCMSDomainColumns(cms, D, rs, &n, &idx));
+      nB = n - D->k;
+      if (D->S) { /* over its boundary columns */
+        PetscCall(MatDenseGetArrayRead(D->S, &a));
+        for (PetscInt b = 0; b < nB; b++) PetscCall(MatSetValues(cms->Kr, 1, &idx[b], nB, idx, a + b * nB, ADD_VALUES));
+        PetscCall(MatDenseRestoreArrayRead(D->S, &a));
+      }
+      if (D->C) { /* over its boundary columns, then its modes */
+        PetscCall(MatDenseGetArrayRead(D->C, &a));
+        PetscCall(MatSetValues(cms->Kr, n, idx, n, idx, a, ADD_VALUES));
+        PetscCall(MatDenseRestoreArrayRead(D->C, &a));
+      }
       PetscCall(PetscFree(idx));
-      PetscCall(ISRestoreIndices(D->isB, &rb));
     }
   }
   PetscCall(MatAssemblyBegin(cms->Kr, MAT_FINAL_ASSEMBLY));

@@ -22,19 +22,13 @@
  * not 0, computed on its upper triangle and mirrored (exactly symmetric). */
 static PetscErrorCode DomainCorrection(PC_CMS *cms, CMSDomain *D, PetscInt rs, const PetscScalar diag[])
 {
-  const PetscInt *ri, *rb;
-  PetscInt        nI, nB, n, *idx;
+  const PetscInt *ri;
+  PetscInt        nI, n, *idx;
   PetscScalar    *c;
 
   PetscFunctionBegin;
   PetscCall(ISGetLocalSize(D->isI, &nI));
-  PetscCall(ISGetLocalSize(D->isB, &nB));
-  n = nB + D->k;
-  PetscCall(PetscMalloc1(n + 1, &idx)); /* C's columns in Q: the domain's boundary columns, then its modes */
-  PetscCall(ISGetIndices(D->isB, &rb));
-  for (PetscInt b = 0; b < nB; b++) idx[b] = cms->col[rb[b] - rs];
-  PetscCall(ISRestoreIndices(D->isB, &rb));
-  for (PetscInt j = 0; j < D->k; j++) idx[nB + j] = D->mode0 + j;
+  PetscCall(PCCMSDomainColumns(cms, D, rs, &n, &idx)); /* C's columns in Q */
   if (!D->C) PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, n, n, NULL, &D->C));
   PetscCall(MatZeroEntries(D->C));
   PetscCall(MatDenseGetArray(D->C, &c));

@@ -47,4 +47,5 @@ typedef struct {
   PetscReal  lambda_min, lambda_max;
 } PC_CMS;
 
+PETSC_INTERN PetscErrorCode PCCMSDomainColumns(const PC_CMS *, const CMSDomain *, PetscInt, PetscInt *, PetscInt **);
 PETSC_INTERN PetscErrorCode PCCMSDiagonalChange(PC, Mat, const PetscBool[], const PetscBool[], PetscInt *);
