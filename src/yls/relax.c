@@ -2,11 +2,20 @@
  * Procedural knits interpenetrate a little and are not in equilibrium.
  * The relaxation is a quasi-static solve by proximal steps: repeated
  * implicit Euler steps from rest with a long pseudo time step (doubled
- * after a step Newton took in a few iterations, up to 1024 x -yls_relax_tau,
- * halved after one it struggled with), no
- * scene (no gravity, handles or colliders) and no damping, until the state
- * is static to the Newton tolerance of newton.c.  The contact radius is grown from
- * -yls_relax_radius_start x r to r in -yls_relax_stages stages, so yarns
+ * after a step Newton took in a few iterations, up to
+ * -yls_relax_tau_growth (1024) x -yls_relax_tau, halved after one it
+ * struggled with), no scene (no gravity, colliders, and no handles unless
+ * -yls_relax_handles holds them at t = 0) and no damping, until the state
+ * is static to the Newton tolerance of newton.c.  With
+ * -yls_relax_newton_its N the steps are inexact: a step's Newton solve
+ * stops after N iterations and the next step starts from there (a
+ * proximal-point iteration: a free stockinette patch with straight rods,
+ * which curls up, relaxes in 205 s against more than 23 minutes with exact
+ * steps, docs/BENCHMARKS.md).  -yls_relax_straight relaxes naturally
+ * straight, untwisted rods (the periodic relaxation's physics) in place of
+ * the given geometry's curvature.  The contact radius is grown from
+ * -yls_relax_radius_start x r to -yls_relax_radius_end x r (1) in
+ * -yls_relax_stages stages, so yarns
  * that start inside each other are pushed apart gradually (the similarity
  * idea of Leaf et al. 2018, applied to the contact radius only).  Then the
  * rest state is reset to the relaxed one: rest lengths, rest curvatures,
@@ -17,7 +26,6 @@
  * no stretch, bending or contact energy and stays still. */
 #include "ylsimpl.h"
 
-#define YLS_RELAX_TAU_GROWTH 1024 /* the pseudo time step grows to at most this x -yls_relax_tau */
 #define YLS_RELAX_EASY_ITS   8  /* Newton iterations of a proximal step that let the next one grow */
 
 /* Proximal steps at the current contact radius until the state is static:
@@ -33,6 +41,7 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
     PetscInt its, halved = y->stats.halved_steps;
     PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r (last |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (double)y->residual, (double)y->tolerance);
     PetscCall(VecSet(y->v, 0));
+    y->relax_unfinished = PETSC_FALSE;
     PetscCall(VKYLSStep(y));
     (*steps)++;
     PetscCall(SNESGetIterationNumber(y->snes, &its));
@@ -40,7 +49,8 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
     /* the slowest modes of a knit creep at tau^2 k / m per step: a
      * proximal step that Newton took easily makes the next one twice as
      * long, one it struggled with (halved, or many capped iterations) half */
-    if (y->stats.halved_steps == halved && its <= YLS_RELAX_EASY_ITS) y->dt = PetscMin(2 * y->dt, YLS_RELAX_TAU_GROWTH * y->relax_tau);
+    if (y->relax_unfinished) continue; /* the same pseudo step again, from where it stopped */
+    if (y->stats.halved_steps == halved && its <= YLS_RELAX_EASY_ITS) y->dt = PetscMin(2 * y->dt, y->relax_tau_growth * y->relax_tau);
     else if (y->stats.halved_steps > halved || its > 2 * YLS_RELAX_EASY_ITS) y->dt = PetscMax(0.5 * y->dt, y->relax_tau);
   }
   PetscFunctionReturn(0);
@@ -69,7 +79,7 @@ static PetscErrorCode ResetRest(VKYLS y)
 
 PetscErrorCode VKYLSRelax(VKYLS y)
 {
-  PetscInt      *handle, steps = 0, halved, ncolliders;
+  PetscInt      *handle, steps = 0, halved, ncolliders, max_it;
   PetscReal      g[3], dt, cv, cs, r, *thheld;
   VKYLSStats     stats;
   PetscLogDouble t0 = VKWallTime();
@@ -87,8 +97,10 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   PetscCall(PetscMalloc2(y->model.nv, &handle, y->model.nseg + 1, &thheld));
   PetscCall(PetscArraycpy(handle, y->handle, y->model.nv));
   PetscCall(PetscArraycpy(thheld, y->thheld, y->model.nseg));
-  for (PetscInt i = 0; i < y->model.nv; i++) y->handle[i] = -1;
-  for (PetscInt sg = 0; sg < y->model.nseg; sg++) y->thheld[sg] = (PetscReal)NAN; /* no frame held either */
+  if (!y->relax_handles) {
+    for (PetscInt i = 0; i < y->model.nv; i++) y->handle[i] = -1;
+    for (PetscInt sg = 0; sg < y->model.nseg; sg++) y->thheld[sg] = (PetscReal)NAN; /* no frame held either */
+  }
   for (int k = 0; k < 3; k++) {
     g[k]          = y->gravity[k];
     y->gravity[k] = 0;
@@ -97,11 +109,18 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   y->dt       = y->relax_tau;
   y->cv       = y->cs = 0;
   y->relaxing = PETSC_TRUE;
+  if (y->relax_straight) {
+    PetscCall(PetscArrayzero(y->model.wbar, 4 * y->model.nbend));
+    PetscCall(PetscArrayzero(y->model.mbar, y->model.nbend));
+  }
+  PetscCall(SNESGetTolerances(y->snes, NULL, NULL, NULL, &max_it, NULL));
+  if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, y->relax_newton_its, PETSC_MAX_INT));
   for (PetscInt s = 1; s <= y->relax_stages; s++) {
-    PetscReal f            = y->relax_radius_start + (1 - y->relax_radius_start) * (PetscReal)s / (PetscReal)y->relax_stages;
+    PetscReal f            = y->relax_radius_start + (y->relax_radius_end - y->relax_radius_start) * (PetscReal)s / (PetscReal)y->relax_stages;
     y->model.par.radius    = f * r;
     PetscCall(RelaxStage(y, &steps));
   }
+  PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, max_it, PETSC_MAX_INT));
   halved = y->stats.halved_steps - stats.halved_steps;
   PetscCall(ResetRest(y));
   /* the scene back */
@@ -160,9 +179,10 @@ PetscErrorCode VKYLSRelaxYarn(VKYarn yarn)
 
   PetscFunctionBegin;
   PetscCall(VKYarnGetComm(yarn, &comm));
-  PetscCall(VKSceneCreate(comm, &scene)); /* the relaxation ignores the scene */
+  PetscCall(VKSceneCreate(comm, &scene)); /* the relaxation ignores the scene, but for its handles with -yls_relax_handles */
   PetscCall(VKYLSCreate(yarn, scene, &y));
   PetscCall(VKYLSSetFromOptions(y));
+  if (y->relax_handles) PetscCall(VKSceneSetFromOptions(scene));
   PetscCall(VKYLSRelax(y));
   PetscCall(VKYLSDestroy(&y));
   PetscCall(VKSceneDestroy(&scene));

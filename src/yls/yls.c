@@ -47,7 +47,10 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->relax_tau    = 0.01;
   y->relax_stages = 4;
   y->relax_radius_start = 0.8;
+  y->relax_radius_end   = 1;
   y->relax_max_steps    = 50;
+  y->relax_tau_growth   = 1024;
+  y->relax_newton_its   = 0; /* each proximal step solved to the tolerance */
   *out            = y;
   PetscFunctionReturn(0);
 }
@@ -77,6 +80,11 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsReal("-yls_relax_tau", "Pseudo time step of the relaxation, s", "VKYLSRelax", y->relax_tau, &y->relax_tau, NULL));
   PetscCall(VKOptionsRangeInt("-yls_relax_stages", "Stages of contact-radius growth in the relaxation", "VKYLSRelax", y->relax_stages, &y->relax_stages, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsReal("-yls_relax_radius_start", "Contact radius of the first relaxation stage, in r", "VKYLSRelax", y->relax_radius_start, &y->relax_radius_start, NULL));
+  PetscCall(PetscOptionsReal("-yls_relax_tau_growth", "The relaxation's pseudo time step grows to at most this x -yls_relax_tau", "VKYLSRelax", y->relax_tau_growth, &y->relax_tau_growth, NULL));
+  PetscCall(VKOptionsRangeInt("-yls_relax_newton_its", "Inexact proximal steps: Newton iterations per step of the relaxation, after which the next step starts from where it stopped (0: each step solved to the tolerance, halved when Newton fails)", "VKYLSRelax", y->relax_newton_its, &y->relax_newton_its, NULL, 0, 1000));
+  PetscCall(PetscOptionsBool("-yls_relax_handles", "Hold the scene's handle vertices where they are at t = 0 during the relaxation (otherwise every vertex is free); volknit yarn -yarn_relax then reads the scene's handles from the -scene_ options", "VKYLSRelax", y->relax_handles, &y->relax_handles, NULL));
+  PetscCall(PetscOptionsBool("-yls_relax_straight", "Relax as naturally straight, untwisted rods (no rest curvature from the given geometry: the periodic relaxation's physics)", "VKYLSRelax", y->relax_straight, &y->relax_straight, NULL));
+  PetscCall(PetscOptionsReal("-yls_relax_radius_end", "Contact radius of the last relaxation stage, in r: above 1 makes up for the overlap the contact penalty leaves (the periodic relaxation reports the radius it needed)", "VKYLSRelax", y->relax_radius_end, &y->relax_radius_end, NULL));
   PetscCall(VKOptionsRangeInt("-yls_relax_max_steps", "Proximal steps per relaxation stage at most", "VKYLSRelax", y->relax_max_steps, &y->relax_max_steps, NULL, 1, PETSC_MAX_INT));
   PetscCall(PetscOptionsBool("-yls_quiet", "Do not print the summary line", "VKYLSRun", y->quiet, &y->quiet, NULL));
   PetscOptionsEnd();
@@ -90,6 +98,8 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCheck(y->ftol > 0 && y->ftol < 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_ftol must be in (0, 1), got %g", (double)y->ftol);
   PetscCheck(y->ls_max_it >= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_line_search_max_it must be >= 1");
   PetscCheck(y->relax_tau > 0 && y->relax_stages >= 1 && y->relax_max_steps >= 1 && y->relax_radius_start > 0 && y->relax_radius_start <= 1, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "Need -yls_relax_tau > 0, -yls_relax_stages >= 1, -yls_relax_max_steps >= 1, 0 < -yls_relax_radius_start <= 1");
+  PetscCheck(y->relax_radius_end >= 1 && y->relax_radius_end <= 2, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_radius_end must be in [1, 2] (in yarn radii), got %g", (double)y->relax_radius_end);
+  PetscCheck(y->relax_tau_growth >= 1 && y->relax_tau_growth < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_tau_growth must be >= 1 and finite, got %g", (double)y->relax_tau_growth);
   PetscCheck(y->dt >= 0 && y->dt < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt must be positive and finite, got %g", (double)y->dt);
   PetscFunctionReturn(0);
 }
@@ -350,11 +360,18 @@ static PetscReal HeldAngle(VKYLS y, PetscInt sg, PetscReal t)
   return a + 2 * PETSC_PI * PetscFloorReal((y->thn[sg] - a) / (2 * PETSC_PI) + 0.5);
 }
 
+/* The time at which handles are placed at the end of the step: a
+ * relaxation that keeps them (-yls_relax_handles) holds them at t = 0. */
+static PetscReal HandleTime(VKYLS y)
+{
+  return y->relaxing ? 0 : y->t + y->dt;
+}
+
 /* Start of step: x_n, v_n, tangents, lagged friction, held twist angles. */
 static PetscErrorCode BeginStep(VKYLS y)
 {
   const VKRodModel *m = &y->model;
-  PetscReal         t1 = y->t + y->dt;
+  PetscReal         t1 = HandleTime(y);
 
   PetscFunctionBegin;
   PetscCall(VKYLSGather(y, y->v, y->vn));
@@ -400,7 +417,7 @@ static PetscErrorCode PredictorFraction(VKYLS y, PetscReal *s)
  * step, free vertices at x_n + s dt v_n; into y->x, y->q and y->xall. */
 static PetscErrorCode InitialGuess(VKYLS y, PetscReal s)
 {
-  PetscReal    t1 = y->t + y->dt;
+  PetscReal    t1 = HandleTime(y);
   PetscScalar *xa;
 
   PetscFunctionBegin;
@@ -495,6 +512,10 @@ static PetscErrorCode Advance(VKYLS y, PetscReal dt, PetscInt depth)
       PetscCall(Advance(y, dt, depth));
       PetscFunctionReturn(0);
     }
+  }
+  if (y->relaxing && y->relax_newton_its > 0 && reason == SNES_DIVERGED_MAX_IT && !PetscIsInfOrNanReal(y->residual)) { /* an inexact proximal step: its iterates lowered Phi; the relaxation goes on from there */
+    y->relax_unfinished = PETSC_TRUE;
+    reason              = SNES_CONVERGED_ITS;
   }
   if (reason <= 0 && depth < y->max_halvings) {
     PetscCall(PetscInfo(y->snes, "yarn-level step %d: Newton failed (%s) with dt %g s, |grad Phi| %g N (tolerance %g N); two steps of dt/2 instead\n", (int)y->step + 1, SNESConvergedReasons[reason], (double)dt, (double)y->residual, (double)y->tolerance));

@@ -35,7 +35,13 @@ struct _n_VKYLS {
   PetscBool   relax;                         /* relax the rest state before the run */
   PetscBool   predict;                       /* Newton starts from x_n + dt v_n (capped), else from x_n */
   PetscReal   relax_tau, relax_radius_start; /* pseudo time step; first contact radius / r */
+  PetscReal   relax_radius_end;              /* last contact radius / r */
   PetscInt    relax_stages, relax_max_steps, relax_steps;
+  PetscReal   relax_tau_growth;              /* the pseudo time step grows to at most this x relax_tau */
+  PetscBool   relax_unfinished;              /* the last proximal step stopped at its Newton iteration limit */
+  PetscInt    relax_newton_its;              /* Newton iterations per proximal step (0: each solved to the tolerance) */
+  PetscBool   relax_straight;                /* relax as naturally straight, untwisted rods (the periodic relaxation's physics) */
+  PetscBool   relax_handles;                 /* the scene's handles hold their vertices at t = 0 during the relaxation */
   PetscLogDouble relax_time;
   PetscInt    nglue;
   PetscInt   *glue;  /* 2 per glue spring */
