@@ -131,6 +131,20 @@ for n in 1 2; do
 done
 if cmp -s "$out/periodic_knit.n1/cell.pyp" "$out/periodic_knit.n2/cell.pyp"; then ok
 else not_ok "the periodically relaxed knit repeat differs between 1 and 2 ranks ($out/periodic_knit.n1/cell.pyp, $out/periodic_knit.n2/cell.pyp)"; fi
+# the tiled repeat relaxed again as a patch (-yarn_relax with
+# -yarn_relax_periodic): straight rods, the outer ring of repeats held by
+# the scene's handles; 1 and 2 ranks relax the same yarn
+for n in 1 2; do
+  log="$out/periodic_patch.n$n.log"
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$out/periodic_patch.n$n" -yarn_pattern stockinette -yarn_wales 4 -yarn_courses 4 -yarn_relax_periodic -yarn_relax \
+       -yls_relax_straight -yls_relax_handles -scene_handles 4 -scene_handle0_box -1,-1,-1,-0.25,1,1 -scene_handle1_box 0.25,-1,-1,1,1,1 \
+       -scene_handle2_box -1,-1,-1,1,-0.25,1 -scene_handle3_box -1,0.25,-1,1,1,1 > "$log" 2>&1 \
+     && grep -q 'the tiled patch is relaxed again as a patch' "$log" && grep -q 'volknit yls: relaxed the yarns in' "$log" \
+     && grep -q '"relaxed": true' "$out/periodic_patch.n$n/yarn.json"; then ok
+  else not_ok "volknit yarn -yarn_relax_periodic -yarn_relax -yls_relax_handles (-n $n): expected the tiled patch relaxed again with its ring held (see $log)"; fi
+done
+if h5diff -d 1e-9 "$out/periodic_patch.n1/yarn.h5" "$out/periodic_patch.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+else not_ok "the tiled patch relaxed as a patch differs between 1 and 2 ranks by more than 1e-9 m ($out/periodic_patch.n1/yarn.h5, $out/periodic_patch.n2/yarn.h5)"; fi
 
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed

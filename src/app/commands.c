@@ -194,7 +194,10 @@ PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
     PetscBool periodic = PETSC_FALSE;
     PetscCall(RelaxPeriodicCell(y, &periodic));
     PetscCall(VKYarnSetUp(y));
-    if (periodic) { /* the tiled patch is at rest as tiled: flat, at the full radius */
+    if (periodic && relax_opt) { /* -yarn_relax asked for as well: the tiled patch relaxed again, as a patch (to compare with the periodic state) */
+      PetscCall(VKYarnGetComm(y, &comm));
+      PetscCall(PetscPrintf(comm, "volknit yarn: the tiled patch is relaxed again as a patch (-yarn_relax with -yarn_relax_periodic)\n"));
+    } else if (periodic) { /* the tiled patch is at rest as tiled: flat, at the full radius */
       PetscReal d;
       PetscCall(VKYLSKeepRest(y, &d));
       PetscCall(VKYarnGetProperties(y, &radius, NULL, &contact_radius));
