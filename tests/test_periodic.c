@@ -14,12 +14,18 @@
  *    are dropped (-yarn_pyp_min_length);
  *  - a knit chart's repeat as a cell (VKKnitCell) lies on the knit patch's
  *    loops when tiled, relaxes to the full radius, and the yarn model tiles
- *    it into whole repeats only.
+ *    it into whole repeats only;
+ *  - a stockinette repeat relaxed periodically and tiled 6 x 6 against the
+ *    yarn-level model (VKYLS) with the same physics: the same force on
+ *    every interior vertex, and the patch held at its outer ring of
+ *    repeats stays at the periodic state when relaxed as a patch, at the
+ *    cell's rest lengths (and moves at the tension-free tiled ones).
  * ranks: 1 2
  */
 #include <string.h>
 #include "../src/yls/ylsimpl.h" /* white-box: VKYLSPeriodicEvaluate */
 #include <vkio.h>
+#include <vkscene.h>
 #include "vktest.h"
 
 static PetscErrorCode LoadCell(VKPyp *cell)
@@ -291,6 +297,238 @@ static PetscErrorCode TestKnitCell(void)
   PetscFunctionReturn(0);
 }
 
+/* Whether rest position x lies in the middle third of the patch [lo, hi]
+ * in x and y, away from its held ring. */
+static PetscBool Interior(const PetscReal lo[], const PetscReal hi[], const PetscReal x[])
+{
+  for (int a = 0; a < 2; a++)
+    if (x[a] < lo[a] + (hi[a] - lo[a]) / 3 || x[a] > hi[a] - (hi[a] - lo[a]) / 3) return PETSC_FALSE;
+  return PETSC_TRUE;
+}
+
+/* The largest distance between x and x0 over the interior vertices. */
+static PetscReal InteriorDistance(const VKCurves *c, const PetscReal x0[], const PetscReal x[])
+{
+  PetscReal lo[3], hi[3], d = 0;
+  VKCurvesBoundingBox(c, lo, hi);
+  for (PetscInt v = 0; v < c->nv; v++)
+    if (Interior(lo, hi, x0 + 3 * v)) d = PetscMax(d, PetscSqrtReal(PetscSqr(x[3 * v] - x0[3 * v]) + PetscSqr(x[3 * v + 1] - x0[3 * v + 1]) + PetscSqr(x[3 * v + 2] - x0[3 * v + 2])));
+  return d;
+}
+
+/* The cell vertex each vertex of the tiled patch is a copy of: its
+ * position less a whole number of periods. */
+static PetscErrorCode CellVertices(const VKCurves *c, const VKPyp *cell, PetscInt cv[])
+{
+  PetscFunctionBegin;
+  for (PetscInt v = 0; v < c->nv; v++) {
+    cv[v] = -1;
+    for (PetscInt u = 0; u < cell->nv && cv[v] < 0; u++) {
+      PetscReal t[2], err = PetscAbsReal(c->x[3 * v + 2] - cell->q[4 * u + 2]);
+      for (int a = 0; a < 2; a++) {
+        t[a] = (c->x[3 * v + a] - cell->q[4 * u + a]) / cell->period[a];
+        err += PetscAbsReal(t[a] - PetscFloorReal(t[a] + 0.5)) * cell->period[a];
+      }
+      if (err < 1e-9 * cell->radius) cv[v] = u;
+    }
+    PetscCheck(cv[v] >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Tiled vertex %d is no copy of a cell vertex", (int)v);
+  }
+  PetscFunctionReturn(0);
+}
+
+/* The yarn-level model of the tiled patch as the periodic relaxation sees
+ * it: straight untwisted rest rods, contact radius f r, no gravity, and
+ * with `given` the rest lengths of the cell as given (segment a -> b is a
+ * copy of the cell edge cv[a] -> cv[b]), the lengths the periodic
+ * equilibrium is stretched from; otherwise the tiled lengths (the
+ * model's own: its rest state is the geometry it is given). */
+static PetscErrorCode PeriodicPhysics(VKYLS y, PetscReal f, const VKPyp *given, const PetscInt cv[])
+{
+  VKRodModel *m = &y->model;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSSetUp(y));
+  PetscCall(PetscArrayzero(m->wbar, 4 * m->nbend));
+  PetscCall(PetscArrayzero(m->mbar, m->nbend));
+  for (int k = 0; k < 3; k++) y->gravity[k] = 0;
+  y->relax_straight     = PETSC_TRUE;
+  y->relax_stages       = 1;
+  y->relax_radius_start = 1;
+  y->relax_radius_end   = f;
+  m->par.radius         = f * y->par.radius;
+  if (!given) PetscFunctionReturn(0);
+  for (PetscInt s = 0; s < m->nseg; s++) {
+    PetscInt a = cv[m->seg[2 * s]], b = cv[m->seg[2 * s + 1]], k;
+    for (k = 0; k < given->ne; k++)
+      if ((given->e[4 * k] == a && given->e[4 * k + 1] == b) || (given->e[4 * k] == b && given->e[4 * k + 1] == a)) break;
+    PetscCheck(k < given->ne, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Segment %d of the tiled patch is no copy of a cell edge", (int)s);
+    {
+      PetscReal d[3];
+      m->L[s] = VKPypEdgeVector(given, k, d);
+    }
+  }
+  for (PetscInt k = 0; k < m->nbend; k++) m->lbar[k] = 0.5 * (m->L[m->bseg[2 * k]] + m->L[m->bseg[2 * k + 1]]);
+  PetscFunctionReturn(0);
+}
+
+/* Four handles: the outer ring of repeats of a patch of repeats x repeats. */
+static PetscErrorCode HeldRing(PetscInt repeats, VKScene *scene)
+{
+  const PetscReal e = 0.5 - 1.0 / repeats; /* the ring's inner edge, as a fraction of the patch about its centre */
+
+  PetscFunctionBegin;
+  PetscCall(VKSceneCreate(PETSC_COMM_WORLD, scene));
+  for (int k = 0; k < 4; k++) {
+    VKHandle h;
+    VKHandleInitialize(&h);
+    for (int a = 0; a < 3; a++) {
+      h.box[a]     = -1;
+      h.box[3 + a] = 1;
+    }
+    if (k % 2) h.box[k / 2] = e; /* x > e, y > e */
+    else h.box[3 + k / 2] = -e;  /* x < -e, y < -e */
+    PetscCall(VKSceneAddHandle(*scene, &h, PETSC_FALSE));
+  }
+  PetscFunctionReturn(0);
+}
+
+/* A periodic cell relaxed and tiled against the tiled patch relaxed as a
+ * patch (issue 23): a stockinette repeat relaxed periodically and tiled 6
+ * x 6, against the yarn-level model (VKYLS: vkrod's elements, its own
+ * contact search, glue and twist; nothing shared with periodic.c but the
+ * element kernels) with the periodic relaxation's physics: straight rest
+ * rods at the contact radius that relaxation ended at.
+ *  - Forces: at the tiled state, with the rest lengths of the relaxed
+ *    cell on both sides (about 2e-3 N on some vertices: the periodic
+ *    equilibrium is stretched from the cell as given), the yarn-level
+ *    force on every interior vertex is the periodic force on its cell
+ *    vertex.
+ *  - Equilibrium: with the cell's given rest lengths and the outer ring
+ *    of repeats held where the tiling put it (an infinite patch holds
+ *    every repeat there), the patch relaxed by VKYLSRelax keeps its
+ *    interior at the periodic state.
+ *  - With the tiled lengths as rest lengths (the yarn model's own rest
+ *    state: tension-free) the interior moves: the check above can fail,
+ *    and the knit is that soft (docs/BENCHMARKS.md). */
+static PetscErrorCode TestHeldPatch(void)
+{
+  const PetscInt      repeats = 6;
+  VKKnitParams        kp;
+  VKKnitChart         chart;
+  VKPyp               cell, given;
+  VKYLSPeriodicParams p;
+  VKYLSPeriodicStats  st;
+  VKYarn              yarn;
+  const VKCurves     *c;
+  PetscReal           r = 1e-3, f, *x0, lo[3], hi[3];
+  PetscInt           *cv;
+
+  PetscFunctionBegin;
+  PetscCall(VKKnitParamsDefault(r, &kp));
+  PetscCall(VKKnitChartBuiltin("stockinette", &chart));
+  kp.wales = kp.courses = repeats;
+  PetscCall(VKKnitCell(&chart, &kp, r, r, &cell));
+  PetscCall(VKPypCopy(&cell, &given));
+  PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, r, &p));
+  p.ftol = 2e-8; /* the periodic equilibrium well inside the yarn-level relaxation's tolerance */
+  PetscCall(VKYLSRelaxPeriodic(&cell, &p, &st));
+  f = st.contact_radius / r;
+  PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &yarn));
+  PetscCall(VKYarnSetKnit(yarn, "stockinette", repeats, repeats));
+  PetscCall(VKYarnSetRadius(yarn, r));
+  PetscCall(VKYarnSetPypCell(yarn, &cell, PETSC_TRUE, "relaxed periodically"));
+  PetscCall(VKYarnSetUp(yarn));
+  PetscCall(VKYarnGetCurves(yarn, &c));
+  PetscCall(PetscMalloc2(3 * c->nv, &x0, c->nv, &cv));
+  PetscCall(PetscArraycpy(x0, c->x, 3 * c->nv));
+  PetscCall(VKCurvesBoundingBox(c, lo, hi));
+  PetscCall(CellVertices(c, &cell, cv));
+
+  { /* forces */
+    VKScene            scene;
+    VKYLS              y;
+    VKYLSPeriodicParams pe = p;
+    Vec                G, Gseq;
+    VecScatter         sc;
+    const PetscScalar *g;
+    PetscReal         *gp, E, diff = 0, big = 0;
+    PetscInt           n = 3 * cell.nv + 2, checked = 0;
+    PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &scene));
+    PetscCall(VKYLSCreate(yarn, scene, &y));
+    PetscCall(VKYLSSetFromOptions(y));
+    PetscCall(PeriodicPhysics(y, f, NULL, NULL));
+    y->relaxing = PETSC_TRUE; /* no inertia: x = x_n, v = 0 */
+    PetscCall(PetscArraycpy(y->xall, x0, 3 * c->nv));
+    PetscCall(PetscArraycpy(y->xn, x0, 3 * c->nv));
+    PetscCall(PetscArrayzero(y->vn, 3 * c->nv));
+    PetscCall(VKYLSTangents(y, y->xn, y->tn));
+    PetscCall(VKYLSFindPairs(y, y->xall));
+    PetscCall(VecDuplicate(y->q, &G));
+    PetscCall(VKYLSGradient(y, y->xall, y->theta, G));
+    PetscCall(VecScatterCreateToAll(G, &sc, &Gseq));
+    PetscCall(VecScatterBegin(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
+    PetscCall(VecScatterEnd(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
+    pe.radius = st.contact_radius;
+    PetscCall(PetscMalloc1(n, &gp));
+    {
+      PetscReal *q;
+      PetscCall(Unknowns(&cell, &q));
+      PetscCall(VKYLSPeriodicEvaluate(&cell, &pe, q, &E, gp, NULL)); /* rest lengths: the relaxed cell's */
+      PetscCall(PetscFree(q));
+    }
+    PetscCall(VecGetArrayRead(Gseq, &g));
+    for (PetscInt v = 0; v < c->nv; v++) {
+      if (!Interior(lo, hi, x0 + 3 * v) || cv[v] == 0) continue; /* the periodic cell holds its vertex 0 */
+      for (int k = 0; k < 3; k++) {
+        diff = PetscMax(diff, PetscAbsReal(g[4 * v + k] - gp[3 * cv[v] + k]));
+        big  = PetscMax(big, PetscAbsReal(gp[3 * cv[v] + k]));
+      }
+      checked++;
+    }
+    PetscCall(VecRestoreArrayRead(Gseq, &g));
+    PetscCall(VKTestCheck((PetscBool)(checked > 100 && big > 1e-4 && diff <= 1e-9 * big), NULL, "the stockinette repeat relaxed periodically (contact radius %.4f r) and tiled %d x %d: at rest lengths of the relaxed cell, the yarn-level model's force on each of %d interior vertices is the periodic model's on its cell vertex to %.1e N (largest %.2e N)", (double)f, (int)repeats, (int)repeats, (int)checked, (double)diff, (double)big));
+    PetscCall(PetscFree(gp));
+    PetscCall(VecScatterDestroy(&sc));
+    PetscCall(VecDestroy(&Gseq));
+    PetscCall(VecDestroy(&G));
+    PetscCall(VKYLSDestroy(&y));
+    PetscCall(VKSceneDestroy(&scene));
+  }
+
+  for (int k = 0; k < 2; k++) { /* equilibrium: the given rest lengths, then the tiled ones */
+    VKScene  scene;
+    VKYLS    y;
+    VKYarn   copy;
+    PetscReal d;
+    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &copy));
+    PetscCall(VKYarnSetKnit(copy, "stockinette", repeats, repeats));
+    PetscCall(VKYarnSetRadius(copy, r));
+    PetscCall(VKYarnSetPypCell(copy, &cell, PETSC_TRUE, "relaxed periodically"));
+    PetscCall(VKYarnSetUp(copy));
+    PetscCall(HeldRing(repeats, &scene));
+    PetscCall(VKYLSCreate(copy, scene, &y));
+    PetscCall(VKYLSSetFromOptions(y));
+    y->quiet         = PETSC_TRUE;
+    y->relax_handles = PETSC_TRUE;
+    y->ftol          = 1e-6; /* tighter than a run's: the knit is soft */
+    PetscCall(PeriodicPhysics(y, f, k ? NULL : &given, cv));
+    PetscCall(VKYLSRelax(y));
+    PetscCall(VKYarnGetCurves(copy, &c));
+    d = InteriorDistance(c, x0, c->x);
+    if (!k) PetscCall(VKTestCheck((PetscBool)(d <= 0.01 * r), NULL, "the tiled patch held at its outer ring of repeats and relaxed as a patch by the yarn-level model, at the cell's given rest lengths (%d proximal steps; last residual %.2e N, tolerance %.2e N): its interior stays at the periodic state to %.2e r (<= 0.01 r)", (int)y->relax_steps, (double)y->residual, (double)y->tolerance, (double)(d / r)));
+    else PetscCall(VKTestCheck((PetscBool)(d > 0.05 * r), NULL, "the same at the tiled lengths as rest lengths, tension-free (%d proximal steps): the interior moves by up to %.3f r (> 0.05 r)", (int)y->relax_steps, (double)(d / r)));
+    PetscCall(VKYLSDestroy(&y));
+    PetscCall(VKSceneDestroy(&scene));
+    PetscCall(VKYarnDestroy(&copy));
+  }
+  PetscCall(PetscFree2(x0, cv));
+  PetscCall(VKYarnDestroy(&yarn));
+  PetscCall(VKPypFree(&given));
+  PetscCall(VKPypFree(&cell));
+  PetscCall(VKKnitChartFree(&chart));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   VKPyp               cell, relaxed, super;
@@ -308,6 +546,7 @@ int main(int argc, char **argv)
   PetscCall(LoadCell(&cell));
   PetscCall(TestRefineAndFragments(&cell, dir));
   PetscCall(TestKnitCell());
+  PetscCall(TestHeldPatch());
   PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, cell.radius, &p));
   p.ftol = 1e-7; /* tighter than the default, so that two relaxations can be compared to 1e-3 r */
   n = 3 * cell.nv + 2;
