@@ -230,3 +230,46 @@ echo "One rank.  'contact radius reached' is the one the relaxed rest state hono
 echo "range of the mean height over the patch's interior period cells (tools/yarn_flatness.py: two rings at the edges"
 echo "left out; 0 for a periodic patch; needs python3 and h5dump of hdf5-tools).  The periodic rows include the"
 echo "refinement of the cell to the segment length."
+echo
+echo "## The periodic state against the patch relaxed as a patch (issue 23: a periodic cell relaxed and tiled"
+echo "## matches a relaxed tiled patch in its interior)"
+echo
+: > "$out/commands"
+# A knit repeat relaxed periodically and tiled 8 x 8 (the reference), then relaxed again as a patch by the
+# yarn-level relaxation with straight rest rods (the periodic relaxation's physics): its outer ring of repeats
+# held by four handles, at contact radius r or at the one the periodic relaxation ended at; or free.
+echo "| pattern | patch relaxation | proximal steps | interior against the periodic state: RMS / largest, r | z extent, mm | s |"
+echo "|---|---|---|---|---|---|"
+ring="-scene_handles 4 -scene_handle0_box -1,-1,-1,-0.375,1,1 -scene_handle1_box 0.375,-1,-1,1,1,1 -scene_handle2_box -1,-1,-1,1,-0.375,1 -scene_handle3_box -1,0.375,-1,1,1,1"
+patch_row() { # pattern, label, options
+  local pat="$1" label="$2" dir="$out/repatch_$1_$(echo "$2" | tr -c 'a-z0-9\n' '_')" t0 t1 steps line
+  shift 2
+  rm -rf "$dir" "$dir.ref"
+  # the reference: the tiled periodic state under the same options (the periodic relaxation reads the
+  # -yls_relax_stages and -yls_relax_radius_start of the patch relaxation too)
+  run bin/volknit yarn -o "$dir.ref" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic "$@" > "$dir.ref.log" 2>&1
+  t0=$(date +%s.%N)
+  if run bin/volknit yarn -o "$dir" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic -yarn_relax -yls_relax_straight "$@" > "$dir.log" 2>&1; then
+    t1=$(date +%s.%N)
+    steps=$(sed -n 's/.*relaxed the yarns in \([0-9]*\) proximal steps.*/\1/p' "$dir.log")
+    line=$(python3 tools/yarn_compare.py "$dir.ref" "$dir")
+    echo "| $pat | $label | $steps | $(echo "$line" | sed -n 's/.*RMS \([0-9.]*\) r, largest \([0-9.]*\) r;.*/\1 \/ \2/p') | $(echo "$line" | sed -n 's/.*and \([0-9.]*\) mm.*/\1/p') | $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }') |"
+  else
+    echo "| $pat | $label | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-100) | - | - | - |"
+  fi
+}
+for pat in stockinette rib1x1; do
+  rm -rf "$out/repatch_${pat}_radius"
+  bin/volknit yarn -o "$out/repatch_${pat}_radius" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic -yls_relax_stages 1 -yls_relax_radius_start 1 > "$out/repatch_${pat}_radius.log" 2>&1
+  f=$(sed -n "s/.*relaxed the knit chart's repeat periodically:.* to \([0-9.]*\) r).*/\1/p" "$out/repatch_${pat}_radius.log")
+  patch_row "$pat" "ring held, at r" -yls_relax_handles $ring -yls_relax_stages 1 -yls_relax_radius_start 1
+  patch_row "$pat" "ring held, at $f r" -yls_relax_handles $ring -yls_relax_stages 1 -yls_relax_radius_start 1 -yls_relax_radius_end "$f"
+  patch_row "$pat" "free, inexact steps" -yls_relax_newton_its 15 -yls_relax_tau_growth 1e12 -yls_relax_max_steps 100000
+done
+echo
+echo "Rows produced by (each after its reference, the tiled periodic state under the same options):"
+cat "$out/commands"
+echo
+echo "One rank.  Interior: the vertices more than a quarter of the patch from its edges, after the rigid motion"
+echo "that fits them best (tools/yarn_compare.py).  The yarn model's rest lengths are the tiled patch's own, so"
+echo "the periodic state's yarn tension is released when it is relaxed again (docs/BENCHMARKS.md)."
