@@ -143,8 +143,8 @@ for n in 1 2; do
      && grep -q '"relaxed": true' "$out/periodic_patch.n$n/yarn.json"; then ok
   else not_ok "volknit yarn -yarn_relax_periodic -yarn_relax -yls_relax_handles (-n $n): expected the tiled patch relaxed again with its ring held (see $log)"; fi
 done
-if h5diff -d 1e-9 "$out/periodic_patch.n1/yarn.h5" "$out/periodic_patch.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
-else not_ok "the tiled patch relaxed as a patch differs between 1 and 2 ranks by more than 1e-9 m ($out/periodic_patch.n1/yarn.h5, $out/periodic_patch.n2/yarn.h5)"; fi
+if h5diff -d 1e-6 "$out/periodic_patch.n1/yarn.h5" "$out/periodic_patch.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+else not_ok "the tiled patch relaxed as a patch differs between 1 and 2 ranks by more than 1e-3 r ($out/periodic_patch.n1/yarn.h5, $out/periodic_patch.n2/yarn.h5)"; fi
 
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed

@@ -306,13 +306,17 @@ static PetscBool Interior(const PetscReal lo[], const PetscReal hi[], const Pets
   return PETSC_TRUE;
 }
 
-/* The largest distance between x and x0 over the interior vertices. */
-static PetscReal InteriorDistance(const VKCurves *c, const PetscReal x0[], const PetscReal x[])
+/* The largest distance between x and x0 over the vertices interior in
+ * [lo, hi], and how many there are. */
+static PetscReal InteriorDistance(PetscInt nv, const PetscReal lo[], const PetscReal hi[], const PetscReal x0[], const PetscReal x[], PetscInt *n)
 {
-  PetscReal lo[3], hi[3], d = 0;
-  VKCurvesBoundingBox(c, lo, hi);
-  for (PetscInt v = 0; v < c->nv; v++)
-    if (Interior(lo, hi, x0 + 3 * v)) d = PetscMax(d, PetscSqrtReal(PetscSqr(x[3 * v] - x0[3 * v]) + PetscSqr(x[3 * v + 1] - x0[3 * v + 1]) + PetscSqr(x[3 * v + 2] - x0[3 * v + 2])));
+  PetscReal d = 0;
+  *n          = 0;
+  for (PetscInt v = 0; v < nv; v++)
+    if (Interior(lo, hi, x0 + 3 * v)) {
+      d = PetscMax(d, PetscSqrtReal(PetscSqr(x[3 * v] - x0[3 * v]) + PetscSqr(x[3 * v + 1] - x0[3 * v + 1]) + PetscSqr(x[3 * v + 2] - x0[3 * v + 2])));
+      (*n)++;
+    }
   return d;
 }
 
@@ -361,7 +365,7 @@ static PetscErrorCode PeriodicPhysics(VKYLS y, PetscReal f, const VKPyp *given, 
     PetscInt a = cv[m->seg[2 * s]], b = cv[m->seg[2 * s + 1]], k;
     for (k = 0; k < given->ne; k++)
       if ((given->e[4 * k] == a && given->e[4 * k + 1] == b) || (given->e[4 * k] == b && given->e[4 * k + 1] == a)) break;
-    PetscCheck(k < given->ne, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Segment %d of the tiled patch is no copy of a cell edge", (int)s);
+    PetscCheck(k < given->ne, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Segment %d of the tiled patch is no copy of a cell edge", (int)s); /* a cell whose two vertices were joined by two edges (other tiles) would need the tile offsets here; these cells have none */
     {
       PetscReal d[3];
       m->L[s] = VKPypEdgeVector(given, k, d);
@@ -405,11 +409,14 @@ static PetscErrorCode HeldRing(PetscInt repeats, VKScene *scene)
  *    vertex.
  *  - Equilibrium: with the cell's given rest lengths and the outer ring
  *    of repeats held where the tiling put it (an infinite patch holds
- *    every repeat there), the patch relaxed by VKYLSRelax keeps its
- *    interior at the periodic state.
+ *    every repeat there), VKYLSRelax finds the patch static at once, to
+ *    its own stopping rule (the whole patch in force balance: a ring not
+ *    held would move).
  *  - With the tiled lengths as rest lengths (the yarn model's own rest
- *    state: tension-free) the interior moves: the check above can fail,
- *    and the knit is that soft (docs/BENCHMARKS.md). */
+ *    state: tension-free) it is not, and the interior moves: the check
+ *    above can fail, and the knit is that soft.  (To a 100 x tighter
+ *    tolerance the held patch drifts from the periodic state even at the
+ *    given lengths: its equilibrium is flat, docs/BENCHMARKS.md.) */
 static PetscErrorCode TestHeldPatch(void)
 {
   const PetscInt      repeats = 6;
@@ -430,7 +437,7 @@ static PetscErrorCode TestHeldPatch(void)
   PetscCall(VKKnitCell(&chart, &kp, r, r, &cell));
   PetscCall(VKPypCopy(&cell, &given));
   PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, r, &p));
-  p.ftol = 2e-8; /* the periodic equilibrium well inside the yarn-level relaxation's tolerance */
+  p.ftol = 2e-8; PetscCall(PetscOptionsGetReal(NULL, NULL, "-xp_ftol", &p.ftol, NULL)); /* the periodic equilibrium well inside the yarn-level relaxation's tolerance */
   PetscCall(VKYLSRelaxPeriodic(&cell, &p, &st));
   f = st.contact_radius / r;
   PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &yarn));
@@ -500,6 +507,7 @@ static PetscErrorCode TestHeldPatch(void)
     VKYLS    y;
     VKYarn   copy;
     PetscReal d;
+    PetscInt  ninterior;
     PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &copy));
     PetscCall(VKYarnSetKnit(copy, "stockinette", repeats, repeats));
     PetscCall(VKYarnSetRadius(copy, r));
@@ -511,12 +519,14 @@ static PetscErrorCode TestHeldPatch(void)
     y->quiet         = PETSC_TRUE;
     y->relax_handles = PETSC_TRUE;
     y->ftol          = 1e-6; /* tighter than a run's: the knit is soft */
+    PetscCall(PetscOptionsGetReal(NULL, NULL, "-xy_ftol", &y->ftol, NULL));
     PetscCall(PeriodicPhysics(y, f, k ? NULL : &given, cv));
     PetscCall(VKYLSRelax(y));
     PetscCall(VKYarnGetCurves(copy, &c));
-    d = InteriorDistance(c, x0, c->x);
-    if (!k) PetscCall(VKTestCheck((PetscBool)(d <= 0.01 * r), NULL, "the tiled patch held at its outer ring of repeats and relaxed as a patch by the yarn-level model, at the cell's given rest lengths (%d proximal steps; last residual %.2e N, tolerance %.2e N): its interior stays at the periodic state to %.2e r (<= 0.01 r)", (int)y->relax_steps, (double)y->residual, (double)y->tolerance, (double)(d / r)));
-    else PetscCall(VKTestCheck((PetscBool)(d > 0.05 * r), NULL, "the same at the tiled lengths as rest lengths, tension-free (%d proximal steps): the interior moves by up to %.3f r (> 0.05 r)", (int)y->relax_steps, (double)(d / r)));
+    d = InteriorDistance(c->nv, lo, hi, x0, c->x, &ninterior);
+    if (!k)
+      PetscCall(VKTestCheck((PetscBool)(ninterior > 100 && y->relax_steps == 1 && y->residual <= y->tolerance && d <= 0.01 * r), NULL, "the tiled patch, its outer ring of repeats held, at the cell's given rest lengths: the yarn-level relaxation finds it static at once (%d proximal step, residual %.2e N <= its tolerance %.2e N, -yls_ftol 1e-6, the ring's reaction included), so its %d interior vertices stay at the periodic state (moved %.1e r <= 0.01 r)", (int)y->relax_steps, (double)y->residual, (double)y->tolerance, (int)ninterior, (double)(d / r)));
+    else PetscCall(VKTestCheck((PetscBool)(ninterior > 100 && d > 0.05 * r), NULL, "the same at the tiled lengths as rest lengths, tension-free: the relaxation moves the interior by up to %.3f r (> 0.05 r) in %d proximal steps", (double)(d / r), (int)y->relax_steps));
     PetscCall(VKYLSDestroy(&y));
     PetscCall(VKSceneDestroy(&scene));
     PetscCall(VKYarnDestroy(&copy));

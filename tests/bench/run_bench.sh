@@ -242,25 +242,27 @@ echo "| pattern | patch relaxation | proximal steps | interior against the perio
 echo "|---|---|---|---|---|---|"
 ring="-scene_handles 4 -scene_handle0_box -1,-1,-1,-0.375,1,1 -scene_handle1_box 0.375,-1,-1,1,1,1 -scene_handle2_box -1,-1,-1,1,-0.375,1 -scene_handle3_box -1,0.375,-1,1,1,1"
 patch_row() { # pattern, label, options
-  local pat="$1" label="$2" dir="$out/repatch_$1_$(echo "$2" | tr -c 'a-z0-9\n' '_')" t0 t1 steps line
+  local pat="$1" label="$2" dir="$out/repatch_$1_$(echo "$2" | tr -c 'a-z0-9\n' '_')" t0 t1 steps line a shared=()
   shift 2
   rm -rf "$dir" "$dir.ref"
-  # the reference: the tiled periodic state under the same options (the periodic relaxation reads the
-  # -yls_relax_stages and -yls_relax_radius_start of the patch relaxation too)
-  run bin/volknit yarn -o "$dir.ref" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic "$@" > "$dir.ref.log" 2>&1
+  # the reference: the tiled periodic state under the same periodic options (the periodic relaxation reads
+  # the -yls_relax_stages and -yls_relax_radius_start of the patch relaxation too)
+  for ((a = 1; a <= $#; a++)); do
+    case "${!a}" in -yls_relax_stages|-yls_relax_radius_start) shared+=("${!a}"); a=$((a + 1)); shared+=("${!a}");; esac
+  done
+  run bin/volknit yarn -o "$dir.ref" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic "${shared[@]}" > "$dir.ref.log" 2>&1
   t0=$(date +%s.%N)
-  if run bin/volknit yarn -o "$dir" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic -yarn_relax -yls_relax_straight "$@" > "$dir.log" 2>&1; then
-    t1=$(date +%s.%N)
+  if run bin/volknit yarn -o "$dir" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic -yarn_relax -yls_relax_straight "$@" > "$dir.log" 2>&1 \
+     && t1=$(date +%s.%N) && line=$(python3 tools/yarn_compare.py "$dir.ref" "$dir" 2>&1); then
     steps=$(sed -n 's/.*relaxed the yarns in \([0-9]*\) proximal steps.*/\1/p' "$dir.log")
-    line=$(python3 tools/yarn_compare.py "$dir.ref" "$dir")
     echo "| $pat | $label | $steps | $(echo "$line" | sed -n 's/.*RMS \([0-9.]*\) r, largest \([0-9.]*\) r;.*/\1 \/ \2/p') | $(echo "$line" | sed -n 's/.*and \([0-9.]*\) mm.*/\1/p') | $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }') |"
   else
-    echo "| $pat | $label | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-100) | - | - | - |"
+    echo "| $pat | $label | failed: $( (grep -o 'error: .*' "$dir.log"; echo "$line") | head -1 | cut -c1-100) | - | - | - |"
   fi
 }
 for pat in stockinette rib1x1; do
   rm -rf "$out/repatch_${pat}_radius"
-  bin/volknit yarn -o "$out/repatch_${pat}_radius" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic -yls_relax_stages 1 -yls_relax_radius_start 1 > "$out/repatch_${pat}_radius.log" 2>&1
+  run bin/volknit yarn -o "$out/repatch_${pat}_radius" -yarn_pattern "$pat" -yarn_wales 8 -yarn_courses 8 -yarn_relax_periodic -yls_relax_stages 1 -yls_relax_radius_start 1 > "$out/repatch_${pat}_radius.log" 2>&1
   f=$(sed -n "s/.*relaxed the knit chart's repeat periodically:.* to \([0-9.]*\) r).*/\1/p" "$out/repatch_${pat}_radius.log")
   patch_row "$pat" "ring held, at r" -yls_relax_handles $ring -yls_relax_stages 1 -yls_relax_radius_start 1
   patch_row "$pat" "ring held, at $f r" -yls_relax_handles $ring -yls_relax_stages 1 -yls_relax_radius_start 1 -yls_relax_radius_end "$f"
