@@ -355,26 +355,36 @@ static PetscErrorCode CheckNothingRebuilt(Mat K, KSP ksp, PC pc, const char what
   PetscFunctionReturn(0);
 }
 
+/* Rank 0's first domain of 2 (SplitRows): rows [rs, hi) on rank 0, empty
+ * elsewhere. */
+static PetscErrorCode FirstDomainRows(Mat K, PetscInt *rs, PetscInt *hi)
+{
+  PetscInt    re;
+  PetscMPIInt rank;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCall(MatGetOwnershipRange(K, rs, &re));
+  *hi = rank ? *rs : *rs + (re - *rs) / 2;
+  PetscFunctionReturn(0);
+}
+
 /* Stiffer springs between x-neighbours inside rank 0's first domain of 2
  * (SplitRows' [rs, hi)), as a material change does; K is assembled by the
  * caller. */
 static PetscErrorCode StiffenFirstDomain(Mat K, PetscInt m)
 {
-  PetscInt    rs, re, hi;
-  PetscMPIInt rank;
+  PetscInt rs, hi;
 
   PetscFunctionBegin;
-  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
-  PetscCall(MatGetOwnershipRange(K, &rs, &re));
-  hi = rs + (re - rs) / 2;
-  if (!rank)
-    for (PetscInt r = rs; r + 1 < hi; r++) {
-      if (r % m == m - 1) continue;
-      PetscCall(MatSetValue(K, r, r, 0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r + 1, r + 1, 0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r, r + 1, -0.5, ADD_VALUES));
-      PetscCall(MatSetValue(K, r + 1, r, -0.5, ADD_VALUES));
-    }
+  PetscCall(FirstDomainRows(K, &rs, &hi));
+  for (PetscInt r = rs; r + 1 < hi; r++) {
+    if (r % m == m - 1) continue;
+    PetscCall(MatSetValue(K, r, r, 0.5, ADD_VALUES));
+    PetscCall(MatSetValue(K, r + 1, r + 1, 0.5, ADD_VALUES));
+    PetscCall(MatSetValue(K, r, r + 1, -0.5, ADD_VALUES));
+    PetscCall(MatSetValue(K, r + 1, r, -0.5, ADD_VALUES));
+  }
   PetscFunctionReturn(0);
 }
 
@@ -462,15 +472,11 @@ static PetscErrorCode GalerkinDifference(Mat K, PC pc, PetscReal *d)
  * nodes it touches. */
 static PetscErrorCode AddDiagonal(Mat K, PetscInt m, PetscInt off, PetscScalar dw)
 {
-  PetscInt    rs, re, hi;
-  PetscMPIInt rank;
+  PetscInt rs, hi;
 
   PetscFunctionBegin;
-  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
-  PetscCall(MatGetOwnershipRange(K, &rs, &re));
-  hi = rs + (re - rs) / 2;
-  if (!rank)
-    for (PetscInt r = rs + m * m + off; r + m * m < hi; r += 3) PetscCall(MatSetValue(K, r, r, dw, ADD_VALUES));
+  PetscCall(FirstDomainRows(K, &rs, &hi));
+  for (PetscInt r = rs + m * m + off; r + m * m < hi; r += 3) PetscCall(MatSetValue(K, r, r, dw, ADD_VALUES));
   PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));
   PetscFunctionReturn(0);

@@ -375,6 +375,18 @@ static PetscErrorCode PeriodicPhysics(VKYLS y, PetscReal f, const VKPyp *given, 
   PetscFunctionReturn(0);
 }
 
+/* The stockinette patch of repeats x repeats tiled from cell, set up. */
+static PetscErrorCode TiledStockinette(VKPyp *cell, PetscInt repeats, PetscReal r, VKYarn *yarn)
+{
+  PetscFunctionBegin;
+  PetscCall(VKYarnCreate(PETSC_COMM_WORLD, yarn));
+  PetscCall(VKYarnSetKnit(*yarn, "stockinette", repeats, repeats));
+  PetscCall(VKYarnSetRadius(*yarn, r));
+  PetscCall(VKYarnSetPypCell(*yarn, cell, PETSC_TRUE, "relaxed periodically"));
+  PetscCall(VKYarnSetUp(*yarn));
+  PetscFunctionReturn(0);
+}
+
 /* Four handles: the outer ring of repeats of a patch of repeats x repeats. */
 static PetscErrorCode HeldRing(PetscInt repeats, VKScene *scene)
 {
@@ -437,14 +449,10 @@ static PetscErrorCode TestHeldPatch(void)
   PetscCall(VKKnitCell(&chart, &kp, r, r, &cell));
   PetscCall(VKPypCopy(&cell, &given));
   PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, r, &p));
-  p.ftol = 2e-8; PetscCall(PetscOptionsGetReal(NULL, NULL, "-xp_ftol", &p.ftol, NULL)); /* the periodic equilibrium well inside the yarn-level relaxation's tolerance */
+  p.ftol = 2e-8; /* the periodic equilibrium well inside the yarn-level relaxation's tolerance */
   PetscCall(VKYLSRelaxPeriodic(&cell, &p, &st));
   f = st.contact_radius / r;
-  PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &yarn));
-  PetscCall(VKYarnSetKnit(yarn, "stockinette", repeats, repeats));
-  PetscCall(VKYarnSetRadius(yarn, r));
-  PetscCall(VKYarnSetPypCell(yarn, &cell, PETSC_TRUE, "relaxed periodically"));
-  PetscCall(VKYarnSetUp(yarn));
+  PetscCall(TiledStockinette(&cell, repeats, r, &yarn));
   PetscCall(VKYarnGetCurves(yarn, &c));
   PetscCall(PetscMalloc2(3 * c->nv, &x0, c->nv, &cv));
   PetscCall(PetscArraycpy(x0, c->x, 3 * c->nv));
@@ -508,18 +516,13 @@ static PetscErrorCode TestHeldPatch(void)
     VKYarn   copy;
     PetscReal d;
     PetscInt  ninterior;
-    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &copy));
-    PetscCall(VKYarnSetKnit(copy, "stockinette", repeats, repeats));
-    PetscCall(VKYarnSetRadius(copy, r));
-    PetscCall(VKYarnSetPypCell(copy, &cell, PETSC_TRUE, "relaxed periodically"));
-    PetscCall(VKYarnSetUp(copy));
+    PetscCall(TiledStockinette(&cell, repeats, r, &copy));
     PetscCall(HeldRing(repeats, &scene));
     PetscCall(VKYLSCreate(copy, scene, &y));
     PetscCall(VKYLSSetFromOptions(y));
     y->quiet         = PETSC_TRUE;
     y->relax_handles = PETSC_TRUE;
     y->ftol          = 1e-6; /* tighter than a run's: the knit is soft */
-    PetscCall(PetscOptionsGetReal(NULL, NULL, "-xy_ftol", &y->ftol, NULL));
     PetscCall(PeriodicPhysics(y, f, k ? NULL : &given, cv));
     PetscCall(VKYLSRelax(y));
     PetscCall(VKYarnGetCurves(copy, &c));
