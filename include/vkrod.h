@@ -93,6 +93,11 @@ typedef struct {
 } VKRodFrames;
 
 PETSC_EXTERN PetscErrorCode VKRodModelCreate(const VKCurves *rest, const VKRodParams *, PetscReal density, VKRodModel *);
+/* A rest state that is not the rest polylines' (VKYarnGetRestLengths):
+ * rods naturally straight and untwisted at rest lengths L (per segment).
+ * Masses, rest frames and the arc lengths of the contact exclusion stay
+ * the polylines'. */
+PETSC_EXTERN PetscErrorCode VKRodModelSetRestLengths(VKRodModel *, const PetscReal L[]);
 PETSC_EXTERN PetscErrorCode VKRodModelDestroy(VKRodModel *);
 /* Candidate contact pairs at positions x (3 nv): every admissible segment
  * pair (a, b), a < b, a in [abeg, aend), with axes closer than 2r + margin,

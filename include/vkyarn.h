@@ -88,12 +88,22 @@ PETSC_EXTERN PetscErrorCode VKPypFree(VKPyp *);
 PETSC_EXTERN PetscErrorCode VKPypCopy(const VKPyp *, VKPyp *);
 /* Edge k as a vector, its second vertex in its tile (d: 3), and its length. */
 PETSC_EXTERN PetscReal      VKPypEdgeVector(const VKPyp *, PetscInt k, PetscReal d[3]);
+/* Rest length of every edge (L: ne): the *RL section's (one per vertex,
+ * for the edge leaving it, as HYLC writes it; given = true), or without
+ * one the edge lengths of the geometry (given = false). */
+PETSC_EXTERN PetscErrorCode VKPypGetRestLengths(const VKPyp *, PetscReal L[], PetscBool *given);
+/* Record rest lengths per edge as the *RL section (each vertex must start
+ * at most one edge). */
+PETSC_EXTERN PetscErrorCode VKPypSetRestLengths(VKPyp *, const PetscReal L[]);
 /* Every edge split into equal pieces no longer than maxlen (the new
  * vertices in the tile of the edge's first one); the extra sections are
- * dropped. */
+ * dropped, but given rest lengths (*RL), which the pieces share equally. */
 PETSC_EXTERN PetscErrorCode VKPypRefine(VKPyp *, PetscReal maxlen);
 /* Tile m x n copies; origin (optional, 2 per vertex: tile i + m*j, pattern vertex). */
 PETSC_EXTERN PetscErrorCode VKPypTile(const VKPyp *, PetscInt m, PetscInt n, VKCurves *, PetscInt **origin);
+/* Rest length (VKPypGetRestLengths) of the segment leaving each vertex of
+ * that tiling (Lnext: nv; 0 at the end of an open curve). */
+PETSC_EXTERN PetscErrorCode VKPypTileRestLengths(const VKPyp *, PetscInt m, const VKCurves *, const PetscInt origin[], PetscReal Lnext[]);
 
 /* One repeat of a knit chart (chart->rows courses of chart->cols loops of
  * the geometry p) as a periodic cell: periods cols w by rows dy, each
@@ -132,6 +142,18 @@ PETSC_EXTERN PetscErrorCode VKYarnSetCurves(VKYarn, const VKCurves *);
  * polylines are the model as they are (the cell already at the segment
  * length), not resampled.  VKYarnWriteOutputs writes it as cell.pyp. */
 PETSC_EXTERN PetscErrorCode VKYarnSetPypCell(VKYarn, const VKPyp *, PetscBool exact, const char description[]);
+/* With keep, the patch tiled from that cell (exact only) keeps the cell's
+ * rest state instead of taking its own geometry as stress-free: naturally
+ * straight, untwisted rods at the cell's rest lengths (its *RL, the
+ * lengths a periodic relaxation stretched it from).  The interior of the
+ * tiled patch is then in the periodic equilibrium, tension and bending
+ * moments included, and free edges curl as a real knit's do. */
+PETSC_EXTERN PetscErrorCode VKYarnSetKeepCellRest(VKYarn, PetscBool keep);
+/* Rest length per segment (VKCurvesGetSegments order) of a yarn whose rest
+ * state is not its geometry (VKYarnSetKeepCellRest: rods naturally
+ * straight and untwisted at these lengths), or NULL: the rest state is the
+ * geometry (rest lengths, curvatures and twist of the rest polylines). */
+PETSC_EXTERN PetscErrorCode VKYarnGetRestLengths(VKYarn, const PetscReal **L);
 /* A knit model's chart repeat as a periodic cell (VKKnitCell) at the
  * yarn's knit geometry and segment length (before VKYarnSetUp). */
 PETSC_EXTERN PetscErrorCode VKYarnGetKnitCell(VKYarn, VKPyp *);

@@ -146,6 +146,26 @@ done
 if h5diff -d 1e-6 "$out/periodic_patch.n1/yarn.h5" "$out/periodic_patch.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
 else not_ok "the tiled patch relaxed as a patch differs between 1 and 2 ranks by more than 1e-3 r ($out/periodic_patch.n1/yarn.h5, $out/periodic_patch.n2/yarn.h5)"; fi
 
+# the tiled repeat keeping the cell's rest state (-yarn_relax_periodic_rest):
+# held at its outer ring of repeats, the yarn-level run finds it static
+# (the periodic equilibrium, tension and all); left free, it moves at once
+# (its rest state is not the tiled geometry); 1 and 2 ranks agree
+ring="-scene_handles 4 -scene_handle0_box -1,-1,-1,-0.25,1,1 -scene_handle1_box 0.25,-1,-1,1,1,1 -scene_handle2_box -1,-1,-1,1,-0.25,1 -scene_handle3_box -1,0.25,-1,1,1,1"
+for n in 1 2; do
+  d="$out/periodic_rest.n$n"
+  log="$d.log"
+  # shellcheck disable=SC2086
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$d" -yarn_pattern stockinette -yarn_wales 4 -yarn_courses 4 -yarn_relax_periodic -yarn_relax_periodic_rest > "$log" 2>&1 \
+     && grep -q "it keeps the cell's rest state" "$log" && grep -q '"rest_state": "cell' "$d/yarn.json" \
+     && timeout 300 $MPIEXEC -n "$n" bin/volknit yls -o "$d/held" -yarn_h5 "$d/yarn.h5" -scene_gravity 0,0,0 -scene_duration 0.005 -scene_output_interval 0.005 $ring >> "$log" 2>&1 \
+     && h5diff -d 1e-9 "$d/held/yls.h5" "$d/held/yls.h5" /frames/000000/x /frames/000001/x > /dev/null 2>&1 \
+     && timeout 300 $MPIEXEC -n "$n" bin/volknit yls -o "$d/free" -yarn_h5 "$d/yarn.h5" -scene_gravity 0,0,0 -scene_duration 0.002 -scene_output_interval 0.002 >> "$log" 2>&1 \
+     && { h5diff -d 1e-6 "$d/free/yls.h5" "$d/free/yls.h5" /frames/000000/x /frames/000001/x > /dev/null 2>&1; [ $? -eq 1 ]; }; then ok
+  else not_ok "volknit yarn -yarn_relax_periodic -yarn_relax_periodic_rest, then yls (-n $n): expected the ring-held patch static to 1e-6 r over 5 steps and the free one moving more than 1e-3 r in 2 (see $log)"; fi
+done
+if h5diff -d 1e-12 "$out/periodic_rest.n1/yarn.h5" "$out/periodic_rest.n2/yarn.h5" /yarn/rest_length > /dev/null 2>&1; then ok
+else not_ok "the rest lengths of the patch keeping its cell's rest state differ between 1 and 2 ranks ($out/periodic_rest.n1/yarn.h5, $out/periodic_rest.n2/yarn.h5)"; fi
+
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed
 cmp_failed=$failed

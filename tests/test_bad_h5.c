@@ -1,7 +1,8 @@
 /* test_bad_h5.c: the readers of volknit's own HDF5 files refuse broken
  * files (DESIGN §12).
  * ranks: 1 2
- * A valid yarn.h5, mesh.h5 and material.h5 are written, then copies with one dataset or
+ * A valid yarn.h5 (and rest.yarn.h5, a patch keeping its cell's rest
+ * lengths), mesh.h5 and material.h5 are written, then copies with one dataset or
  * attribute broken (missing, wrong shape, NaN, indices out of range,
  * inconsistent counts, tets that are not Kuhn tets of their voxel, ...).
  * Each must be refused with an error whose message names the problem; the
@@ -97,7 +98,7 @@ static PetscErrorCode Apply(const char path[], const Case *c)
 static PetscErrorCode Load(const char file[], const char path[], PetscErrorCode *ierr)
 {
   PetscFunctionBegin;
-  if (!strcmp(file, "yarn.h5")) {
+  if (strstr(file, "yarn.h5")) {
     VKYarn y;
     PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &y));
     PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
@@ -166,6 +167,10 @@ int main(int argc, char **argv)
     {"mesh.h5", "/mesh/node_ijk",       NULL,       RESHAPE,     3,  0,          "node_ijk has 4 rows"                   },
     {"mesh.h5", "/mesh",                "h",        ATTR_REAL,   0,  0,          "grid size h"                           },
     {"mesh.h5", "/mesh",                "format",   ATTR_STRING, 0,  0,          "expected 'volknit-mesh 1'"             },
+    {"rest.yarn.h5", "/yarn/rest_length", NULL,     DROP,        0,  0,          "dataset /yarn/rest_length is missing"  },
+    {"rest.yarn.h5", "/yarn/rest_length", NULL,     RESHAPE,     1,  0,          "/yarn/rest_length has 4 rows"          },
+    {"rest.yarn.h5", "/yarn/rest_length", NULL,     SET_REAL,    5,  -1,         "of segment 5 is not positive"},
+    {"rest.yarn.h5", "/yarn",           "contact_radius", ATTR_REAL, 0, 1,       "must be in [0, 2 x radius"},
     {"mesh.h5", "/yarn/x",              NULL,       DROP,        0,  0,          "dataset /yarn/x is missing"            },
     {"material.h5", "/material/gamma",  NULL,       SET_REAL,    3,  -5,         "must be finite and non-negative"       },
     {"material.h5", "/material/gamma",  NULL,       SET_REAL,    0,  NAN,        "must be finite and non-negative"       },
@@ -201,6 +206,19 @@ int main(int argc, char **argv)
   }
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
+  { /* a patch tiled from a knit cell, keeping the cell's rest lengths */
+    VKPyp cell;
+    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &y));
+    PetscCall(VKYarnSetKnit(y, "stockinette", 2, 2));
+    PetscCall(VKYarnGetKnitCell(y, &cell));
+    PetscCall(VKYarnSetPypCell(y, &cell, PETSC_TRUE, "as built"));
+    PetscCall(VKYarnSetKeepCellRest(y, PETSC_TRUE));
+    PetscCall(VKYarnSetUp(y));
+    PetscCall(VKPathJoin(dir, "rest.yarn.h5", path, sizeof(path)));
+    PetscCall(VKYarnWriteH5(y, path));
+    PetscCall(VKPypFree(&cell));
+    PetscCall(VKYarnDestroy(&y));
+  }
   for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
     const Case    *c = &cases[i];
     PetscErrorCode ierr, apply = 0;
@@ -222,8 +240,8 @@ int main(int argc, char **argv)
     }
     PetscCall(VKTestCheck((PetscBool)(ierr && strstr(msg, c->expect)), msg, "%s with %s%s%s broken is refused: '%s'", c->file, c->name, c->attr ? "@" : "", c->attr ? c->attr : "", c->expect));
   }
-  for (int f = 0; f < 3; f++) { /* the untouched files load */
-    const char    *name[3] = {"yarn.h5", "mesh.h5", "material.h5"};
+  for (int f = 0; f < 4; f++) { /* the untouched files load */
+    const char    *name[4] = {"yarn.h5", "rest.yarn.h5", "mesh.h5", "material.h5"};
     PetscErrorCode ierr;
     PetscCall(VKPathJoin(dir, name[f], path, sizeof(path)));
     PetscCall(Load(name[f], path, &ierr));

@@ -95,6 +95,55 @@ static PetscErrorCode TestPyp(const char dir[])
   PetscCall(VKTestClose(worst, 0, 1e-15, "pyp: tile copies coincide after translation by the periods"));
   PetscCall(VKTestCheck((PetscBool)(c.n == n && !c.closed[0] && VKCurveSize(&c, 0) == m * b.nv), NULL, "pyp: each course of the tiling is one open yarn through %d tiles", (int)m));
   PetscCall(PetscFree(first));
+  { /* rest lengths: *RL read per vertex, carried to the tiled segments, shared out by refinement, broken ones refused */
+    PetscReal *L, *Lnext, sum = 0, tiled = 0, refined = 0, share = 0;
+    PetscBool  given;
+    VKPyp      fine, bad;
+    PetscCall(PetscMalloc2(b.ne, &L, c.nv, &Lnext));
+    PetscCall(VKPypGetRestLengths(&b, L, &given));
+    same = given;
+    for (PetscInt k = 0; k < b.ne; k++) {
+      same = (PetscBool)(same && L[k] == b.extra[0].v[b.e[4 * k]]);
+      sum += L[k];
+    }
+    PetscCall(VKPypTileRestLengths(&b, m, &c, origin, Lnext));
+    for (PetscInt v = 0; v < c.nv; v++) tiled += Lnext[v];
+    /* every edge in every tile but the one each course leaves the patch by */
+    PetscCall(VKTestCheck((PetscBool)(same && PetscAbsReal(tiled - (m * n * sum - n * L[b.ne - 1])) <= 1e-12 * tiled), NULL, "pyp: *RL gives each edge its first vertex's rest length, and the %d x %d tiling's segments carry them (sum %.6g = %d x %d x %.6g - %d x %.6g)", (int)m, (int)n, (double)tiled, (int)m, (int)n, (double)sum, (int)n, (double)L[b.ne - 1]));
+    PetscCall(VKPypCopy(&b, &fine));
+    PetscCall(VKPypRefine(&fine, 0.3 * b.radius));
+    {
+      PetscReal *Lf;
+      PetscCall(PetscMalloc1(fine.ne, &Lf));
+      PetscCall(VKPypGetRestLengths(&fine, Lf, &given));
+      for (PetscInt k = 0; k < fine.ne; k++) refined += Lf[k];
+      share = Lf[0];
+      PetscCall(PetscFree(Lf));
+    }
+    PetscCall(VKTestCheck((PetscBool)(given && fine.ne > b.ne && fine.nextra == 1 && PetscAbsReal(refined - sum) <= 1e-12 * sum && share < L[0]), NULL, "pyp: refined to %d edges, the pieces share each edge's rest length (sum %.6g = %.6g)", (int)fine.ne, (double)refined, (double)sum));
+    PetscCall(VKPypFree(&fine));
+    for (int k = 0; k < 3; k++) {
+      PetscErrorCode ierr;
+      const char    *msg = NULL, *expect[3] = {"one rest length per vertex", "must be positive", "starts two edges"};
+      PetscCall(VKPypCopy(&b, &bad));
+      if (k == 0) bad.extra[0].rows--;
+      else if (k == 1) bad.extra[0].v[3] = -1;
+      else { /* edge 2 turned round: vertex 3 starts edges 2 and 3 */
+        PetscInt t = bad.e[8];
+        bad.e[8] = bad.e[9];
+        bad.e[9] = t;
+        bad.e[10] = -bad.e[10];
+        bad.e[11] = -bad.e[11];
+      }
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+      ierr = VKPypGetRestLengths(&bad, L, NULL);
+      PetscCall(PetscPopErrorHandler());
+      if (ierr) PetscCall(PetscErrorMessage(ierr, NULL, (char **)&msg));
+      PetscCall(VKTestCheck((PetscBool)(ierr && msg && strstr(msg, expect[k])), msg, "pyp: *RL %s is refused: '... %s ...'", k == 0 ? "one row short" : k == 1 ? "with a negative length" : "on a yarn whose edges run both ways", expect[k]));
+      PetscCall(VKPypFree(&bad));
+    }
+    PetscCall(PetscFree2(L, Lnext));
+  }
   PetscCall(PetscFree(origin));
   PetscCall(VKCurvesFree(&c));
   {
@@ -188,8 +237,30 @@ static PetscErrorCode TestH5(const char dir[])
   for (PetscInt i = 0; same && i < 3 * nseg; i++) same = (PetscBool)(a->normal[i] == b->normal[i]);
   for (PetscInt i = 0; same && i < 2 * a->nbind; i++) same = (PetscBool)(a->bind[i] == b->bind[i]);
   PetscCall(VKTestCheck(same, NULL, "HDF5: yarn write then load reproduces positions, curves, frames, glue, radius and density exactly"));
+  PetscCall(VKTestCheck((PetscBool)(!a->rest_length && !b->rest_length), NULL, "HDF5: a yarn whose rest state is its geometry reads back without rest lengths"));
   PetscCall(VKYarnDestroy(&a));
   PetscCall(VKYarnDestroy(&b));
+  { /* a patch tiled from a knit cell keeping its rest state: the rest lengths round-trip */
+    VKPyp cell;
+    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &a));
+    PetscCall(VKYarnSetKnit(a, "stockinette", 2, 2));
+    PetscCall(VKYarnSetRadius(a, 1e-3));
+    PetscCall(VKYarnGetKnitCell(a, &cell));
+    PetscCall(VKYarnSetPypCell(a, &cell, PETSC_TRUE, "as built"));
+    PetscCall(VKYarnSetKeepCellRest(a, PETSC_TRUE));
+    PetscCall(VKYarnSetUp(a));
+    PetscCall(VKPathJoin(dir, "rest.h5", path, sizeof(path)));
+    PetscCall(VKYarnWriteH5(a, path));
+    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &b));
+    PetscCall(VKYarnLoadH5(b, path));
+    nseg = VKCurvesNumSegments(&a->curves);
+    same = (PetscBool)(a->rest_length && b->rest_length && nseg == VKCurvesNumSegments(&b->curves));
+    for (PetscInt s = 0; same && s < nseg; s++) same = (PetscBool)(a->rest_length[s] == b->rest_length[s] && a->rest_length[s] > 0);
+    PetscCall(VKTestCheck(same, NULL, "HDF5: a patch keeping its cell's rest state (%d segments) writes and reads its rest lengths exactly", (int)nseg));
+    PetscCall(VKPypFree(&cell));
+    PetscCall(VKYarnDestroy(&a));
+    PetscCall(VKYarnDestroy(&b));
+  }
   PetscFunctionReturn(0);
 }
 

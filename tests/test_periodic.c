@@ -341,12 +341,10 @@ static PetscErrorCode CellVertices(const VKCurves *c, const VKPyp *cell, PetscIn
 }
 
 /* The yarn-level model of the tiled patch as the periodic relaxation sees
- * it: straight untwisted rest rods, contact radius f r, no gravity, and
- * with `given` the rest lengths of the cell as given (segment a -> b is a
- * copy of the cell edge cv[a] -> cv[b]), the lengths the periodic
- * equilibrium is stretched from; otherwise the tiled lengths (the
- * model's own: its rest state is the geometry it is given). */
-static PetscErrorCode PeriodicPhysics(VKYLS y, PetscReal f, const VKPyp *given, const PetscInt cv[])
+ * it: straight untwisted rest rods, contact radius f r, no gravity; the
+ * rest lengths the yarn's (the cell's with VKYarnSetKeepCellRest, else
+ * the tiled lengths). */
+static PetscErrorCode PeriodicPhysics(VKYLS y, PetscReal f)
 {
   VKRodModel *m = &y->model;
 
@@ -360,29 +358,19 @@ static PetscErrorCode PeriodicPhysics(VKYLS y, PetscReal f, const VKPyp *given, 
   y->relax_radius_start = 1;
   y->relax_radius_end   = f;
   m->par.radius         = f * y->par.radius;
-  if (!given) PetscFunctionReturn(0);
-  for (PetscInt s = 0; s < m->nseg; s++) {
-    PetscInt a = cv[m->seg[2 * s]], b = cv[m->seg[2 * s + 1]], k;
-    for (k = 0; k < given->ne; k++)
-      if ((given->e[4 * k] == a && given->e[4 * k + 1] == b) || (given->e[4 * k] == b && given->e[4 * k + 1] == a)) break;
-    PetscCheck(k < given->ne, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Segment %d of the tiled patch is no copy of a cell edge", (int)s); /* a cell whose two vertices were joined by two edges (other tiles) would need the tile offsets here; these cells have none */
-    {
-      PetscReal d[3];
-      m->L[s] = VKPypEdgeVector(given, k, d);
-    }
-  }
-  for (PetscInt k = 0; k < m->nbend; k++) m->lbar[k] = 0.5 * (m->L[m->bseg[2 * k]] + m->L[m->bseg[2 * k + 1]]);
   PetscFunctionReturn(0);
 }
 
-/* The stockinette patch of repeats x repeats tiled from cell, set up. */
-static PetscErrorCode TiledStockinette(VKPyp *cell, PetscInt repeats, PetscReal r, VKYarn *yarn)
+/* The stockinette patch of repeats x repeats tiled from cell, set up;
+ * with keep, at the cell's rest state (VKYarnSetKeepCellRest). */
+static PetscErrorCode TiledStockinette(VKPyp *cell, PetscInt repeats, PetscReal r, PetscBool keep, VKYarn *yarn)
 {
   PetscFunctionBegin;
   PetscCall(VKYarnCreate(PETSC_COMM_WORLD, yarn));
   PetscCall(VKYarnSetKnit(*yarn, "stockinette", repeats, repeats));
   PetscCall(VKYarnSetRadius(*yarn, r));
   PetscCall(VKYarnSetPypCell(*yarn, cell, PETSC_TRUE, "relaxed periodically"));
+  PetscCall(VKYarnSetKeepCellRest(*yarn, keep));
   PetscCall(VKYarnSetUp(*yarn));
   PetscFunctionReturn(0);
 }
@@ -414,12 +402,13 @@ static PetscErrorCode HeldRing(PetscInt repeats, VKScene *scene)
  * contact search, glue and twist; nothing shared with periodic.c but the
  * element kernels) with the periodic relaxation's physics: straight rest
  * rods at the contact radius that relaxation ended at.
- *  - Forces: at the tiled state, with the rest lengths of the relaxed
- *    cell on both sides (about 2e-3 N on some vertices: the periodic
- *    equilibrium is stretched from the cell as given), the yarn-level
- *    force on every interior vertex is the periodic force on its cell
- *    vertex.
- *  - Equilibrium: with the cell's given rest lengths and the outer ring
+ *  - Forces: at the tiled state, with the relaxed cell's own lengths as
+ *    rest lengths on both sides (about 2e-3 N on some vertices: the
+ *    periodic equilibrium is stretched from the cell as given), the
+ *    yarn-level force on every interior vertex is the periodic force on
+ *    its cell vertex.
+ *  - Equilibrium: the patch keeping the cell's rest state (the given
+ *    lengths, which the relaxed cell records as *RL) and the outer ring
  *    of repeats held where the tiling put it (an infinite patch holds
  *    every repeat there), VKYLSRelax finds the patch static at once, to
  *    its own stopping rule (the whole patch in force balance: a ring not
@@ -434,7 +423,7 @@ static PetscErrorCode TestHeldPatch(void)
   const PetscInt      repeats = 6;
   VKKnitParams        kp;
   VKKnitChart         chart;
-  VKPyp               cell, given;
+  VKPyp               cell, bare;
   VKYLSPeriodicParams p;
   VKYLSPeriodicStats  st;
   VKYarn              yarn;
@@ -447,12 +436,14 @@ static PetscErrorCode TestHeldPatch(void)
   PetscCall(VKKnitChartBuiltin("stockinette", &chart));
   kp.wales = kp.courses = repeats;
   PetscCall(VKKnitCell(&chart, &kp, r, r, &cell));
-  PetscCall(VKPypCopy(&cell, &given));
   PetscCall(VKYLSPeriodicParamsFromOptions(PETSC_COMM_WORLD, r, &p));
   p.ftol = 2e-8; /* the periodic equilibrium well inside the yarn-level relaxation's tolerance */
   PetscCall(VKYLSRelaxPeriodic(&cell, &p, &st));
   f = st.contact_radius / r;
-  PetscCall(TiledStockinette(&cell, repeats, r, &yarn));
+  PetscCall(VKPypCopy(&cell, &bare)); /* the relaxed cell without its *RL: at its own lengths */
+  for (PetscInt i = 0; i < bare.nextra; i++) PetscCall(PetscFree(bare.extra[i].v));
+  bare.nextra = 0;
+  PetscCall(TiledStockinette(&cell, repeats, r, PETSC_FALSE, &yarn));
   PetscCall(VKYarnGetCurves(yarn, &c));
   PetscCall(PetscMalloc2(3 * c->nv, &x0, c->nv, &cv));
   PetscCall(PetscArraycpy(x0, c->x, 3 * c->nv));
@@ -471,7 +462,7 @@ static PetscErrorCode TestHeldPatch(void)
     PetscCall(VKSceneCreate(PETSC_COMM_WORLD, &scene));
     PetscCall(VKYLSCreate(yarn, scene, &y));
     PetscCall(VKYLSSetFromOptions(y));
-    PetscCall(PeriodicPhysics(y, f, NULL, NULL));
+    PetscCall(PeriodicPhysics(y, f));
     y->relaxing = PETSC_TRUE; /* no inertia: x = x_n, v = 0 */
     PetscCall(PetscArraycpy(y->xall, x0, 3 * c->nv));
     PetscCall(PetscArraycpy(y->xn, x0, 3 * c->nv));
@@ -487,8 +478,8 @@ static PetscErrorCode TestHeldPatch(void)
     PetscCall(PetscMalloc1(n, &gp));
     {
       PetscReal *q;
-      PetscCall(Unknowns(&cell, &q));
-      PetscCall(VKYLSPeriodicEvaluate(&cell, &pe, q, &E, gp, NULL)); /* rest lengths: the relaxed cell's */
+      PetscCall(Unknowns(&bare, &q));
+      PetscCall(VKYLSPeriodicEvaluate(&bare, &pe, q, &E, gp, NULL)); /* rest lengths: the relaxed cell's own */
       PetscCall(PetscFree(q));
     }
     PetscCall(VecGetArrayRead(Gseq, &g));
@@ -510,25 +501,25 @@ static PetscErrorCode TestHeldPatch(void)
     PetscCall(VKSceneDestroy(&scene));
   }
 
-  for (int k = 0; k < 2; k++) { /* equilibrium: the given rest lengths, then the tiled ones */
+  for (int k = 0; k < 2; k++) { /* equilibrium: the cell's rest state kept, then the tiled lengths */
     VKScene  scene;
     VKYLS    y;
     VKYarn   copy;
     PetscReal d;
     PetscInt  ninterior;
-    PetscCall(TiledStockinette(&cell, repeats, r, &copy));
+    PetscCall(TiledStockinette(&cell, repeats, r, (PetscBool)!k, &copy));
     PetscCall(HeldRing(repeats, &scene));
     PetscCall(VKYLSCreate(copy, scene, &y));
     PetscCall(VKYLSSetFromOptions(y));
     y->quiet         = PETSC_TRUE;
     y->relax_handles = PETSC_TRUE;
     y->ftol          = 1e-6; /* tighter than a run's: the knit is soft */
-    PetscCall(PeriodicPhysics(y, f, k ? NULL : &given, cv));
+    PetscCall(PeriodicPhysics(y, f));
     PetscCall(VKYLSRelax(y));
     PetscCall(VKYarnGetCurves(copy, &c));
     d = InteriorDistance(c->nv, lo, hi, x0, c->x, &ninterior);
     if (!k)
-      PetscCall(VKTestCheck((PetscBool)(ninterior > 100 && y->relax_steps == 1 && y->residual <= y->tolerance && d <= 0.01 * r), NULL, "the tiled patch, its outer ring of repeats held, at the cell's given rest lengths: the yarn-level relaxation finds it static at once (%d proximal step, residual %.2e N <= its tolerance %.2e N, -yls_ftol 1e-6, the ring's reaction included), so its %d interior vertices stay at the periodic state (moved %.1e r <= 0.01 r)", (int)y->relax_steps, (double)y->residual, (double)y->tolerance, (int)ninterior, (double)(d / r)));
+      PetscCall(VKTestCheck((PetscBool)(ninterior > 100 && y->relax_steps == 1 && y->residual <= y->tolerance && d <= 0.01 * r), NULL, "the tiled patch, its outer ring of repeats held, keeping the cell's rest state (VKYarnSetKeepCellRest: its *RL lengths): the yarn-level relaxation finds it static at once (%d proximal step, residual %.2e N <= its tolerance %.2e N, -yls_ftol 1e-6, the ring's reaction included), so its %d interior vertices stay at the periodic state (moved %.1e r <= 0.01 r)", (int)y->relax_steps, (double)y->residual, (double)y->tolerance, (int)ninterior, (double)(d / r)));
     else PetscCall(VKTestCheck((PetscBool)(ninterior > 100 && d > 0.05 * r), NULL, "the same at the tiled lengths as rest lengths, tension-free: the relaxation moves the interior by up to %.3f r (> 0.05 r) in %d proximal steps", (double)(d / r), (int)y->relax_steps));
     PetscCall(VKYLSDestroy(&y));
     PetscCall(VKSceneDestroy(&scene));
@@ -536,7 +527,7 @@ static PetscErrorCode TestHeldPatch(void)
   }
   PetscCall(PetscFree2(x0, cv));
   PetscCall(VKYarnDestroy(&yarn));
-  PetscCall(VKPypFree(&given));
+  PetscCall(VKPypFree(&bare));
   PetscCall(VKPypFree(&cell));
   PetscCall(VKKnitChartFree(&chart));
   PetscFunctionReturn(0);
@@ -589,6 +580,23 @@ int main(int argc, char **argv)
   PetscCall(VKTestCheck((PetscBool)(st.residual <= tol && st.dmin_over_2r >= 1 - 1e-4 && E1 < E0), NULL, "stockinette cell relaxed periodically in %d Newton iterations, %d stages from %.3f r (contact radius at the end %.4f r): largest force %.2e N <= %.2e N, closest axes %.4f x 2r (>= 1 - 1e-4), energy %.4e -> %.4e J", (int)st.iterations, (int)st.stages, (double)(st.radius_start / p.radius), (double)(st.contact_radius / p.radius), (double)st.residual, (double)tol, (double)st.dmin_over_2r, (double)E0, (double)E1));
   PetscCall(Taylor(&cell, &p, qr, 1e-6 * p.radius, "the relaxed cell (contacts active)"));
   PetscCall(VKTestCheck((PetscBool)(st.period[0] > 0 && st.period[1] > 0 && (PetscAbsReal(st.period[0] - st.period0[0]) > 1e-3 * p.radius || PetscAbsReal(st.period[1] - st.period0[1]) > 1e-3 * p.radius)), NULL, "the periods relax too: %.5g x %.5g -> %.5g x %.5g mm", (double)(1e3 * st.period0[0]), (double)(1e3 * st.period0[1]), (double)(1e3 * st.period[0]), (double)(1e3 * st.period[1])));
+  { /* the relaxed cell records the rest lengths it was relaxed at, so relaxing it again finds it static */
+    VKPyp              again;
+    VKYLSPeriodicStats ast;
+    PetscReal         *Lc, *Lr, dL = 0, dx = 0;
+    PetscBool          given0, given1;
+    PetscCall(PetscMalloc2(cell.ne, &Lc, relaxed.ne, &Lr));
+    PetscCall(VKPypGetRestLengths(&cell, Lc, &given0));
+    PetscCall(VKPypGetRestLengths(&relaxed, Lr, &given1));
+    for (PetscInt k = 0; k < cell.ne; k++) dL = PetscMax(dL, PetscAbsReal(Lr[k] - Lc[k]));
+    PetscCall(VKPypCopy(&relaxed, &again));
+    PetscCall(VKYLSRelaxPeriodic(&again, &p, &ast));
+    for (PetscInt v = 0; v < again.nv; v++)
+      for (int c = 0; c < 3; c++) dx = PetscMax(dx, PetscAbsReal(again.q[4 * v + c] - relaxed.q[4 * v + c]));
+    PetscCall(VKTestCheck((PetscBool)(!given0 && given1 && relaxed.ne == cell.ne && dL == 0 && dx <= 1e-3 * p.radius), NULL, "the relaxed cell records the rest lengths it was relaxed at as *RL (the cell's edges as given, exactly), and relaxing it again (%d Newton iterations) moves no vertex more than %.1e r (<= 1e-3 r)", (int)ast.iterations, (double)(dx / p.radius)));
+    PetscCall(PetscFree2(Lc, Lr));
+    PetscCall(VKPypFree(&again));
+  }
   {
     PetscReal   dmax = 0;
     PetscMPIInt size;

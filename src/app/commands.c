@@ -106,7 +106,7 @@ PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
  * contacts exactly). */
 /* The cell of a knit or pyp source, refined, relaxed and handed to the
  * yarn; every rank computes the same, and meets the same errors. */
-static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[], VKPyp *cell, VKYLSPeriodicParams *p, VKYLSPeriodicStats *st)
+static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[], PetscBool keep, VKPyp *cell, VKYLSPeriodicParams *p, VKYLSPeriodicStats *st)
 {
   MPI_Comm comm;
 
@@ -137,12 +137,15 @@ static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[]
   }
   PetscCall(VKYLSRelaxPeriodic(cell, p, st));
   PetscCall(VKYarnSetPypCell(y, cell, PETSC_TRUE, "relaxed periodically"));
+  PetscCall(VKYarnSetKeepCellRest(y, keep));
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done)
+/* done: a cell was relaxed; contact: the contact radius its equilibrium
+ * holds at, in yarn radii. */
+static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done, PetscReal *contact)
 {
-  PetscBool           relax = PETSC_FALSE;
+  PetscBool           relax = PETSC_FALSE, keep = PETSC_FALSE;
   VKYarnSource        source;
   const char         *file;
   MPI_Comm            comm;
@@ -157,7 +160,9 @@ static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done)
   PetscCall(VKYarnGetComm(y, &comm));
   PetscOptionsBegin(comm, NULL, "Periodic relaxation (issue 23)", "volknit yarn");
   PetscCall(PetscOptionsBool("-yarn_relax_periodic", "Relax the pyp cell of -yarn_pyp, or one repeat of the knit chart, as one cell of an infinite periodic patch (periods free, contact with its neighbouring copies) before tiling it; written as DIR/cell.pyp", "VKYLSRelaxPeriodic", relax, &relax, NULL));
+  PetscCall(PetscOptionsBool("-yarn_relax_periodic_rest", "With -yarn_relax_periodic: the tiled patch keeps the cell's rest state (naturally straight rods at the cell's rest lengths, so its interior holds the periodic equilibrium's tension and its free edges curl) instead of taking its geometry as stress-free", "VKYarnSetKeepCellRest", keep, &keep, NULL));
   PetscOptionsEnd();
+  PetscCheck(relax || !keep, comm, PETSC_ERR_ARG_INCOMP, "-yarn_relax_periodic_rest keeps the rest state of a periodically relaxed cell: give -yarn_relax_periodic too");
   *done = relax;
   if (!relax) PetscFunctionReturn(0);
   PetscCall(VKYarnGetSource(y, &source, &file, NULL, NULL));
@@ -165,11 +170,12 @@ static PetscErrorCode RelaxPeriodicCell(VKYarn y, PetscBool *done)
   if (source == VK_YARN_CHART) PetscCall(PetscSNPrintf(what, sizeof(what), "the knit chart's repeat"));
   else PetscCall(PetscSNPrintf(what, sizeof(what), "the pyp cell %s", file));
   PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-  ierr = RelaxCell(y, source, file, &cell, &p, &st);
+  ierr = RelaxCell(y, source, file, keep, &cell, &p, &st);
   PetscCall(PetscPopErrorHandler());
   PetscCall(VKPypFree(&cell));
   VKCallCollective(comm, ierr); /* every rank met the same error: say it once */
   if (!st.full_radius) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "WARNING: the periodic relaxation stopped raising the contact radius with the closest axes at %.4f x 2r: the tiled patch honours a contact radius under r\n", (double)st.dmin_over_2r));
+  *contact = st.contact_radius / p.radius;
   PetscCall(PetscPrintf(comm, "volknit yarn: relaxed %s periodically: %d Newton iterations in %d stages (contact radius %.3g r to %.4f r), periods %g x %g -> %g x %g m, closest axes %.4f x 2r, largest force %.2e N (%.2f s)\n", what, (int)st.iterations, (int)st.stages, (double)(st.radius_start / p.radius), (double)(st.contact_radius / p.radius), (double)st.period0[0], (double)st.period0[1], (double)st.period[0], (double)st.period[1], (double)st.dmin_over_2r, (double)st.residual, st.time));
   PetscFunctionReturn(0);
 }
@@ -192,18 +198,32 @@ PetscErrorCode VKAppYarnBuild(VKYarn y, PetscBool relax)
   PetscCall(PetscLogStagePush(VK_STAGE_YARN));
   if (!setup) {
     PetscBool periodic = PETSC_FALSE;
-    PetscCall(RelaxPeriodicCell(y, &periodic));
+    PetscReal contact  = 1;
+    PetscCall(RelaxPeriodicCell(y, &periodic, &contact));
     PetscCall(VKYarnSetUp(y));
     if (periodic && relax_opt) { /* -yarn_relax asked for as well: the tiled patch relaxed again, as a patch (to compare with the periodic state) */
       PetscCall(VKYarnGetComm(y, &comm));
       PetscCall(PetscPrintf(comm, "volknit yarn: the tiled patch is relaxed again as a patch (-yarn_relax with -yarn_relax_periodic)\n"));
     } else if (periodic) { /* the tiled patch is at rest as tiled: flat, at the full radius */
-      PetscReal d;
+      PetscReal        d;
+      const PetscReal *L;
       PetscCall(VKYLSKeepRest(y, &d));
-      PetscCall(VKYarnGetProperties(y, &radius, NULL, &contact_radius));
+      PetscCall(VKYarnGetRestLengths(y, &L));
       PetscCall(VKYarnGetComm(y, &comm));
+      if (L) { /* at the contact radius of the periodic equilibrium (a penalty: a little over r), the interior is static */
+        const VKCurves *c;
+        PetscReal      *x;
+        PetscCall(VKYarnGetCurves(y, &c));
+        PetscCall(VKYarnGetProperties(y, &radius, NULL, NULL));
+        PetscCall(PetscMalloc1(3 * c->nv, &x));
+        PetscCall(PetscArraycpy(x, c->x, 3 * c->nv));
+        PetscCall(VKYarnSetRelaxed(y, x, contact * radius));
+        PetscCall(PetscFree(x));
+      }
+      PetscCall(VKYarnGetProperties(y, &radius, NULL, &contact_radius));
       if (d < 1) PetscCall(PetscPrintf(comm, "volknit yarn: the tiled patch is the relaxed rest state (not relaxed again): contact radius %.4f r, closest axes %.4f x 2r\n", (double)(contact_radius / radius), (double)d));
       else PetscCall(PetscPrintf(comm, "volknit yarn: the tiled patch is the relaxed rest state (not relaxed again): contact radius %.4f r, no two axes closer than 2r\n", (double)(contact_radius / radius)));
+      if (L) PetscCall(PetscPrintf(comm, "volknit yarn: it keeps the cell's rest state: naturally straight rods at the cell's rest lengths, so its interior holds the periodic equilibrium's tension, and free edges will curl (-yarn_relax_periodic_rest)\n"));
     }
     PetscCall(VKYarnGetComm(y, &comm));
     PetscCall(VKYarnGetSource(y, &source, NULL, NULL, &estimated));

@@ -9,6 +9,7 @@
 #include <vkrod.h>
 #include <vkcurves.h>
 #include <vkutil.h>
+#include <math.h>
 
 static PetscReal Dist3(const PetscReal a[], const PetscReal b[])
 {
@@ -100,6 +101,19 @@ PetscErrorCode VKRodModelCreate(const VKCurves *c, const VKRodParams *par, Petsc
   }
   PetscCall(RestCurvatures(m, c->x));
   m->exclude = 4 * par->radius; /* neighbours along a yarn within two diameters touch by construction */
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKRodModelSetRestLengths(VKRodModel *m, const PetscReal L[])
+{
+  PetscFunctionBegin;
+  for (PetscInt s = 0; s < m->nseg; s++) {
+    PetscCheck(L[s] > 0 && isfinite(L[s]), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Rest length %g of segment %d must be positive", (double)L[s], (int)s);
+    m->L[s] = L[s];
+  }
+  for (PetscInt k = 0; k < m->nbend; k++) m->lbar[k] = 0.5 * (m->L[m->bseg[2 * k]] + m->L[m->bseg[2 * k + 1]]);
+  PetscCall(PetscArrayzero(m->wbar, 4 * m->nbend)); /* naturally straight */
+  PetscCall(PetscArrayzero(m->mbar, m->nbend));     /* and untwisted */
   PetscFunctionReturn(0);
 }
 

@@ -3,8 +3,12 @@
  *   *pattern   px py radius [n]     periods, yarn radius, vertex count
  *   *Q         x y z twist          one line per vertex
  *   *E         v0 v1 dx dy          edges; v1 lies in tile (dx, dy), |dx|,|dy| <= 1
- *   *RL *RK *RT *RefD1 *RefT ...    rest data, kept (not interpreted) so
- *                                   a read pattern writes back unchanged
+ *   *RL         length           rest length of the edge leaving each
+ *                                   vertex (HYLC's layout: one row per
+ *                                   vertex), read by VKPypGetRestLengths
+ *   *RK *RT *RefD1 *RefT ...        other rest data, kept (not
+ *                                   interpreted) so a read pattern writes
+ *                                   back unchanged
  * '#' starts a comment.  VKPypTile lays m x n tiles side by side and
  * follows the edges to extract the yarns (each vertex has at most two
  * edges; chains become open yarns, cycles closed ones). */
@@ -65,6 +69,73 @@ PetscReal VKPypEdgeVector(const VKPyp *p, PetscInt k, PetscReal d[3])
   return PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
 }
 
+static VKPypSection *FindSection(const VKPyp *p, const char name[])
+{
+  for (PetscInt i = 0; i < p->nextra; i++)
+    if (!strcmp(p->extra[i].name, name)) return &p->extra[i];
+  return NULL;
+}
+
+PetscErrorCode VKPypGetRestLengths(const VKPyp *p, PetscReal L[], PetscBool *given)
+{
+  const VKPypSection *rl = FindSection(p, "RL");
+  PetscInt           *from;
+
+  PetscFunctionBegin;
+  if (given) *given = rl ? PETSC_TRUE : PETSC_FALSE;
+  if (!rl) {
+    for (PetscInt k = 0; k < p->ne; k++) {
+      PetscReal d[3];
+      L[k] = VKPypEdgeVector(p, k, d);
+    }
+    PetscFunctionReturn(0);
+  }
+  PetscCheck(rl->rows == p->nv && rl->cols == 1, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "The *RL section holds %d x %d values: it needs one rest length per vertex (%d), for the edge leaving that vertex", (int)rl->rows, (int)rl->cols, (int)p->nv);
+  PetscCall(PetscMalloc1(p->nv + 1, &from));
+  for (PetscInt v = 0; v < p->nv; v++) from[v] = -1;
+  for (PetscInt k = 0; k < p->ne; k++) {
+    PetscInt v = p->e[4 * k];
+    if (from[v] >= 0) {
+      PetscInt other = from[v];
+      PetscCall(PetscFree(from));
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "The *RL section gives one rest length per vertex, but vertex %d starts two edges (%d and %d): orient each yarn's edges one way", (int)v, (int)other, (int)k);
+    }
+    from[v] = k;
+    L[k]    = rl->v[v];
+    if (!(L[k] > 0 && isfinite(L[k]))) {
+      PetscCall(PetscFree(from));
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "The *RL section gives vertex %d's edge a rest length of %g: rest lengths must be positive", (int)v, (double)L[k]);
+    }
+  }
+  PetscCall(PetscFree(from));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPypSetRestLengths(VKPyp *p, const PetscReal L[])
+{
+  VKPypSection *rl = FindSection(p, "RL");
+  PetscReal    *v;
+
+  PetscFunctionBegin;
+  PetscCall(PetscCalloc1(p->nv + 1, &v));
+  for (PetscInt k = 0; k < p->ne; k++) {
+    PetscInt a = p->e[4 * k];
+    PetscCheck(v[a] == 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "VKPypSetRestLengths: vertex %d starts two edges; *RL holds one rest length per vertex", (int)a);
+    PetscCheck(L[k] > 0 && isfinite(L[k]), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypSetRestLengths: edge %d has rest length %g", (int)k, (double)L[k]);
+    v[a] = L[k];
+  }
+  if (!rl) {
+    PetscCheck(p->nextra < 32, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "VKPypSetRestLengths: the pattern already has 32 extra sections");
+    if (!p->extra) PetscCall(PetscCalloc1(32, &p->extra));
+    rl = &p->extra[p->nextra++];
+    PetscCall(PetscStrncpy(rl->name, "RL", sizeof(rl->name)));
+  } else PetscCall(PetscFree(rl->v));
+  rl->rows = p->nv;
+  rl->cols = 1;
+  rl->v    = v;
+  PetscFunctionReturn(0);
+}
+
 /* The pieces edge k is split into: no longer than maxlen, at least one. */
 static PetscInt EdgePieces(const VKPyp *p, PetscInt k, PetscReal maxlen, PetscReal d[3])
 {
@@ -74,10 +145,15 @@ static PetscInt EdgePieces(const VKPyp *p, PetscInt k, PetscReal maxlen, PetscRe
 PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
 {
   PetscInt  nv = p->nv, ne = 0, *e;
-  PetscReal *q;
+  PetscReal *q, *L = NULL, *Lnew = NULL;
+  PetscBool  given = PETSC_FALSE;
 
   PetscFunctionBegin;
   PetscCheck(maxlen > 0 && isfinite(maxlen), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypRefine: the longest segment must be positive, got %g", (double)maxlen);
+  if (FindSection(p, "RL")) { /* given rest lengths: each piece gets its share */
+    PetscCall(PetscMalloc1(p->ne + 1, &L));
+    PetscCall(VKPypGetRestLengths(p, L, &given));
+  }
   for (PetscInt k = 0; k < p->ne; k++) { /* count */
     PetscReal d[3];
     PetscInt  n = EdgePieces(p, k, maxlen, d);
@@ -87,6 +163,7 @@ PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
   }
   PetscCall(PetscMalloc1(4 * nv, &q));
   PetscCall(PetscMalloc1(4 * ne, &e));
+  if (given) PetscCall(PetscMalloc1(ne + 1, &Lnew));
   PetscCall(PetscArraycpy(q, p->q, 4 * p->nv));
   nv = p->nv;
   ne = 0;
@@ -95,6 +172,7 @@ PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
     const PetscReal *a = p->q + 4 * ed[0], *b = p->q + 4 * ed[1];
     PetscReal        d[3];
     PetscInt         n = EdgePieces(p, k, maxlen, d), prev = ed[0];
+    for (PetscInt i = 0; i < n && given; i++) Lnew[ne + i] = L[k] / (PetscReal)n;
     for (PetscInt i = 1; i < n; i++) { /* new vertices in the first vertex's tile */
       for (int c = 0; c < 3; c++) q[4 * nv + c] = a[c] + d[c] * (PetscReal)i / (PetscReal)n;
       q[4 * nv + 3] = a[3] + (b[3] - a[3]) * (PetscReal)i / (PetscReal)n;
@@ -119,6 +197,9 @@ PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
   for (PetscInt i = 0; i < p->nextra; i++) PetscCall(PetscFree(p->extra[i].v)); /* per-vertex rest data no longer matches */
   PetscCall(PetscFree(p->extra));
   p->nextra = 0;
+  if (given) PetscCall(VKPypSetRestLengths(p, Lnew)); /* but the rest lengths, shared out */
+  PetscCall(PetscFree(L));
+  PetscCall(PetscFree(Lnew));
   PetscFunctionReturn(0);
 }
 
@@ -390,5 +471,44 @@ PetscErrorCode VKPypTile(const VKPyp *p, PetscInt m, PetscInt n, VKCurves *c, Pe
     }
   PetscCall(PetscFree5(nbr, deg, order, vis, x));
   PetscCheck(c->n > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Tiling the pattern produced no yarns");
+  PetscFunctionReturn(0);
+}
+
+/* Rest length of the segment leaving each vertex of a tiling by VKPypTile
+ * (origin: its output), the closing segment of a closed curve included;
+ * 0 at the last vertex of an open curve.  A tiled segment is the copy of
+ * the cell edge that joins its two vertices' pattern vertices with the
+ * tile offset between them, in either direction. */
+PetscErrorCode VKPypTileRestLengths(const VKPyp *p, PetscInt m, const VKCurves *c, const PetscInt origin[], PetscReal Lnext[])
+{
+  PetscReal *L;
+  PetscInt  *deg, *inc;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc3(p->ne + 1, &L, p->nv + 1, &deg, 2 * p->nv + 1, &inc));
+  PetscCall(VKPypGetRestLengths(p, L, NULL));
+  for (PetscInt v = 0; v < p->nv; v++) deg[v] = 0;
+  for (PetscInt k = 0; k < p->ne; k++)
+    for (int s = 0; s < 2; s++) {
+      PetscInt v = p->e[4 * k + s];
+      PetscCheck(deg[v] < 2, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Pattern vertex %d has more than two edges", (int)v);
+      inc[2 * v + deg[v]++] = k;
+    }
+  for (PetscInt i = 0; i < c->n; i++) {
+    PetscInt b = c->start[i], n = VKCurveSize(c, i);
+    for (PetscInt k = 0; k < n; k++) {
+      PetscInt a = b + k, z = b + (k + 1) % n, va = origin[2 * a + 1], vz = origin[2 * z + 1], found = -1;
+      PetscInt di = origin[2 * z] % m - origin[2 * a] % m, dj = origin[2 * z] / m - origin[2 * a] / m;
+      Lnext[a] = 0;
+      if (k == n - 1 && !c->closed[i]) continue;
+      for (PetscInt j = 0; j < deg[va] && found < 0; j++) {
+        const PetscInt *e = p->e + 4 * inc[2 * va + j];
+        if ((e[0] == va && e[1] == vz && e[2] == di && e[3] == dj) || (e[0] == vz && e[1] == va && e[2] == -di && e[3] == -dj)) found = inc[2 * va + j];
+      }
+      PetscCheck(found >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Tiled segment %d -> %d is no copy of a pattern edge", (int)a, (int)z);
+      Lnext[a] = L[found];
+    }
+  }
+  PetscCall(PetscFree3(L, deg, inc));
   PetscFunctionReturn(0);
 }

@@ -50,6 +50,22 @@ PetscErrorCode VKYarnSetPypCell(VKYarn y, const VKPyp *cell, PetscBool exact, co
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKYarnSetKeepCellRest(VKYarn y, PetscBool keep)
+{
+  PetscFunctionBegin;
+  PetscCheck(!y->setup, y->comm, PETSC_ERR_ORDER, "VKYarnSetKeepCellRest() after VKYarnSetUp()");
+  PetscCheck(!keep || (y->cell && y->cell_exact), y->comm, PETSC_ERR_ARG_WRONG, "Keeping the cell's rest state needs a cell tiled as it is: VKYarnSetPypCell(..., exact = true) first (volknit yarn: -yarn_relax_periodic)");
+  y->cell_rest = keep;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKYarnGetRestLengths(VKYarn y, const PetscReal **L)
+{
+  PetscFunctionBegin;
+  *L = y->rest_length;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKYarnSetH5File(VKYarn y, const char path[])
 {
   PetscFunctionBegin;
@@ -73,7 +89,7 @@ PetscErrorCode VKYarnSetRelaxed(VKYarn y, const PetscReal x[], PetscReal contact
 {
   PetscFunctionBegin;
   PetscCheck(y->setup, y->comm, PETSC_ERR_ORDER, "VKYarnSetRelaxed() needs a set-up yarn");
-  PetscCheck(contact_radius > 0 && contact_radius <= y->radius, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "A relaxed yarn's contact radius must be in (0, radius %g], got %g", (double)y->radius, (double)contact_radius);
+  PetscCheck(contact_radius > 0 && contact_radius <= (y->rest_length ? 2 : 1) * y->radius, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "A relaxed yarn's contact radius must be in (0, %s %g], got %g", y->rest_length ? "2 x radius" : "radius", (double)((y->rest_length ? 2 : 1) * y->radius), (double)contact_radius);
   for (PetscInt i = 0; i < 3 * y->curves.nv; i++) PetscCheck(isfinite(x[i]), y->comm, PETSC_ERR_FP, "The relaxed positions are not finite (vertex %d)", (int)(i / 3));
   PetscCall(PetscArraycpy(y->curves.x, x, 3 * y->curves.nv));
   y->contact_radius = contact_radius;
@@ -157,6 +173,7 @@ PetscErrorCode VKYarnDestroy(VKYarn *yarn)
   PetscCall(VKCurvesFree(&(*yarn)->curves));
   PetscCall(PetscFree((*yarn)->normal));
   PetscCall(PetscFree((*yarn)->bind));
+  PetscCall(PetscFree((*yarn)->rest_length));
   if ((*yarn)->cell) PetscCall(VKPypFree((*yarn)->cell));
   PetscCall(PetscFree((*yarn)->cell));
   PetscCall(PetscFree(*yarn));
@@ -425,10 +442,25 @@ PetscErrorCode VKYarnGetKnitCell(VKYarn y, VKPyp *cell)
   PetscFunctionReturn(0);
 }
 
+/* m x n tiles of a pattern; with VKYarnSetKeepCellRest, also the rest
+ * length of the segment leaving each tiled vertex (lnext). */
+static PetscErrorCode TileCell(VKYarn y, const VKPyp *cell, PetscInt m, PetscInt n, VKCurves *tiled, PetscReal **lnext)
+{
+  PetscInt *origin = NULL;
+
+  PetscFunctionBegin;
+  PetscCall(VKPypTile(cell, m, n, tiled, y->cell_rest ? &origin : NULL));
+  if (!y->cell_rest) PetscFunctionReturn(0);
+  PetscCall(PetscMalloc1(tiled->nv + 1, lnext));
+  PetscCall(VKPypTileRestLengths(cell, m, tiled, origin, *lnext));
+  PetscCall(PetscFree(origin));
+  PetscFunctionReturn(0);
+}
+
 /* The patch: the knit loops of DESIGN §3, or the periodic cell given by
  * VKYarnSetPypCell tiled over it (whole chart repeats only), its courses
  * bottom first as VKKnitBind wants them. */
-static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
+static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense, PetscReal **lnext)
 {
   VKKnitChart    chart = {0, 0, NULL};
   PetscErrorCode ierr;
@@ -440,7 +472,7 @@ static PetscErrorCode BuildChart(VKYarn y, VKCurves *dense)
     ierr = KnitCellTiles(y, &chart, &m, &n);
     PetscCall(VKKnitChartFree(&chart));
     PetscCall(ierr);
-    PetscCall(VKPypTile(y->cell, m, n, dense, NULL));
+    PetscCall(TileCell(y, y->cell, m, n, dense, lnext));
     PetscCheck(dense->n == y->knit.courses, PETSC_COMM_SELF, PETSC_ERR_PLIB, "Tiling the knit cell gave %d yarns for %d courses", (int)dense->n, (int)y->knit.courses);
     PetscCall(PetscStrlcat(y->description, y->cell_description[0] ? ", " : "", sizeof(y->description)));
     PetscCall(PetscStrlcat(y->description, y->cell_description, sizeof(y->description)));
@@ -583,7 +615,7 @@ static PetscErrorCode ReadBCC(VKYarn y, VKCurves *dense)
 /* Open yarn pieces of a tiled patch shorter than -yarn_pyp_min_length
  * (default: the smaller period) removed: a yarn cut by two near patch
  * edges holds no whole loop and would fray in a yarn-level run. */
-static PetscErrorCode DropFragments(VKYarn y, PetscReal period, VKCurves *c)
+static PetscErrorCode DropFragments(VKYarn y, PetscReal period, VKCurves *c, PetscReal *lnext)
 {
   PetscReal min = y->pyp_min_length < 0 ? period : y->pyp_min_length;
   VKCurves  kept;
@@ -599,6 +631,7 @@ static PetscErrorCode DropFragments(VKYarn y, PetscReal period, VKCurves *c)
       y->pyp_dropped++;
       continue;
     }
+    if (lnext) PetscCall(PetscArraymove(lnext + kept.nv, lnext + c->start[i], VKCurveSize(c, i))); /* kept.nv <= c->start[i] */
     PetscCall(VKCurvesAdd(&kept, VKCurveSize(c, i), c->x + 3 * c->start[i], c->closed[i]));
   }
   PetscCheck(kept.n > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Every yarn of the tiled pyp patch is shorter than %g (-yarn_pyp_min_length): tile more (-yarn_tiles) or give a smaller length", (double)min);
@@ -607,7 +640,7 @@ static PetscErrorCode DropFragments(VKYarn y, PetscReal period, VKCurves *c)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
+static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense, PetscReal **lnext)
 {
   char          *buf;
   size_t         len;
@@ -624,8 +657,9 @@ static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
     ierr = VKPypParse(buf, len, y->file, &pyp);
     PetscCall(PetscFree(buf));
   }
-  if (!ierr) ierr = VKPypTile(&pyp, y->tiles[0], y->tiles[1], &tiled, NULL);
-  if (!ierr) ierr = DropFragments(y, PetscMin(pyp.period[0], pyp.period[1]), &tiled);
+  if (!ierr) ierr = TileCell(y, &pyp, y->tiles[0], y->tiles[1], &tiled, lnext);
+  if (!ierr) ierr = DropFragments(y, PetscMin(pyp.period[0], pyp.period[1]), &tiled, *lnext);
+  for (PetscInt v = 0; !ierr && *lnext && v < tiled.nv; v++) (*lnext)[v] *= y->scale; /* as DenseFromControl scales the curves */
   if (!ierr && !y->radius_set) {
     y->radius     = pyp.radius * y->scale;
     y->radius_set = PETSC_TRUE;
@@ -642,8 +676,9 @@ static PetscErrorCode ReadPyp(VKYarn y, VKCurves *dense)
 /* The whole model from its source; identical on every rank. */
 static PetscErrorCode SetUpModel(VKYarn y)
 {
-  VKCurves dense;
-  PetscInt nseg;
+  VKCurves   dense;
+  PetscInt   nseg;
+  PetscReal *lnext = NULL; /* the cell's rest lengths along the tiled curves (VKYarnSetKeepCellRest) */
 
   PetscFunctionBegin;
   PetscCheck(y->radius > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Yarn radius must be positive");
@@ -666,7 +701,7 @@ static PetscErrorCode SetUpModel(VKYarn y)
     PetscCall(PetscLogEventBegin(ev, 0, 0, 0, 0));
     switch (y->source) {
     case VK_YARN_CHART:
-      PetscCall(BuildChart(y, &dense));
+      PetscCall(BuildChart(y, &dense, &lnext));
       break;
     case VK_YARN_WOVEN:
       PetscCall(BuildWoven(y, &dense));
@@ -675,7 +710,7 @@ static PetscErrorCode SetUpModel(VKYarn y)
       PetscCall(ReadBCC(y, &dense));
       break;
     default:
-      PetscCall(ReadPyp(y, &dense));
+      PetscCall(ReadPyp(y, &dense, &lnext));
       break;
     }
     PetscCall(PetscLogEventEnd(ev, 0, 0, 0, 0));
@@ -688,6 +723,15 @@ static PetscErrorCode SetUpModel(VKYarn y)
     }
     PetscCall(PetscLogEventEnd(VK_EVENT_YarnResample, 0, 0, 0, 0));
     PetscCall(VKCurvesValidate(&y->curves, y->description));
+    if (lnext) { /* the tiling as it is (exact): the same vertices in the same order */
+      PetscInt *seg;
+      PetscCall(PetscFree(y->rest_length));
+      PetscCall(VKCurvesGetSegments(&y->curves, &nseg, &seg));
+      PetscCall(PetscMalloc1(nseg + 1, &y->rest_length));
+      for (PetscInt s = 0; s < nseg; s++) y->rest_length[s] = lnext[seg[2 * s]];
+      PetscCall(PetscFree(seg));
+      PetscCall(PetscFree(lnext));
+    }
     if (y->source == VK_YARN_CHART) {
       PetscCall(PetscLogEventBegin(VK_EVENT_YarnBind, 0, 0, 0, 0));
       PetscCall(VKKnitBind(&y->curves, &y->nbind, &y->bind));
@@ -746,6 +790,7 @@ PetscErrorCode VKYarnView(VKYarn y, PetscViewer viewer)
   PetscCall(PetscViewerASCIIPrintf(viewer, "total length %g m, bounding box [%g, %g] x [%g, %g] x [%g, %g] m\n", (double)length, (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (double)lo[2], (double)hi[2]));
   PetscCall(PetscViewerASCIIPrintf(viewer, "radius %g m (%s), linear density %g kg/m, mass %g kg\n", (double)y->radius, y->radius_estimated ? "estimated" : "given", (double)y->density, (double)mass));
   if (y->contact_radius > 0) PetscCall(PetscViewerASCIIPrintf(viewer, "rest state relaxed, contact radius %g m\n", (double)y->contact_radius));
+  if (y->rest_length) PetscCall(PetscViewerASCIIPrintf(viewer, "rest state: the periodic cell's (naturally straight rods at its rest lengths), not the geometry\n"));
   PetscCall(PetscViewerASCIIPrintf(viewer, "target segment length %g m, glue pairs %d\n", (double)y->seglen, (int)y->nbind));
   PetscCall(PetscViewerASCIIPopTab(viewer));
   PetscFunctionReturn(0);

@@ -8,8 +8,14 @@
  *   /yarn/segment_curve  nseg x 1 curve of each segment
  *   /yarn/normal         nseg x 3 rest frame normal n1
  *   /yarn/bind           nb x 2   glued vertex pairs
+ *   /yarn/rest_length    nseg x 1 only in format 3: the rods are
+ *                                 naturally straight and untwisted at these
+ *                                 rest lengths (VKYarnSetKeepCellRest); in
+ *                                 format 2 the rest state is the geometry
  *   attributes of /yarn: radius, density, radius_estimated, contact_radius
- *   (0 unless the rest state was relaxed, see VKYLSRelax), units, source
+ *   (0 unless the rest state was relaxed, see VKYLSRelax; at most the
+ *   radius, or 2 radii with a rest_length: the contact radius the cell's
+ *   equilibrium holds at), units, source
  * with a reader that checks every invariant before trusting the file, an
  * XDMF companion, the JSON summary, and OBJ polylines.  Writers run on
  * rank 0 into a temporary name that is renamed when complete. */
@@ -19,7 +25,8 @@
 #include <vkutil.h>
 #include <math.h>
 
-#define YARN_FORMAT "volknit-yarn 2" /* 2: contact_radius */
+#define YARN_FORMAT      "volknit-yarn 2" /* 2: contact_radius */
+#define YARN_FORMAT_REST "volknit-yarn 3" /* 3: 2 and /yarn/rest_length */
 
 PetscErrorCode VKYarnWriteToH5(VKYarn y, VKH5 *h)
 {
@@ -39,12 +46,13 @@ PetscErrorCode VKYarnWriteToH5(VKYarn y, VKH5 *h)
   PetscCall(VKH5WriteInt(h, "/yarn/segment_curve", nseg, 1, segcurve));
   PetscCall(VKH5WriteReal(h, "/yarn/normal", nseg, 3, y->normal));
   PetscCall(VKH5WriteInt(h, "/yarn/bind", y->nbind, 2, y->bind));
+  if (y->rest_length) PetscCall(VKH5WriteReal(h, "/yarn/rest_length", nseg, 1, y->rest_length));
   PetscCall(VKH5WriteAttrReal(h, "/yarn", "radius", y->radius));
   PetscCall(VKH5WriteAttrReal(h, "/yarn", "density", y->density));
   PetscCall(VKH5WriteAttrInt(h, "/yarn", "radius_estimated", y->radius_estimated ? 1 : 0));
   PetscCall(VKH5WriteAttrReal(h, "/yarn", "contact_radius", y->contact_radius));
   PetscCall(VKH5WriteAttrString(h, "/yarn", "units", "m, kg/m"));
-  PetscCall(VKH5WriteAttrString(h, "/yarn", "format", YARN_FORMAT));
+  PetscCall(VKH5WriteAttrString(h, "/yarn", "format", y->rest_length ? YARN_FORMAT_REST : YARN_FORMAT));
   PetscCall(VKH5WriteAttrString(h, "/yarn", "source", y->description));
   PetscCall(PetscFree(closed));
   PetscCall(PetscFree(segcurve));
@@ -162,6 +170,7 @@ static PetscErrorCode WriteJSONOutput(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "radius_m", y->radius));
   PetscCall(VKJSONBool(&j, "radius_estimated", y->radius_estimated));
   PetscCall(VKJSONBool(&j, "relaxed", y->contact_radius > 0 ? PETSC_TRUE : PETSC_FALSE));
+  PetscCall(VKJSONString(&j, "rest_state", y->rest_length ? "cell: straight rods at the periodic cell's rest lengths" : "geometry"));
   if (y->contact_radius > 0) PetscCall(VKJSONReal(&j, "contact_radius_m", y->contact_radius));
   PetscCall(VKJSONReal(&j, "segment_length_m", y->seglen));
   PetscCall(VKJSONReal(&j, "linear_density_kg_per_m", y->density));
@@ -200,14 +209,15 @@ PetscErrorCode VKYarnWriteOutputs(VKYarn y, const char dir[])
 /* ---- reading ---------------------------------------------------------- */
 
 typedef struct {
-  PetscInt  nv, n1, nc, nseg, nn, nb, n;
-  PetscReal *x, *normal;
+  PetscInt  nv, n1, nc, nseg, nn, nb, n, nl;
+  PetscReal *x, *normal, *rest; /* rest: NULL in format 2 */
   PetscInt  *start, *closed, *bind;
 } YarnArrays;
 
-static PetscErrorCode ReadArrays(VKH5 *h, YarnArrays *a)
+static PetscErrorCode ReadArrays(VKH5 *h, PetscBool rest, YarnArrays *a)
 {
   PetscFunctionBegin;
+  if (rest) PetscCall(VKH5ReadReal(h, "/yarn/rest_length", 1, &a->nl, &a->rest));
   PetscCall(VKH5ReadReal(h, "/yarn/x", 3, &a->nv, &a->x));
   PetscCall(VKH5ReadInt(h, "/yarn/curve_start", 1, &a->n1, &a->start));
   PetscCall(VKH5ReadInt(h, "/yarn/closed", 1, &a->nc, &a->closed));
@@ -236,6 +246,10 @@ static PetscErrorCode CheckArrays(const char path[], YarnArrays *a)
     PetscReal nn = PetscSqr(a->normal[3 * s]) + PetscSqr(a->normal[3 * s + 1]) + PetscSqr(a->normal[3 * s + 2]);
     PetscCheck(PetscAbsReal(nn - 1) < 1e-6, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: normal of segment %d is not a unit vector", path, (int)s);
   }
+  if (a->rest) {
+    PetscCheck(a->nl == nseg, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: /yarn/rest_length has %d rows for %d segments", path, (int)a->nl, (int)nseg);
+    for (PetscInt s = 0; s < nseg; s++) PetscCheck(a->rest[s] > 0 && isfinite(a->rest[s]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: rest length %g of segment %d is not positive", path, (double)a->rest[s], (int)s);
+  }
   for (PetscInt i = 0; i < 2 * a->nb; i++) PetscCheck(a->bind[i] >= 0 && a->bind[i] < a->nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: glue pair %d refers to vertex %d, out of range", path, (int)(i / 2), (int)a->bind[i]);
   a->n    = n;
   a->nseg = nseg;
@@ -252,8 +266,8 @@ PetscErrorCode VKYarnLoadFromH5(VKYarn y, VKH5 *h)
   PetscFunctionBegin;
   PetscCall(PetscMemzero(&a, sizeof(a)));
   ierr = VKH5ReadAttrString(h, "/yarn", "format", format, sizeof(format));
-  if (!ierr && strcmp(format, YARN_FORMAT)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: yarn format '%s', expected '%s'", h->path, format, YARN_FORMAT);
-  if (!ierr) ierr = ReadArrays(h, &a);
+  if (!ierr && strcmp(format, YARN_FORMAT) && strcmp(format, YARN_FORMAT_REST)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: yarn format '%s', expected '%s' or '%s'", h->path, format, YARN_FORMAT, YARN_FORMAT_REST);
+  if (!ierr) ierr = ReadArrays(h, (PetscBool)!strcmp(format, YARN_FORMAT_REST), &a);
   if (!ierr) ierr = VKH5ReadAttrReal(h, "/yarn", "radius", &y->radius);
   if (!ierr) ierr = VKH5ReadAttrReal(h, "/yarn", "density", &y->density);
   if (!ierr) ierr = VKH5ReadAttrInt(h, "/yarn", "radius_estimated", &est);
@@ -261,7 +275,7 @@ PetscErrorCode VKYarnLoadFromH5(VKYarn y, VKH5 *h)
   if (!ierr) ierr = VKH5ReadAttrString(h, "/yarn", "source", source, sizeof(source));
   if (!ierr) ierr = CheckArrays(h->path, &a);
   if (!ierr && !(y->radius > 0 && isfinite(y->radius) && y->density > 0 && isfinite(y->density))) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: radius %g and density %g must be positive", h->path, (double)y->radius, (double)y->density);
-  if (!ierr && !(y->contact_radius >= 0 && y->contact_radius <= y->radius)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: contact radius %g must be in [0, radius %g]", h->path, (double)y->contact_radius, (double)y->radius);
+  if (!ierr && !(y->contact_radius >= 0 && y->contact_radius <= (a.rest ? 2 : 1) * y->radius)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: contact radius %g must be in [0, %s %g]", h->path, (double)y->contact_radius, a.rest ? "2 x radius" : "radius", (double)((a.rest ? 2 : 1) * y->radius));
   if (!ierr) {
     PetscCall(VKCurvesFree(&y->curves));
     PetscCall(VKCurvesInit(&y->curves));
@@ -271,6 +285,9 @@ PetscErrorCode VKYarnLoadFromH5(VKYarn y, VKH5 *h)
     PetscReal L;
     PetscCall(PetscFree(y->normal));
     PetscCall(PetscFree(y->bind));
+    PetscCall(PetscFree(y->rest_length));
+    y->rest_length      = a.rest;
+    a.rest              = NULL;
     y->normal           = a.normal;
     y->bind             = a.bind;
     y->nbind            = a.nb;
@@ -286,6 +303,7 @@ PetscErrorCode VKYarnLoadFromH5(VKYarn y, VKH5 *h)
   PetscCall(PetscFree(a.closed));
   PetscCall(PetscFree(a.normal));
   PetscCall(PetscFree(a.bind));
+  PetscCall(PetscFree(a.rest));
   PetscCall(ierr);
   PetscFunctionReturn(0);
 }

@@ -29,4 +29,6 @@ struct _n_VKYarn {
   VKPyp         *cell; /* the pyp cell to tile instead of the file's (VKYarnSetPypCell), or NULL */
   char           cell_description[256];
   PetscBool      cell_exact; /* tile it without resampling */
+  PetscBool      cell_rest;  /* the tiled patch keeps the cell's rest state (VKYarnSetKeepCellRest) */
+  PetscReal     *rest_length; /* per segment: rest lengths of naturally straight rods (the cell's), or NULL: the rest state is the geometry */
 };

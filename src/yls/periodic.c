@@ -11,7 +11,11 @@
  * follow from each element's own by the chain rule: d p / d L_a = i_a e_a.
  * The rods are the yarn-level model's elements (vkrod.h), as the yarn is at
  * rest: straight and untwisted,
- *   stretch   1/2 k_s L (|e|/L - 1)^2 per edge, L its length in the cell as given;
+ *   stretch   1/2 k_s L (|e|/L - 1)^2 per edge, L its rest length: the
+ *             cell's *RL section, or else its length in the cell as given
+ *             (the relaxed cell records the L it used as *RL, so relaxing
+ *             it again finds it static, and a tiled patch can keep it:
+ *             VKYarnSetPypCell);
  *   bending   k_b / (2 l) |kb|^2 per vertex between its two edges (the
  *             discrete elastic rod of zero rest curvature: an isotropic,
  *             straight rod, whose twist decouples and stays zero);
@@ -77,7 +81,7 @@ static void EdgeRefs(const VKPyp *c, PetscInt k, const PetscInt t[2], Ref r[2])
 
 /* Bending stencils (prev, v, next) at every vertex of two edges, and each
  * edge's neighbourhood along the yarn within the exclusion length. */
-static PetscErrorCode BuildElements(Cell *C, const PetscReal q[])
+static PetscErrorCode BuildElements(Cell *C)
 {
   const VKPyp *c = C->cell;
   PetscInt    *deg, *inc, cap = 0;
@@ -91,14 +95,8 @@ static PetscErrorCode BuildElements(Cell *C, const PetscReal q[])
       inc[2 * v + deg[v]++] = 2 * k + s; /* edge k at its end s */
     }
   PetscCall(PetscMalloc1(C->ne + 1, &C->L));
+  PetscCall(VKPypGetRestLengths(c, C->L, NULL)); /* the cell's *RL, or its edges as given */
   for (PetscInt k = 0; k < C->ne; k++) {
-    const PetscInt zero[2] = {0, 0};
-    Ref            r[2];
-    PetscReal      a[3], b[3];
-    EdgeRefs(c, k, zero, r);
-    Position(q, C->nv, &r[0], a);
-    Position(q, C->nv, &r[1], b);
-    C->L[k] = PetscSqrtReal(PetscSqr(b[0] - a[0]) + PetscSqr(b[1] - a[1]) + PetscSqr(b[2] - a[2]));
     PetscCheck(C->L[k] > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Periodic cell: edge %d (%d -> %d) has zero length", (int)k, (int)c->e[4 * k], (int)c->e[4 * k + 1]);
     mean += C->L[k] / C->ne;
   }
@@ -532,7 +530,7 @@ static PetscErrorCode CellCreate(VKPyp *cell, const VKYLSPeriodicParams *p, Cell
     for (PetscInt v = 0; v < C->nv; v++) PetscCheck(deg[v] > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Periodic relaxation: vertex %d of the cell belongs to no edge", (int)v);
     PetscCall(PetscFree(deg));
   }
-  PetscCall(BuildElements(C, *q));
+  PetscCall(BuildElements(C));
   PetscFunctionReturn(0);
 }
 
@@ -617,6 +615,7 @@ PetscErrorCode VKYLSRelaxPeriodic(VKPyp *cell, const VKYLSPeriodicParams *p, VKY
   for (PetscInt i = 0; i < cell->nextra; i++) PetscCall(PetscFree(cell->extra[i].v)); /* the rest data of the file no longer holds */
   PetscCall(PetscFree(cell->extra));
   cell->nextra = 0;
+  PetscCall(VKPypSetRestLengths(cell, C.L)); /* but for the rest lengths the equilibrium is stretched from */
   st->time     = VKWallTime() - t0;
   PetscCall(PetscFree(q));
   PetscCall(CellDestroy(&C));

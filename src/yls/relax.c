@@ -24,7 +24,11 @@
  * the yarn model's rest geometry, and the contact radius becomes the one
  * the relaxed state honours (at most r, and no larger than half the closest
  * approach of two segments), so the rest state is stress-free: it carries
- * no stretch, bending or contact energy and stays still. */
+ * no stretch, bending or contact energy and stays still.  A yarn with a
+ * rest state of its own (VKYarnGetRestLengths: a periodic cell's) keeps
+ * it: only the positions and frames become the relaxed ones, and the
+ * contact radius stays the last stage's, at which the relaxed state is in
+ * equilibrium. */
 #include "ylsimpl.h"
 
 #define YLS_RELAX_EASY_ITS   8  /* Newton iterations of a proximal step that let the next one grow */
@@ -61,15 +65,18 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
 /* The relaxed positions become the rest state. */
 static PetscErrorCode ResetRest(VKYLS y)
 {
-  VKRodParams par = y->model.par;
-  PetscReal   dmin;
+  VKRodParams      par = y->model.par;
+  PetscReal        dmin;
+  const PetscReal *L;
 
   PetscFunctionBegin;
   PetscCall(VKYLSMinDistance(y, &dmin, NULL)); /* over 2 x the current contact radius; fills y->xall */
-  par.radius = PetscMin(y->par.radius, dmin * par.radius * (1 - 1e-9));
+  PetscCall(VKYarnGetRestLengths(y->yarn, &L));
+  if (!L) par.radius = PetscMin(y->par.radius, dmin * par.radius * (1 - 1e-9));
+  /* else the rest state is not reset, and its equilibrium holds at the last stage's contact radius */
   PetscCall(VKYarnSetRelaxed(y->yarn, y->xall, par.radius)); /* positions, contact radius, rest frames */
   PetscCall(VKRodModelDestroy(&y->model));
-  PetscCall(VKRodModelCreate(y->rest, &par, y->density, &y->model));
+  PetscCall(VKYLSCreateModel(y, &par)); /* a yarn with its own rest lengths keeps them */
   for (PetscInt k = 0; k < y->nglue; k++) {
     const PetscReal *p = y->xall + 3 * y->glue[2 * k], *q = y->xall + 3 * y->glue[2 * k + 1];
     y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));

@@ -170,6 +170,20 @@ static PetscErrorCode SetUpScene(VKYLS y)
   PetscFunctionReturn(0);
 }
 
+/* The rod model of the rest yarn: its rest state is the rest polylines',
+ * or with the yarn's own rest lengths (VKYarnGetRestLengths) naturally
+ * straight, untwisted rods at them. */
+PetscErrorCode VKYLSCreateModel(VKYLS y, const VKRodParams *par)
+{
+  const PetscReal *L;
+
+  PetscFunctionBegin;
+  PetscCall(VKRodModelCreate(y->rest, par, y->density, &y->model));
+  PetscCall(VKYarnGetRestLengths(y->yarn, &L));
+  if (L) PetscCall(VKRodModelSetRestLengths(&y->model, L));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKYLSSetUp(VKYLS y)
 {
   PetscMPIInt     rank, size;
@@ -189,7 +203,7 @@ PetscErrorCode VKYLSSetUp(VKYLS y)
     VKRodParams par = y->par; /* a relaxed rest state keeps the contact radius it was relaxed to */
     par.section = radius;
     if (contact_radius > 0) par.radius = contact_radius;
-    PetscCall(VKRodModelCreate(y->rest, &par, y->density, &y->model));
+    PetscCall(VKYLSCreateModel(y, &par));
   }
   nv = y->model.nv;
   /* glue springs of the bound edges, at their rest length */

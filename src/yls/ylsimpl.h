@@ -103,6 +103,7 @@ PETSC_INTERN PetscErrorCode VKYLSTangents(VKYLS, const PetscReal x[], PetscReal 
 /* The frames back to the rest frames of the model: directors, tangents,
  * reference twists, angles and their rates. */
 PETSC_INTERN PetscErrorCode VKYLSResetFrames(VKYLS);
+PETSC_INTERN PetscErrorCode VKYLSCreateModel(VKYLS, const VKRodParams *);
 /* Whether unknown k (0-2 position, 3 twist) of vertex v is fixed. */
 PETSC_INTERN PetscBool VKYLSFixed(VKYLS, PetscInt v, PetscInt k);
 /* Phi at the replicated positions x and angles theta (every rank), split
