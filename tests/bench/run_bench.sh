@@ -237,7 +237,8 @@ echo
 : > "$out/commands"
 # A knit repeat relaxed periodically and tiled 8 x 8 (the reference), then relaxed again as a patch by the
 # yarn-level relaxation with straight rest rods (the periodic relaxation's physics): its outer ring of repeats
-# held by four handles, at contact radius r or at the one the periodic relaxation ended at; or free.
+# held by four handles, at contact radius r or at the one the periodic relaxation ended at (there also keeping
+# the cell's rest lengths, -yarn_relax_periodic_rest, instead of the tiled ones); or free.
 echo "| pattern | patch relaxation | proximal steps | interior against the periodic state: RMS / largest, r | z extent, mm | s |"
 echo "|---|---|---|---|---|---|"
 ring="-scene_handles 4 -scene_handle0_box -1,-1,-1,-0.375,1,1 -scene_handle1_box 0.375,-1,-1,1,1,1 -scene_handle2_box -1,-1,-1,1,-0.375,1 -scene_handle3_box -1,0.375,-1,1,1,1"
@@ -266,6 +267,7 @@ for pat in stockinette rib1x1; do
   f=$(sed -n "s/.*relaxed the knit chart's repeat periodically:.* to \([0-9.]*\) r).*/\1/p" "$out/repatch_${pat}_radius.log")
   patch_row "$pat" "ring held, at r" -yls_relax_handles $ring -yls_relax_stages 1 -yls_relax_radius_start 1
   patch_row "$pat" "ring held, at $f r" -yls_relax_handles $ring -yls_relax_stages 1 -yls_relax_radius_start 1 -yls_relax_radius_end "$f"
+  patch_row "$pat" "ring held, at $f r, the cell's rest state kept" -yarn_relax_periodic_rest -yls_relax_handles $ring -yls_relax_stages 1 -yls_relax_radius_start 1 -yls_relax_radius_end "$f"
   patch_row "$pat" "free, inexact steps" -yls_relax_newton_its 15 -yls_relax_tau_growth 1e12 -yls_relax_max_steps 100000
 done
 echo
