@@ -166,6 +166,26 @@ done
 if h5diff -d 1e-12 "$out/periodic_rest.n1/yarn.h5" "$out/periodic_rest.n2/yarn.h5" /yarn/rest_length > /dev/null 2>&1; then ok
 else not_ok "the rest lengths of the patch keeping its cell's rest state differ between 1 and 2 ranks ($out/periodic_rest.n1/yarn.h5, $out/periodic_rest.n2/yarn.h5)"; fi
 
+# a pyp patch whose loops overlap at its radius (the stockinette tile of
+# meshes/ at r = 1.2 mm, made for 1 mm) relaxed as a patch: the elastic
+# relaxation creeps at 0.95 r until its step limit (an error), the plastic
+# one (-yls_relax_plastic) reaches the full radius; 1 and 2 ranks agree
+overlap="-yarn_pyp meshes/stockinette.pyp -yarn_tiles 4,3 -yarn_radius 0.0012 -yarn_relax"
+log="$out/overlap_elastic.log"
+# shellcheck disable=SC2086
+if ! timeout 300 bin/volknit yarn -o "$out/overlap_elastic" $overlap > "$log" 2>&1 < /dev/null \
+   && grep -q 'did not reach a static state in 50 proximal steps at contact radius 0.95 r' "$log"; then ok
+else not_ok "volknit yarn $overlap: expected the elastic relaxation to stop at 0.95 r with an error, as measured (see $log)"; fi
+for n in 1 2; do
+  log="$out/overlap_plastic.n$n.log"
+  # shellcheck disable=SC2086
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$out/overlap_plastic.n$n" $overlap -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 > "$log" 2>&1 \
+     && grep -q 'contact radius 0.0012 m (r = 0.0012 m)' "$log" && grep -q '"relaxed": true' "$out/overlap_plastic.n$n/yarn.json"; then ok
+  else not_ok "volknit yarn $overlap -yls_relax_plastic (-n $n): expected the full contact radius 0.0012 m (see $log)"; fi
+done
+if h5diff -d 1e-6 "$out/overlap_plastic.n1/yarn.h5" "$out/overlap_plastic.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+else not_ok "the plastic relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_plastic.n1/yarn.h5, $out/overlap_plastic.n2/yarn.h5)"; fi
+
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed
 cmp_failed=$failed

@@ -12,7 +12,13 @@
  * counts against -yls_relax_max_steps, which must then be raised; a
  * proximal-point iteration: a free stockinette patch with straight rods,
  * which curls up, relaxes in 205-219 s against more than 23 minutes with
- * exact steps, docs/BENCHMARKS.md).  -yls_relax_straight relaxes naturally
+ * exact steps, docs/BENCHMARKS.md).  With -yls_relax_plastic the rest
+ * state follows the yarn: after every proximal step the current lengths,
+ * curvatures and twist become the rest ones, so only contact drives the
+ * next step and yarns pushed apart keep no elastic stress (a plastic flow;
+ * a tiled pyp patch whose loops overlap at r reaches the full radius,
+ * where the elastic relaxation creeps without end, docs/BENCHMARKS.md).
+ * -yls_relax_straight relaxes naturally
  * straight, untwisted rods (the periodic relaxation's physics) in place of
  * the given geometry's curvature.  The contact radius is grown from
  * -yls_relax_radius_start x r to -yls_relax_radius_end x r (1) in
@@ -33,6 +39,53 @@
 
 #define YLS_RELAX_EASY_ITS   8  /* Newton iterations of a proximal step that let the next one grow */
 
+/* The current positions (y->xall) become the rest state, the model at
+ * contact radius par->radius, the yarn recording `recorded`. */
+static PetscErrorCode RestAt(VKYLS y, const VKRodParams *p, PetscReal recorded)
+{
+  VKRodParams par = *p;
+
+  PetscFunctionBegin;
+  PetscCall(VKYarnSetRelaxed(y->yarn, y->xall, recorded)); /* positions, contact radius, rest frames */
+  PetscCall(VKRodModelDestroy(&y->model));
+  PetscCall(VKYLSCreateModel(y, &par)); /* a yarn with its own rest lengths keeps them */
+  for (PetscInt k = 0; k < y->nglue; k++) {
+    const PetscReal *p = y->xall + 3 * y->glue[2 * k], *q = y->xall + 3 * y->glue[2 * k + 1];
+    y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));
+  }
+  PetscCall(VKYLSResetFrames(y)); /* the relaxed frames, untwisted, are the rest frames */
+  PetscCall(VecSet(y->v, 0));
+  PetscFunctionReturn(0);
+}
+
+/* The relaxed positions become the rest state. */
+static PetscErrorCode ResetRest(VKYLS y)
+{
+  VKRodParams      par = y->model.par;
+  PetscReal        dmin;
+  const PetscReal *L;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSMinDistance(y, &dmin, NULL)); /* over 2 x the current contact radius; fills y->xall */
+  PetscCall(VKYarnGetRestLengths(y->yarn, &L));
+  if (!L) par.radius = PetscMin(y->par.radius, dmin * par.radius * (1 - 1e-9));
+  /* else the rest state is not reset, and its equilibrium holds at the last stage's contact radius */
+  PetscCall(RestAt(y, &par, par.radius));
+  PetscFunctionReturn(0);
+}
+
+/* Plastic relaxation: the yarn as it is after a proximal step becomes the
+ * rest state, at the stage's contact radius (recorded at most r). */
+static PetscErrorCode FollowRest(VKYLS y)
+{
+  VKRodParams par = y->model.par;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGatherQ(y, y->q)); /* y->xall */
+  PetscCall(RestAt(y, &par, PetscMin(par.radius, y->par.radius)));
+  PetscFunctionReturn(0);
+}
+
 /* Proximal steps at the current contact radius until the state is static:
  * the next step's Newton solve converges at its first residual, which at
  * rest is the elastic force alone.  (A proximal step whose Newton solve
@@ -51,6 +104,7 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
     (*steps)++;
     PetscCall(SNESGetIterationNumber(y->snes, &its));
     if (its == 0) break; /* converged at x_n: static */
+    if (y->relax_plastic) PetscCall(FollowRest(y));
     /* the slowest modes of a knit creep at tau^2 k / m per step: a
      * proximal step that Newton took easily makes the next one twice as
      * long, one it struggled with (halved, or many capped iterations) half */
@@ -59,30 +113,6 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
     else if (its <= YLS_RELAX_EASY_ITS) y->dt = PetscMin(2 * y->dt, y->relax_tau_growth * y->relax_tau);
     else if (its > 2 * YLS_RELAX_EASY_ITS) y->dt = PetscMax(0.5 * y->dt, y->relax_tau);
   }
-  PetscFunctionReturn(0);
-}
-
-/* The relaxed positions become the rest state. */
-static PetscErrorCode ResetRest(VKYLS y)
-{
-  VKRodParams      par = y->model.par;
-  PetscReal        dmin;
-  const PetscReal *L;
-
-  PetscFunctionBegin;
-  PetscCall(VKYLSMinDistance(y, &dmin, NULL)); /* over 2 x the current contact radius; fills y->xall */
-  PetscCall(VKYarnGetRestLengths(y->yarn, &L));
-  if (!L) par.radius = PetscMin(y->par.radius, dmin * par.radius * (1 - 1e-9));
-  /* else the rest state is not reset, and its equilibrium holds at the last stage's contact radius */
-  PetscCall(VKYarnSetRelaxed(y->yarn, y->xall, par.radius)); /* positions, contact radius, rest frames */
-  PetscCall(VKRodModelDestroy(&y->model));
-  PetscCall(VKYLSCreateModel(y, &par)); /* a yarn with its own rest lengths keeps them */
-  for (PetscInt k = 0; k < y->nglue; k++) {
-    const PetscReal *p = y->xall + 3 * y->glue[2 * k], *q = y->xall + 3 * y->glue[2 * k + 1];
-    y->Lglue[k]        = PetscSqrtReal(PetscSqr(p[0] - q[0]) + PetscSqr(p[1] - q[1]) + PetscSqr(p[2] - q[2]));
-  }
-  PetscCall(VKYLSResetFrames(y)); /* the relaxed frames, untwisted, are the rest frames */
-  PetscCall(VecSet(y->v, 0));
   PetscFunctionReturn(0);
 }
 
@@ -102,6 +132,11 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   r          = y->par.radius;
   stats      = y->stats;
   PetscCheck(y->step == 0, y->comm, PETSC_ERR_ORDER, "Relax before the first time step");
+  {
+    const PetscReal *L;
+    PetscCall(VKYarnGetRestLengths(y->yarn, &L));
+    PetscCheck(!y->relax_plastic || !(y->relax_straight || L), y->comm, PETSC_ERR_ARG_INCOMP, "-yls_relax_plastic makes the yarn's geometry its rest state after every step: it cannot relax %s", L ? "a yarn that keeps its cell's rest state" : "naturally straight rods (-yls_relax_straight)");
+  }
   /* no scene, no damping, a long pseudo time step */
   PetscCall(PetscMalloc2(y->model.nv, &handle, y->model.nseg + 1, &thheld));
   PetscCall(PetscArraycpy(handle, y->handle, y->model.nv));

@@ -42,6 +42,7 @@ struct _n_VKYLS {
   PetscInt    relax_newton_its;              /* Newton iterations per proximal step (0: each solved to the tolerance) */
   PetscBool   relax_straight;                /* relax as naturally straight, untwisted rods (the periodic relaxation's physics) */
   PetscBool   relax_handles;                 /* the scene's handles hold their vertices at t = 0 during the relaxation */
+  PetscBool   relax_plastic;                 /* the rest state follows the yarn after every proximal step */
   PetscLogDouble relax_time;
   PetscInt    nglue;
   PetscInt   *glue;  /* 2 per glue spring */
