@@ -92,8 +92,14 @@ PETSC_EXTERN PetscReal      VKPypEdgeVector(const VKPyp *, PetscInt k, PetscReal
  * for the edge leaving it, as HYLC writes it; given = true), or without
  * one the edge lengths of the geometry (given = false). */
 PETSC_EXTERN PetscErrorCode VKPypGetRestLengths(const VKPyp *, PetscReal L[], PetscBool *given);
+/* Lengths times s: positions (not the twists), periods, radius, *RL. */
+PETSC_EXTERN PetscErrorCode VKPypScale(VKPyp *, PetscReal s);
+/* Turn edges round (v0 <-> v1, offsets negated) so that each yarn's edges
+ * run one way and every vertex starts at most one edge, as *RL needs; the
+ * yarns and their tiling do not change.  Not for a pattern with *RL. */
+PETSC_EXTERN PetscErrorCode VKPypOrientEdges(VKPyp *);
 /* Record rest lengths per edge as the *RL section (each vertex must start
- * at most one edge). */
+ * at most one edge: VKPypOrientEdges). */
 PETSC_EXTERN PetscErrorCode VKPypSetRestLengths(VKPyp *, const PetscReal L[]);
 /* Every edge split into equal pieces no longer than maxlen (the new
  * vertices in the tile of the edge's first one); the extra sections are

@@ -142,6 +142,34 @@ static PetscErrorCode TestPyp(const char dir[])
       PetscCall(VKTestCheck((PetscBool)(ierr && msg && strstr(msg, expect[k])), msg, "pyp: *RL %s is refused: '... %s ...'", k == 0 ? "one row short" : k == 1 ? "with a negative length" : "on a yarn whose edges run both ways", expect[k]));
       PetscCall(VKPypFree(&bad));
     }
+    { /* a yarn whose edges run both ways is turned to run one way: the same yarns, and *RL can be written */
+      VKCurves  c2;
+      PetscReal len1 = 0, len2 = 0, *L2;
+      PetscErrorCode ierr;
+      PetscCall(VKPypCopy(&b, &bad));
+      PetscCall(PetscFree(bad.extra[0].v));
+      bad.nextra = 0;
+      {
+        PetscInt t = bad.e[8];
+        bad.e[8]  = bad.e[9];
+        bad.e[9]  = t;
+        bad.e[10] = -bad.e[10];
+        bad.e[11] = -bad.e[11];
+      }
+      PetscCall(VKPypOrientEdges(&bad));
+      PetscCall(PetscMalloc1(bad.ne, &L2));
+      PetscCall(VKPypGetRestLengths(&bad, L2, NULL));
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+      ierr = VKPypSetRestLengths(&bad, L2);
+      PetscCall(PetscPopErrorHandler());
+      PetscCall(VKPypTile(&bad, m, n, &c2, NULL));
+      PetscCall(VKCurvesLength(&c, &len1));
+      PetscCall(VKCurvesLength(&c2, &len2));
+      PetscCall(VKTestCheck((PetscBool)(!ierr && c2.n == c.n && c2.nv == c.nv && PetscAbsReal(len1 - len2) <= 1e-12 * len1), NULL, "pyp: an edge turned against its yarn is turned back (VKPypOrientEdges): *RL can be written, and the tiling has the same %d yarns of %d vertices, length %.6g m", (int)c2.n, (int)c2.nv, (double)len2));
+      PetscCall(PetscFree(L2));
+      PetscCall(VKCurvesFree(&c2));
+      PetscCall(VKPypFree(&bad));
+    }
     PetscCall(PetscFree2(L, Lnext));
   }
   PetscCall(PetscFree(origin));

@@ -126,14 +126,23 @@ static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[]
     ierr = VKPypParse(buf, len, file, cell);
     PetscCall(PetscFree(buf));
     PetscCall(ierr);
-    /* in the file's units: -yarn_scale multiplies them afterwards */
+    /* relaxed at its size in metres (the rods' stiffnesses are in SI
+     * units), handed to the yarn in the file's units, which -yarn_scale
+     * multiplies again when the yarn tiles it */
     PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_scale", &scale, NULL));
     PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_radius", &radius, NULL));
     PetscCall(PetscOptionsGetReal(NULL, NULL, "-yarn_segment_length", &seglen, NULL));
-    radius = radius > 0 ? radius / scale : cell->radius;
-    seglen = seglen > 0 ? seglen / scale : radius;
+    PetscCheck(scale > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_scale must be positive, got %g", (double)scale);
+    PetscCall(VKPypScale(cell, scale));
+    radius = radius > 0 ? radius : cell->radius;
+    seglen = seglen > 0 ? seglen : radius;
     PetscCall(VKPypRefine(cell, seglen));
     PetscCall(VKYLSPeriodicParamsFromOptions(comm, radius, p));
+    PetscCall(VKYLSRelaxPeriodic(cell, p, st));
+    PetscCall(VKPypScale(cell, 1 / scale));
+    PetscCall(VKYarnSetPypCell(y, cell, PETSC_TRUE, "relaxed periodically"));
+    PetscCall(VKYarnSetKeepCellRest(y, keep));
+    PetscFunctionReturn(0);
   }
   PetscCall(VKYLSRelaxPeriodic(cell, p, st));
   PetscCall(VKYarnSetPypCell(y, cell, PETSC_TRUE, "relaxed periodically"));

@@ -90,7 +90,7 @@ PetscErrorCode VKPypGetRestLengths(const VKPyp *p, PetscReal L[], PetscBool *giv
     }
     PetscFunctionReturn(0);
   }
-  PetscCheck(rl->rows == p->nv && rl->cols == 1, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "The *RL section holds %d x %d values: it needs one rest length per vertex (%d), for the edge leaving that vertex", (int)rl->rows, (int)rl->cols, (int)p->nv);
+  PetscCheck(rl->rows == p->nv && rl->cols == 1, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "The *RL section holds %d x %d values: it needs one rest length per vertex (%d), for the edge leaving that vertex (without the section, the edges' lengths serve)", (int)rl->rows, (int)rl->cols, (int)p->nv);
   PetscCall(PetscMalloc1(p->nv + 1, &from));
   for (PetscInt v = 0; v < p->nv; v++) from[v] = -1;
   for (PetscInt k = 0; k < p->ne; k++) {
@@ -98,7 +98,7 @@ PetscErrorCode VKPypGetRestLengths(const VKPyp *p, PetscReal L[], PetscBool *giv
     if (from[v] >= 0) {
       PetscInt other = from[v];
       PetscCall(PetscFree(from));
-      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "The *RL section gives one rest length per vertex, but vertex %d starts two edges (%d and %d): orient each yarn's edges one way", (int)v, (int)other, (int)k);
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "The *RL section gives one rest length per vertex, but vertex %d starts two edges (%d and %d): orient each yarn's edges one way, or drop the section (the edges' lengths then serve)", (int)v, (int)other, (int)k);
     }
     from[v] = k;
     L[k]    = rl->v[v];
@@ -117,22 +117,97 @@ PetscErrorCode VKPypSetRestLengths(VKPyp *p, const PetscReal L[])
   PetscReal    *v;
 
   PetscFunctionBegin;
+  for (PetscInt k = 0; k < p->ne; k++) PetscCheck(L[k] > 0 && isfinite(L[k]), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypSetRestLengths: edge %d has rest length %g", (int)k, (double)L[k]);
   PetscCall(PetscCalloc1(p->nv + 1, &v));
   for (PetscInt k = 0; k < p->ne; k++) {
     PetscInt a = p->e[4 * k];
-    PetscCheck(v[a] == 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "VKPypSetRestLengths: vertex %d starts two edges; *RL holds one rest length per vertex", (int)a);
-    PetscCheck(L[k] > 0 && isfinite(L[k]), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypSetRestLengths: edge %d has rest length %g", (int)k, (double)L[k]);
+    if (v[a] != 0) {
+      PetscCall(PetscFree(v));
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "VKPypSetRestLengths: vertex %d starts two edges; *RL holds one rest length per vertex (VKPypOrientEdges first)", (int)a);
+    }
     v[a] = L[k];
   }
   if (!rl) {
+    VKPypSection *extra;
     PetscCheck(p->nextra < 32, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "VKPypSetRestLengths: the pattern already has 32 extra sections");
-    if (!p->extra) PetscCall(PetscCalloc1(32, &p->extra));
-    rl = &p->extra[p->nextra++];
+    PetscCall(PetscCalloc1(32, &extra)); /* the capacity the parser gives */
+    if (p->nextra) PetscCall(PetscArraycpy(extra, p->extra, p->nextra));
+    PetscCall(PetscFree(p->extra));
+    p->extra = extra;
+    rl       = &p->extra[p->nextra++];
     PetscCall(PetscStrncpy(rl->name, "RL", sizeof(rl->name)));
   } else PetscCall(PetscFree(rl->v));
   rl->rows = p->nv;
   rl->cols = 1;
   rl->v    = v;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPypScale(VKPyp *p, PetscReal s)
+{
+  VKPypSection *rl = FindSection(p, "RL");
+
+  PetscFunctionBegin;
+  PetscCheck(s > 0 && isfinite(s), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypScale: the scale must be positive, got %g", (double)s);
+  for (PetscInt v = 0; v < p->nv; v++)
+    for (int c = 0; c < 3; c++) p->q[4 * v + c] *= s;
+  p->period[0] *= s;
+  p->period[1] *= s;
+  p->radius *= s;
+  if (rl)
+    for (PetscInt i = 0; i < rl->rows * rl->cols; i++) rl->v[i] *= s;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKPypOrientEdges(VKPyp *p)
+{
+  PetscInt  *deg, *inc;
+  PetscBool *done;
+
+  PetscFunctionBegin;
+  PetscCheck(!FindSection(p, "RL"), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "VKPypOrientEdges: the pattern has an *RL section, which is tied to its edges' directions");
+  PetscCall(PetscCalloc3(p->nv + 1, &deg, 2 * p->nv + 1, &inc, p->ne + 1, &done));
+  { /* one way already: nothing to turn */
+    PetscBool twice = PETSC_FALSE;
+    for (PetscInt k = 0; k < p->ne && !twice; k++) twice = (PetscBool)(deg[p->e[4 * k]]++ > 0);
+    if (!twice) {
+      PetscCall(PetscFree3(deg, inc, done));
+      PetscFunctionReturn(0);
+    }
+    for (PetscInt v = 0; v < p->nv; v++) deg[v] = 0;
+  }
+  for (PetscInt k = 0; k < p->ne; k++)
+    for (int s = 0; s < 2; s++) {
+      PetscInt v = p->e[4 * k + s];
+      if (deg[v] == 2) {
+        PetscCall(PetscFree3(deg, inc, done));
+        SETERRQ(PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Pattern vertex %d has more than two edges", (int)v);
+      }
+      inc[2 * v + deg[v]++] = k;
+    }
+  /* walk each yarn from an end (chains first, then cycles), turning every
+   * edge to run the way of the walk */
+  for (int pass = 0; pass < 2; pass++)
+    for (PetscInt s = 0; s < p->nv; s++) {
+      PetscInt v = s;
+      if (pass == 0 && deg[s] != 1) continue;
+      for (;;) {
+        PetscInt k = -1;
+        for (PetscInt j = 0; j < deg[v] && k < 0; j++)
+          if (!done[inc[2 * v + j]]) k = inc[2 * v + j];
+        if (k < 0) break;
+        done[k] = PETSC_TRUE;
+        if (p->e[4 * k] != v) {
+          PetscInt *e = p->e + 4 * k, t = e[0];
+          e[0] = e[1];
+          e[1] = t;
+          e[2] = -e[2];
+          e[3] = -e[3];
+        }
+        v = p->e[4 * k + 1];
+      }
+    }
+  PetscCall(PetscFree3(deg, inc, done));
   PetscFunctionReturn(0);
 }
 
@@ -151,8 +226,11 @@ PetscErrorCode VKPypRefine(VKPyp *p, PetscReal maxlen)
   PetscFunctionBegin;
   PetscCheck(maxlen > 0 && isfinite(maxlen), PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "VKPypRefine: the longest segment must be positive, got %g", (double)maxlen);
   if (FindSection(p, "RL")) { /* given rest lengths: each piece gets its share */
+    PetscErrorCode ierr;
     PetscCall(PetscMalloc1(p->ne + 1, &L));
-    PetscCall(VKPypGetRestLengths(p, L, &given));
+    ierr = VKPypGetRestLengths(p, L, &given);
+    if (ierr) PetscCall(PetscFree(L));
+    PetscCall(ierr);
   }
   for (PetscInt k = 0; k < p->ne; k++) { /* count */
     PetscReal d[3];

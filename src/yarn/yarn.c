@@ -46,6 +46,7 @@ PetscErrorCode VKYarnSetPypCell(VKYarn y, const VKPyp *cell, PetscBool exact, co
   else PetscCall(PetscNew(&y->cell));
   PetscCall(VKPypCopy(cell, y->cell));
   y->cell_exact = exact;
+  if (!exact) y->cell_rest = PETSC_FALSE; /* a resampled tiling has no segment-by-segment rest lengths */
   PetscCall(PetscStrncpy(y->cell_description, description ? description : "", sizeof(y->cell_description)));
   PetscFunctionReturn(0);
 }
@@ -446,14 +447,17 @@ PetscErrorCode VKYarnGetKnitCell(VKYarn y, VKPyp *cell)
  * length of the segment leaving each tiled vertex (lnext). */
 static PetscErrorCode TileCell(VKYarn y, const VKPyp *cell, PetscInt m, PetscInt n, VKCurves *tiled, PetscReal **lnext)
 {
-  PetscInt *origin = NULL;
+  PetscInt      *origin = NULL;
+  PetscBool      keep   = (PetscBool)(y->cell_rest && y->cell_exact);
+  PetscErrorCode ierr;
 
   PetscFunctionBegin;
-  PetscCall(VKPypTile(cell, m, n, tiled, y->cell_rest ? &origin : NULL));
-  if (!y->cell_rest) PetscFunctionReturn(0);
+  PetscCall(VKPypTile(cell, m, n, tiled, keep ? &origin : NULL));
+  if (!keep) PetscFunctionReturn(0);
   PetscCall(PetscMalloc1(tiled->nv + 1, lnext));
-  PetscCall(VKPypTileRestLengths(cell, m, tiled, origin, *lnext));
+  ierr = VKPypTileRestLengths(cell, m, tiled, origin, *lnext);
   PetscCall(PetscFree(origin));
+  PetscCall(ierr);
   PetscFunctionReturn(0);
 }
 

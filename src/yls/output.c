@@ -59,6 +59,32 @@ PetscErrorCode VKYLSOutputOpen(VKYLS y)
   PetscFunctionReturn(0);
 }
 
+
+/* A yarn with rest lengths of its own (VKYarnGetRestLengths): the stretch
+ * is against them, not against the rest polylines. */
+static PetscErrorCode StretchFromRestLengths(VKYLS y, PetscReal stretch[])
+{
+  const VKRodModel *m = &y->model;
+  const PetscReal  *L;
+  PetscReal        *len, *len0;
+
+  PetscFunctionBegin;
+  PetscCall(VKYarnGetRestLengths(y->yarn, &L));
+  if (!L) PetscFunctionReturn(0);
+  PetscCall(PetscCalloc2(m->nv, &len, m->nv, &len0));
+  for (PetscInt s = 0; s < m->nseg; s++) {
+    const PetscReal *a = y->xall + 3 * m->seg[2 * s], *b = y->xall + 3 * m->seg[2 * s + 1];
+    PetscReal        d = PetscSqrtReal(PetscSqr(b[0] - a[0]) + PetscSqr(b[1] - a[1]) + PetscSqr(b[2] - a[2]));
+    for (int j = 0; j < 2; j++) {
+      len[m->seg[2 * s + j]] += d;
+      len0[m->seg[2 * s + j]] += m->L[s];
+    }
+  }
+  for (PetscInt v = 0; v < m->nv; v++) stretch[v] = len0[v] > 0 ? len[v] / len0[v] : 1;
+  PetscCall(PetscFree2(len, len0));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKYLSOutputFrame(VKYLS y)
 {
   YLSOutput     *o = (YLSOutput *)y->out;
@@ -75,6 +101,7 @@ PetscErrorCode VKYLSOutputFrame(VKYLS y)
   if (o->vel) {
     PetscCall(VKYLSGather(y, y->v, o->vel)); /* collective */
     if (rank == 0) PetscCall(VKCurvesVertexFields(y->rest, y->xall, o->stretch, o->curvature)); /* rank 0 writes them */
+    if (rank == 0) PetscCall(StretchFromRestLengths(y, o->stretch));
   }
   PetscCall(PetscArraycpy(y->energy, e, 7));
   y->stats.pairs_max    = PetscMax(y->stats.pairs_max, np);

@@ -578,6 +578,16 @@ PetscErrorCode VKYLSRelaxPeriodic(VKPyp *cell, const VKYLSPeriodicParams *p, VKY
 
   PetscFunctionBegin;
   PetscCall(PetscMemzero(st, sizeof(*st)));
+  { /* the rest lengths are recorded as *RL at the end, one per vertex: every yarn's edges must run one way */
+    PetscReal *L;
+    PetscBool  given;
+    PetscErrorCode ierr;
+    PetscCall(PetscMalloc1(cell->ne + 1, &L));
+    ierr = VKPypGetRestLengths(cell, L, &given);
+    PetscCall(PetscFree(L));
+    PetscCall(ierr);
+    if (!given) PetscCall(VKPypOrientEdges(cell));
+  }
   st->period0[0] = cell->period[0];
   st->period0[1] = cell->period[1];
   PetscCall(CellCreate(cell, p, &C, &q));
