@@ -190,7 +190,7 @@ else not_ok "volknit yarn $overlap: expected the elastic relaxation to stop belo
 for n in 1 2; do
   log="$out/overlap_plastic.n$n.log"
   # shellcheck disable=SC2086
-  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$out/overlap_plastic.n$n" $overlap -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 > "$log" 2>&1 \
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$out/overlap_plastic.n$n" $overlap -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000 > "$log" 2>&1 \
      && grep -q 'contact radius 0.0012 m (r = 0.0012 m)' "$log" && grep -q '"relaxed": true' "$out/overlap_plastic.n$n/yarn.json"; then ok
   else not_ok "volknit yarn $overlap -yls_relax_plastic (-n $n): expected the full contact radius 0.0012 m (see $log)"; fi
 done

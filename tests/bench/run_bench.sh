@@ -181,10 +181,11 @@ echo
 # tiled 10 x 8 and relaxed as a patch (volknit yarn -yarn_relax), against the cell relaxed periodically and tiled.
 echo "| r mm | relaxation | contact radius reached | bow of the interior, mm | s |"
 echo "|---|---|---|---|---|"
-per_row() { # radius, mode (patch | patch, plastic | periodic)
+per_row() { # radius, mode (patch | patch, plastic | patch, plastic, inexact steps | periodic)
   local dir="$out/pyp_$(echo "$2" | tr -c 'a-z\n' '_')_$1" opt="-yarn_relax" t0 t1 cr bow px=0.009 py=0.007 mm
   [ "$2" = periodic ] && opt="-yarn_relax_periodic"
   [ "$2" = "patch, plastic" ] && opt="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8"
+  [ "$2" = "patch, plastic, inexact steps" ] && opt="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000"
   rm -rf "$dir"
   mm=$(awk -v r="$1" 'BEGIN { printf "%g", 1000 * r }')
   t0=$(date +%s.%N)
@@ -198,7 +199,11 @@ per_row() { # radius, mode (patch | patch, plastic | periodic)
     echo "| $mm | $2 | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-100) | - | - |"
   fi
 }
-for r in 0.001 0.0012 0.0013; do per_row $r patch; [ $r = 0.001 ] || per_row $r "patch, plastic"; per_row $r periodic; done
+for r in 0.001 0.0012 0.0013; do
+  per_row $r patch
+  if [ $r != 0.001 ]; then per_row $r "patch, plastic"; per_row $r "patch, plastic, inexact steps"; fi
+  per_row $r periodic
+done
 echo
 echo "Knit charts (8 x 8 stitches, r = 1 mm, the generator's loops): the patch relaxation of -yarn_relax against the"
 echo "chart's repeat relaxed periodically and tiled (glued at the edges as a knit).  Width: the patch's x extent."
