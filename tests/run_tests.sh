@@ -196,6 +196,14 @@ for n in 1 2; do
 done
 if h5diff -d 1e-6 "$out/overlap_plastic.n1/yarn.h5" "$out/overlap_plastic.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
 else not_ok "the plastic relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_plastic.n1/yarn.h5, $out/overlap_plastic.n2/yarn.h5)"; fi
+# and a BCC model that is not periodic, the rib of meshes/ at r = 1.2 mm:
+# the elastic relaxation ends under r (measured 0.9776 r), the plastic one at r
+log="$out/bcc_plastic.log"
+if timeout 300 bin/volknit yarn -o "$out/bcc_elastic" -yarn_bcc meshes/rib_4x4.bcc -yarn_radius 0.0012 -yarn_relax > "$log" 2>&1 < /dev/null \
+   && ! grep -q 'contact radius 0.0012 m (r = 0.0012 m)' "$log" \
+   && timeout 300 bin/volknit yarn -o "$out/bcc_plastic" -yarn_bcc meshes/rib_4x4.bcc -yarn_radius 0.0012 -yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000 >> "$log" 2>&1 < /dev/null \
+   && grep -q 'contact radius 0.0012 m (r = 0.0012 m)' "$log"; then ok
+else not_ok "volknit yarn -yarn_bcc meshes/rib_4x4.bcc -yarn_radius 0.0012 -yarn_relax: expected the elastic relaxation under r and the plastic one at r (see $log)"; fi
 
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed

@@ -229,6 +229,28 @@ knit_row() { # pattern, mode (patch | periodic), chart columns, rows
 }
 for pat in "stockinette 1 1" "rib1x1 2 1"; do set -- $pat; knit_row "$1" patch "$2" "$3"; knit_row "$1" periodic "$2" "$3"; done
 echo
+echo "A BCC model, not periodic (meshes/rib_4x4.bcc, its radius estimated at 1.06 mm), relaxed as a patch at its"
+echo "radius and at larger ones, where its loops overlap: the elastic relaxation against the plastic one with"
+echo "inexact steps.  Extent: of all vertices (the model as given: 36.0 x 32.9 x 3.0 mm)."
+echo
+echo "| r mm | relaxation | contact radius reached | extent x, y, z, mm | s |"
+echo "|---|---|---|---|---|"
+bcc_row() { # radius, mode (patch | patch, plastic, inexact steps)
+  local dir="$out/bcc_$(echo "$2" | tr -c 'a-z\n' '_')_$1" opt="-yarn_relax" t0 t1 cr ext
+  [ "$2" != patch ] && opt="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000"
+  rm -rf "$dir"
+  t0=$(date +%s.%N)
+  if run bin/volknit yarn -o "$dir" -yarn_bcc meshes/rib_4x4.bcc -yarn_radius "$1" $opt > "$dir.log" 2>&1; then
+    t1=$(date +%s.%N)
+    cr=$(sed -n 's/.*"contact_radius_m": \([^,]*\),*/\1/p' "$dir/yarn.json")
+    ext=$(bin/volknit yarn -yarn_h5 "$dir/yarn.h5" -yarn_view 2>/dev/null | sed -n 's/.*bounding box \[\([^,]*\), \([^]]*\)\] x \[\([^,]*\), \([^]]*\)\] x \[\([^,]*\), \([^]]*\)\].*/\1 \2 \3 \4 \5 \6/p' | awk '{ printf "%.1f, %.1f, %.2f", 1000 * ($2 - $1), 1000 * ($4 - $3), 1000 * ($6 - $5) }')
+    echo "| $(awk -v r="$1" 'BEGIN { printf "%g", 1000 * r }') | $2 | $(awk -v c="$cr" -v r="$1" 'BEGIN { printf "%.4f", c / r }') r | ${ext:--} | $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') |"
+  else
+    echo "| $1 | $2 | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-100) | - | - |"
+  fi
+}
+for r in 0.00106 0.0012 0.0013; do bcc_row $r patch; bcc_row $r "patch, plastic, inexact steps"; done
+echo
 echo "Rows produced by:"
 cat "$out/commands"
 echo
