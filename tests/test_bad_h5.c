@@ -11,6 +11,7 @@
 #include <vkmaterial.h>
 #include <vkio.h>
 #include "vktest.h"
+#include "tiledcell.h"
 #include <math.h>
 
 typedef enum {
@@ -206,19 +207,11 @@ int main(int argc, char **argv)
   }
   PetscCall(VKMeshDestroy(&m));
   PetscCall(VKYarnDestroy(&y));
-  { /* a patch tiled from a knit cell, keeping the cell's rest lengths */
-    VKPyp cell;
-    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &y));
-    PetscCall(VKYarnSetKnit(y, "stockinette", 2, 2));
-    PetscCall(VKYarnGetKnitCell(y, &cell));
-    PetscCall(VKYarnSetPypCell(y, &cell, PETSC_TRUE, "as built"));
-    PetscCall(VKYarnSetKeepCellRest(y, PETSC_TRUE));
-    PetscCall(VKYarnSetUp(y));
-    PetscCall(VKPathJoin(dir, "rest.yarn.h5", path, sizeof(path)));
-    PetscCall(VKYarnWriteH5(y, path));
-    PetscCall(VKPypFree(&cell));
-    PetscCall(VKYarnDestroy(&y));
-  }
+  /* a patch tiled from a knit cell, keeping the cell's rest lengths */
+  PetscCall(TiledKnitCell(PETSC_COMM_WORLD, "stockinette", 2, 2, 1e-3, NULL, PETSC_TRUE, &y));
+  PetscCall(VKPathJoin(dir, "rest.yarn.h5", path, sizeof(path)));
+  PetscCall(VKYarnWriteH5(y, path));
+  PetscCall(VKYarnDestroy(&y));
   for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
     const Case    *c = &cases[i];
     PetscErrorCode ierr, apply = 0;

@@ -10,6 +10,7 @@
 #include <vkyarn.h>
 #include <vkio.h>
 #include "vktest.h"
+#include "tiledcell.h"
 
 /* A periodic stockinette pattern: one knit loop, period (w, dy). */
 static PetscErrorCode MakePattern(VKPyp *p)
@@ -269,14 +270,7 @@ static PetscErrorCode TestH5(const char dir[])
   PetscCall(VKYarnDestroy(&a));
   PetscCall(VKYarnDestroy(&b));
   { /* a patch tiled from a knit cell keeping its rest state: the rest lengths round-trip */
-    VKPyp cell;
-    PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &a));
-    PetscCall(VKYarnSetKnit(a, "stockinette", 2, 2));
-    PetscCall(VKYarnSetRadius(a, 1e-3));
-    PetscCall(VKYarnGetKnitCell(a, &cell));
-    PetscCall(VKYarnSetPypCell(a, &cell, PETSC_TRUE, "as built"));
-    PetscCall(VKYarnSetKeepCellRest(a, PETSC_TRUE));
-    PetscCall(VKYarnSetUp(a));
+    PetscCall(TiledKnitCell(PETSC_COMM_WORLD, "stockinette", 2, 2, 1e-3, NULL, PETSC_TRUE, &a));
     PetscCall(VKPathJoin(dir, "rest.h5", path, sizeof(path)));
     PetscCall(VKYarnWriteH5(a, path));
     PetscCall(VKYarnCreate(PETSC_COMM_WORLD, &b));
@@ -285,7 +279,6 @@ static PetscErrorCode TestH5(const char dir[])
     same = (PetscBool)(a->rest_length && b->rest_length && nseg == VKCurvesNumSegments(&b->curves));
     for (PetscInt s = 0; same && s < nseg; s++) same = (PetscBool)(a->rest_length[s] == b->rest_length[s] && a->rest_length[s] > 0);
     PetscCall(VKTestCheck(same, NULL, "HDF5: a patch keeping its cell's rest state (%d segments) writes and reads its rest lengths exactly", (int)nseg));
-    PetscCall(VKPypFree(&cell));
     PetscCall(VKYarnDestroy(&a));
     PetscCall(VKYarnDestroy(&b));
   }

@@ -27,6 +27,7 @@
 #include <vkio.h>
 #include <vkscene.h>
 #include "vktest.h"
+#include "tiledcell.h"
 
 static PetscErrorCode LoadCell(VKPyp *cell)
 {
@@ -361,20 +362,6 @@ static PetscErrorCode PeriodicPhysics(VKYLS y, PetscReal f)
   PetscFunctionReturn(0);
 }
 
-/* The stockinette patch of repeats x repeats tiled from cell, set up;
- * with keep, at the cell's rest state (VKYarnSetKeepCellRest). */
-static PetscErrorCode TiledStockinette(VKPyp *cell, PetscInt repeats, PetscReal r, PetscBool keep, VKYarn *yarn)
-{
-  PetscFunctionBegin;
-  PetscCall(VKYarnCreate(PETSC_COMM_WORLD, yarn));
-  PetscCall(VKYarnSetKnit(*yarn, "stockinette", repeats, repeats));
-  PetscCall(VKYarnSetRadius(*yarn, r));
-  PetscCall(VKYarnSetPypCell(*yarn, cell, PETSC_TRUE, "relaxed periodically"));
-  PetscCall(VKYarnSetKeepCellRest(*yarn, keep));
-  PetscCall(VKYarnSetUp(*yarn));
-  PetscFunctionReturn(0);
-}
-
 /* Four handles: the outer ring of repeats of a patch of repeats x repeats. */
 static PetscErrorCode HeldRing(PetscInt repeats, VKScene *scene)
 {
@@ -443,7 +430,7 @@ static PetscErrorCode TestHeldPatch(void)
   PetscCall(VKPypCopy(&cell, &bare)); /* the relaxed cell without its *RL: at its own lengths */
   for (PetscInt i = 0; i < bare.nextra; i++) PetscCall(PetscFree(bare.extra[i].v));
   bare.nextra = 0;
-  PetscCall(TiledStockinette(&cell, repeats, r, PETSC_FALSE, &yarn));
+  PetscCall(TiledKnitCell(PETSC_COMM_WORLD, "stockinette", repeats, repeats, r, &cell, PETSC_FALSE, &yarn));
   PetscCall(VKYarnGetCurves(yarn, &c));
   PetscCall(PetscMalloc2(3 * c->nv, &x0, c->nv, &cv));
   PetscCall(PetscArraycpy(x0, c->x, 3 * c->nv));
@@ -507,7 +494,7 @@ static PetscErrorCode TestHeldPatch(void)
     VKYarn   copy;
     PetscReal d;
     PetscInt  ninterior;
-    PetscCall(TiledStockinette(&cell, repeats, r, (PetscBool)!k, &copy));
+    PetscCall(TiledKnitCell(PETSC_COMM_WORLD, "stockinette", repeats, repeats, r, &cell, (PetscBool)!k, &copy));
     PetscCall(HeldRing(repeats, &scene));
     PetscCall(VKYLSCreate(copy, scene, &y));
     PetscCall(VKYLSSetFromOptions(y));

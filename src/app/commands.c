@@ -108,7 +108,8 @@ PetscErrorCode VKAppMeshFromOptions(MPI_Comm comm, VKYarn y, VKMesh *m)
  * yarn; every rank computes the same, and meets the same errors. */
 static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[], PetscBool keep, VKPyp *cell, VKYLSPeriodicParams *p, VKYLSPeriodicStats *st)
 {
-  MPI_Comm comm;
+  MPI_Comm  comm;
+  PetscReal scale = 1; /* a pyp cell is relaxed at its size in metres, handed back in the file's units */
 
   PetscFunctionBegin;
   PetscCall(VKYarnGetComm(y, &comm));
@@ -121,7 +122,7 @@ static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[]
     char          *buf;
     size_t         len;
     PetscErrorCode ierr;
-    PetscReal      scale = 1, radius = 0, seglen = 0;
+    PetscReal      radius = 0, seglen = 0;
     PetscCall(VKReadFileBroadcast(comm, file, &buf, &len));
     ierr = VKPypParse(buf, len, file, cell);
     PetscCall(PetscFree(buf));
@@ -138,13 +139,9 @@ static PetscErrorCode RelaxCell(VKYarn y, VKYarnSource source, const char file[]
     seglen = seglen > 0 ? seglen : radius;
     PetscCall(VKPypRefine(cell, seglen));
     PetscCall(VKYLSPeriodicParamsFromOptions(comm, radius, p));
-    PetscCall(VKYLSRelaxPeriodic(cell, p, st));
-    PetscCall(VKPypScale(cell, 1 / scale));
-    PetscCall(VKYarnSetPypCell(y, cell, PETSC_TRUE, "relaxed periodically"));
-    PetscCall(VKYarnSetKeepCellRest(y, keep));
-    PetscFunctionReturn(0);
   }
   PetscCall(VKYLSRelaxPeriodic(cell, p, st));
+  if (scale != 1) PetscCall(VKPypScale(cell, 1 / scale));
   PetscCall(VKYarnSetPypCell(y, cell, PETSC_TRUE, "relaxed periodically"));
   PetscCall(VKYarnSetKeepCellRest(y, keep));
   PetscFunctionReturn(0);
