@@ -196,6 +196,24 @@ for n in 1 2; do
 done
 if h5diff -d 1e-6 "$out/overlap_plastic.n1/yarn.h5" "$out/overlap_plastic.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
 else not_ok "the plastic relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_plastic.n1/yarn.h5, $out/overlap_plastic.n2/yarn.h5)"; fi
+# the plastic flow bows that patch (z extent 7.6 mm measured at
+# -yls_relax_radius_end 1.06); the anchored stage (-yls_relax_anchor) keeps
+# it near its given shape (4.7 mm) at the full radius, the same on 1 and 2
+# ranks
+z_extent() { bin/volknit yarn -o "$1/view" -yarn_h5 "$1/yarn.h5" -yarn_view 2>/dev/null | sed -n 's/.*x \[\([^,]*\), \([^]]*\)\] m$/\1 \2/p' | awk '{ printf "%.6f", 1000 * ($2 - $1) }'; }
+# shellcheck disable=SC2086
+timeout 300 bin/volknit yarn -o "$out/overlap_plain106" $overlap -yls_relax_plastic -yls_relax_radius_end 1.06 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000 > "$out/overlap_plain106.log" 2>&1 < /dev/null
+zplain=$(z_extent "$out/overlap_plain106")
+for n in 1 2; do
+  d="$out/overlap_anchor.n$n"; log="$d.log"
+  # shellcheck disable=SC2086
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$d" $overlap -yls_relax_plastic -yls_relax_radius_end 1.06 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000 -yls_relax_anchor 1e3 > "$log" 2>&1 \
+     && grep -q 'then the anchored stage), contact radius 0.0012 m (r = 0.0012 m)' "$log" \
+     && z=$(z_extent "$d") && awk -v z="$z" -v p="$zplain" 'BEGIN { exit !(z > 0 && p > 0 && z < 0.75 * p) }'; then ok
+  else not_ok "volknit yarn $overlap -yls_relax_plastic -yls_relax_anchor 1e3 (-n $n): expected the full contact radius and a z extent under 0.75 x the plain plastic one's ${zplain:-?} mm, got ${z:-?} mm (see $log)"; fi
+done
+if h5diff -d 1e-6 "$out/overlap_anchor.n1/yarn.h5" "$out/overlap_anchor.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+else not_ok "the anchored relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_anchor.n1/yarn.h5, $out/overlap_anchor.n2/yarn.h5)"; fi
 # and a BCC model that is not periodic, the rib of meshes/ at r = 1.2 mm:
 # the elastic relaxation ends under r (measured 0.9776 r), the plastic one at r
 log="$out/bcc_plastic.log"

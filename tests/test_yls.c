@@ -21,6 +21,10 @@
  *    slide, keeps its side (no pull-through) and its contact (no
  *    unravelling); with the contact energy switched off 20 of its 21
  *    crossings change sides, so the check can fail;
+ *  - the relaxation's anchor springs (-yls_relax_anchor): on a yarn whose
+ *    given positions are its own shifted by d, the anchor term is
+ *    k_a L |d|^2 / 2 (L the yarn's length), and the potential with the
+ *    springs passes a Taylor test (second-order remainder);
  *  - 1 and 2 ranks give the same trajectory (the test runs on both).
  * ranks: 1 2
  */
@@ -75,6 +79,78 @@ static PetscErrorCode TestForceExtension(MPI_Comm comm)
     PetscReal Lr = -b[2], got = -y->xall[3 * (n - 1) + 2] - Lr, want = r.y->density * G * Lr * Lr / (2 * y->model.par.ks);
     PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(got / want - 1) <= 1e-6), NULL, "hanging yarn: elongation %.6e m, w L^2 / (2 EA) = %.6e m (EA = k_s)", (double)got, (double)want));
   }
+  PetscCall(RunDestroy(&r));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+/* The anchored stage's springs on a bent yarn pulled toward its own
+ * positions shifted by d: the term's value, and a Taylor test of the whole
+ * potential, E(x + h p) - E(x) - h grad E . p = O(h^2). */
+static PetscErrorCode TestAnchor(MPI_Comm comm)
+{
+  VKCurves           c;
+  Run                r;
+  VKYLS              y;
+  Vec                G, Gseq;
+  VecScatter         sc;
+  const PetscScalar *g;
+  PetscReal          a[3] = {0, 0, 0}, b[3] = {0.03, 0.01, 0}, d[3] = {2e-4, -1e-4, 3e-4}, term[YLS_NTERMS], E0, E1, gp, want, len = 0, rem[4], *x0, *x, *p;
+  PetscInt           n = 31;
+  PetscRandom        rnd;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(Line(&c, n, a, b));
+  for (PetscInt i = 0; i < n; i++) c.x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i); /* bent: bending has a gradient */
+  PetscCall(RunCreate(comm, &c, &r));
+  y = r.yls;
+  PetscCall(VKYLSSetUp(y));
+  n               = y->model.nv; /* the yarn as set up (resampled) */
+  y->relaxing     = PETSC_TRUE;
+  y->relax_anchor = 1e6; /* stiff enough that its gradient shows in the remainder */
+  PetscCall(PetscMalloc4(3 * n, &y->xanchor, 3 * n, &x0, 3 * n, &x, 3 * n, &p));
+  PetscCall(VKYLSGather(y, y->x, x0));
+  for (PetscInt i = 0; i < n; i++)
+    for (int k = 0; k < 3; k++) y->xanchor[3 * i + k] = x0[3 * i + k] + d[k];
+  y->anchored = PETSC_TRUE;
+  PetscCall(PetscArraycpy(y->xall, x0, 3 * n));
+  PetscCall(PetscArraycpy(y->xn, x0, 3 * n));
+  PetscCall(PetscArrayzero(y->vn, 3 * n));
+  PetscCall(VKYLSTangents(y, y->xn, y->tn));
+  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscCall(VKYLSPotential(y, y->xall, y->theta, term, NULL, &E0));
+  for (PetscInt i = 0; i + 1 < n; i++) len += PetscSqrtReal(PetscSqr(x0[3 * i + 3] - x0[3 * i]) + PetscSqr(x0[3 * i + 4] - x0[3 * i + 1]) + PetscSqr(x0[3 * i + 5] - x0[3 * i + 2]));
+  want = 0.5 * y->relax_anchor * len * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(term[YLS_ANCHOR] / want - 1) <= 1e-9), NULL, "anchor springs, given positions shifted by %.1e m: term %.6e J, k_a L |d|^2 / 2 = %.6e J", (double)PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), (double)term[YLS_ANCHOR], (double)want));
+
+  PetscCall(VecDuplicate(y->q, &G));
+  PetscCall(VKYLSGradient(y, y->xall, y->theta, G));
+  PetscCall(VecScatterCreateToAll(G, &sc, &Gseq));
+  PetscCall(VecScatterBegin(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd)); /* the same sequence on every rank */
+  PetscCall(PetscRandomSetInterval(rnd, -1, 1));
+  for (PetscInt i = 0; i < 3 * n; i++) PetscCall(PetscRandomGetValueReal(rnd, &p[i]));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(VecGetArrayRead(Gseq, &g));
+  gp = 0;
+  for (PetscInt i = 0; i < n; i++)
+    for (int k = 0; k < 3; k++) gp += g[4 * i + k] * p[3 * i + k];
+  PetscCall(VecRestoreArrayRead(Gseq, &g));
+  for (int j = 0; j < 4; j++) {
+    PetscReal h = 1e-6 * PetscPowReal(0.5, j);
+    for (PetscInt i = 0; i < 3 * n; i++) x[i] = x0[i] + h * p[i];
+    PetscCall(VKYLSFindPairs(y, x));
+    PetscCall(VKYLSPotential(y, x, y->theta, NULL, NULL, &E1));
+    rem[j] = PetscAbsReal(E1 - E0 - h * gp);
+  }
+  PetscCall(VKTestCheck((PetscBool)(rem[0] > 0 && rem[2] / rem[3] > 3.5 && rem[2] / rem[3] < 4.5 && rem[0] / rem[1] > 3.5 && rem[0] / rem[1] < 4.5), NULL, "potential with the anchor springs: Taylor remainders %.2e %.2e %.2e %.2e J as h halves (ratios %.2f %.2f %.2f, want 4)", (double)rem[0], (double)rem[1], (double)rem[2], (double)rem[3], (double)(rem[0] / rem[1]), (double)(rem[1] / rem[2]), (double)(rem[2] / rem[3])));
+  PetscCall(VecScatterDestroy(&sc));
+  PetscCall(VecDestroy(&Gseq));
+  PetscCall(VecDestroy(&G));
+  PetscCall(PetscFree4(y->xanchor, x0, x, p));
+  y->anchored = PETSC_FALSE;
   PetscCall(RunDestroy(&r));
   PetscCall(VKCurvesFree(&c));
   PetscFunctionReturn(0);
@@ -460,6 +536,7 @@ int main(int argc, char **argv)
   PetscCall(TestForceExtension(PETSC_COMM_WORLD));
   PetscCall(TestCrossing(PETSC_COMM_WORLD, &xworld));
   PetscCall(TestConservation(PETSC_COMM_WORLD));
+  PetscCall(TestAnchor(PETSC_COMM_WORLD));
   PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
   PetscCall(TestRelaxedStill(PETSC_COMM_WORLD, dir, &rworld));
   PetscCall(TestRelaxIgnoresScene(PETSC_COMM_WORLD, rworld));

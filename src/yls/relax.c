@@ -18,6 +18,12 @@
  * next step and yarns pushed apart keep no elastic stress (a plastic flow;
  * a tiled pyp patch whose loops overlap at r reaches the full radius,
  * where the elastic relaxation creeps without end, docs/BENCHMARKS.md).
+ * Nothing in that flow holds the patch's overall shape, and a tiled pyp
+ * stockinette bows by millimetres; -yls_relax_anchor k_a then adds one
+ * elastic stage about the plastic result at the last contact radius, with
+ * springs k_a l_i |x_i - x0_i|^2 / 2 (l_i the Voronoi length) pulling every
+ * vertex toward its given position x0_i: the bow comes out at the cost of
+ * some overlap, which a larger -yls_relax_radius_end makes up for.
  * -yls_relax_straight relaxes naturally
  * straight, untwisted rods (the periodic relaxation's physics) in place of
  * the given geometry's curvature.  The contact radius is grown from
@@ -118,7 +124,7 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
 
 PetscErrorCode VKYLSRelax(VKYLS y)
 {
-  PetscInt      *handle, steps = 0, halved, ncolliders, max_it;
+  PetscInt      *handle, steps = 0, anchored_steps = 0, halved, ncolliders, max_it;
   PetscReal      g[3], dt, cv, cs, r, *thheld;
   VKYLSStats     stats;
   PetscLogDouble t0 = VKWallTime();
@@ -135,6 +141,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   {
     const PetscReal *L;
     PetscCall(VKYarnGetRestLengths(y->yarn, &L));
+    PetscCheck(y->relax_plastic || !(y->relax_anchor > 0), y->comm, PETSC_ERR_ARG_INCOMP, "-yls_relax_anchor acts after a plastic relaxation: give -yls_relax_plastic too");
     PetscCheck(!y->relax_plastic || !(y->relax_straight || L), y->comm, PETSC_ERR_ARG_INCOMP, "-yls_relax_plastic makes the yarn's geometry its rest state after every step: it cannot relax %s", L ? "a yarn that keeps its cell's rest state" : "naturally straight rods (-yls_relax_straight)");
   }
   /* no scene, no damping, a long pseudo time step */
@@ -157,6 +164,10 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     PetscCall(PetscArrayzero(y->model.wbar, 4 * y->model.nbend));
     PetscCall(PetscArrayzero(y->model.mbar, y->model.nbend));
   }
+  if (y->relax_anchor > 0) { /* the given positions, for the anchored stage */
+    PetscCall(PetscMalloc1(3 * y->model.nv, &y->xanchor));
+    PetscCall(VKYLSGather(y, y->x, y->xanchor));
+  }
   PetscCall(SNESGetTolerances(y->snes, NULL, NULL, NULL, &max_it, NULL));
   if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, y->relax_newton_its, PETSC_DEFAULT));
   for (PetscInt s = 1; s <= y->relax_stages; s++) {
@@ -165,6 +176,15 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     PetscCall(RelaxStage(y, &steps));
   }
   if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, max_it, PETSC_DEFAULT));
+  if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions */
+    y->relax_plastic = PETSC_FALSE;
+    y->anchored      = PETSC_TRUE;
+    PetscCall(RelaxStage(y, &anchored_steps));
+    y->anchored      = PETSC_FALSE;
+    y->relax_plastic = PETSC_TRUE;
+    steps += anchored_steps;
+    PetscCall(PetscFree(y->xanchor));
+  }
   halved = y->stats.halved_steps - stats.halved_steps;
   PetscCall(ResetRest(y));
   /* the scene back */
@@ -183,7 +203,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   y->relax_time        = VKWallTime() - t0;
   y->stats             = stats;
   y->stats.dmin_over_2r = PETSC_INFINITY;
-  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d halved; %d radius stages from %g r to %g r), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)halved, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->relax_radius_end, (double)y->model.par.radius, (double)r, y->relax_time));
+  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d halved; %d radius stages from %g r to %g r%s), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)halved, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->relax_radius_end, y->relax_anchor > 0 ? ", then the anchored stage" : "", (double)y->model.par.radius, (double)r, y->relax_time));
   PetscFunctionReturn(0);
 }
 
