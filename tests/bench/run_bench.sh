@@ -181,11 +181,14 @@ echo
 # tiled 10 x 8 and relaxed as a patch (volknit yarn -yarn_relax), against the cell relaxed periodically and tiled.
 echo "| r mm | relaxation | contact radius reached | bow of the interior, mm | s |"
 echo "|---|---|---|---|---|"
-per_row() { # radius, mode (patch | patch, plastic | patch, plastic, inexact steps | periodic)
+# the plastic relaxation with inexact steps, then the anchored stage (-yls_relax_anchor)
+anchored="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.06 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000 -yls_relax_anchor 1e3"
+per_row() { # radius, mode (patch | patch, plastic | patch, plastic, inexact steps | patch, plastic, anchored | periodic)
   local dir="$out/pyp_$(echo "$2" | tr -c 'a-z\n' '_')_$1" opt="-yarn_relax" t0 t1 cr bow px=0.009 py=0.007 mm
   [ "$2" = periodic ] && opt="-yarn_relax_periodic"
   [ "$2" = "patch, plastic" ] && opt="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8"
   [ "$2" = "patch, plastic, inexact steps" ] && opt="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000"
+  [ "$2" = "patch, plastic, anchored" ] && opt="$anchored"
   rm -rf "$dir"
   mm=$(awk -v r="$1" 'BEGIN { printf "%g", 1000 * r }')
   t0=$(date +%s.%N)
@@ -201,7 +204,7 @@ per_row() { # radius, mode (patch | patch, plastic | patch, plastic, inexact ste
 }
 for r in 0.001 0.0012 0.0013; do
   per_row $r patch
-  if [ $r != 0.001 ]; then per_row $r "patch, plastic"; per_row $r "patch, plastic, inexact steps"; fi
+  if [ $r != 0.001 ]; then per_row $r "patch, plastic"; per_row $r "patch, plastic, inexact steps"; per_row $r "patch, plastic, anchored"; fi
   per_row $r periodic
 done
 echo
@@ -231,13 +234,15 @@ for pat in "stockinette 1 1" "rib1x1 2 1"; do set -- $pat; knit_row "$1" patch "
 echo
 echo "A BCC model, not periodic (meshes/rib_4x4.bcc, its radius estimated at 1.06 mm), relaxed as a patch at its"
 echo "radius and at larger ones, where its loops overlap: the elastic relaxation against the plastic one with"
-echo "inexact steps.  Extent: of all vertices (the model as given: 36.0 x 32.9 x 3.0 mm)."
+echo "inexact steps, and that one followed by the anchored stage.  Extent: of all vertices (the model as given:"
+echo "36.0 x 32.9 x 3.0 mm)."
 echo
 echo "| r mm | relaxation | contact radius reached | extent x, y, z, mm | s |"
 echo "|---|---|---|---|---|"
-bcc_row() { # radius, mode (patch | patch, plastic, inexact steps)
+bcc_row() { # radius, mode (patch | patch, plastic, inexact steps | patch, plastic, anchored)
   local dir="$out/bcc_$(echo "$2" | tr -c 'a-z\n' '_')_$1" opt="-yarn_relax" t0 t1 cr ext
-  [ "$2" != patch ] && opt="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000"
+  [ "$2" = "patch, plastic, inexact steps" ] && opt="-yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000"
+  [ "$2" = "patch, plastic, anchored" ] && opt="$anchored"
   rm -rf "$dir"
   t0=$(date +%s.%N)
   if run bin/volknit yarn -o "$dir" -yarn_bcc meshes/rib_4x4.bcc -yarn_radius "$1" $opt > "$dir.log" 2>&1; then
@@ -249,7 +254,7 @@ bcc_row() { # radius, mode (patch | patch, plastic, inexact steps)
     echo "| $1 | $2 | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-100) | - | - |"
   fi
 }
-for r in 0.00106 0.0012 0.0013; do bcc_row $r patch; bcc_row $r "patch, plastic, inexact steps"; done
+for r in 0.00106 0.0012 0.0013; do bcc_row $r patch; bcc_row $r "patch, plastic, inexact steps"; bcc_row $r "patch, plastic, anchored"; done
 echo
 echo "Rows produced by:"
 cat "$out/commands"
