@@ -24,7 +24,8 @@
  *  - the relaxation's anchor springs (-yls_relax_anchor): on a yarn whose
  *    given positions are its own shifted by d, the anchor term is
  *    k_a L |d|^2 / 2 (L the yarn's length), and the potential with the
- *    springs passes a Taylor test (second-order remainder);
+ *    springs passes a Taylor test (second-order remainder); the springs'
+ *    targets follow an affine motion of the yarn exactly and not a bow;
  *  - 1 and 2 ranks give the same trajectory (the test runs on both).
  * ranks: 1 2
  */
@@ -102,7 +103,10 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   PetscFunctionBegin;
   PetscCall(VKCurvesInit(&c));
   PetscCall(Line(&c, n, a, b));
-  for (PetscInt i = 0; i < n; i++) c.x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i); /* bent: bending has a gradient */
+  for (PetscInt i = 0; i < n; i++) { /* bent out of any plane: bending has a gradient, an affine map is fitted in 3-D */
+    c.x[3 * i + 1] += 0.003 * PetscCosReal(0.3 * i);
+    c.x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i);
+  }
   PetscCall(RunCreate(comm, &c, &r));
   y = r.yls;
   PetscCall(VKYLSSetUp(y));
@@ -149,7 +153,36 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   PetscCall(VecScatterDestroy(&sc));
   PetscCall(VecDestroy(&Gseq));
   PetscCall(VecDestroy(&G));
+
+  { /* the targets: an affine motion of the given yarn is not pulled back, a bow is */
+    const PetscReal A[9] = {1.1, 0.05, 0, -0.02, 0.95, 0.01, 0.03, 0, 1.2}, t[3] = {0.002, -0.001, 0.004};
+    PetscReal       aff = 0, bow = 0;
+    y->xgiven = x0;
+    for (int pass = 0; pass < 2; pass++) {
+      PetscScalar *xa;
+      PetscInt     lo, hi;
+      for (PetscInt i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+          x[3 * i + k] = t[k];
+          for (int l = 0; l < 3; l++) x[3 * i + k] += A[3 * k + l] * x0[3 * i + l];
+        }
+      if (pass) /* a bow of 1 mm across the yarn's 3 cm */
+        for (PetscInt i = 0; i < n; i++) x[3 * i + 2] += 1e-3 * PetscSqr((x0[3 * i] - 0.015) / 0.015);
+      PetscCall(VecGetOwnershipRange(y->x, &lo, &hi));
+      PetscCall(VecGetArray(y->x, &xa));
+      for (PetscInt j = lo; j < hi; j++) xa[j - lo] = x[j];
+      PetscCall(VecRestoreArray(y->x, &xa));
+      PetscCall(VKYLSAnchorTargets(y));
+      for (PetscInt i = 0; i < 3 * n; i++) {
+        if (!pass) aff = PetscMax(aff, PetscAbsReal(y->xanchor[i] - x[i]));
+        else bow = PetscMax(bow, PetscAbsReal(y->xanchor[i] - x[i]));
+      }
+    }
+    y->xgiven = NULL;
+    PetscCall(VKTestCheck((PetscBool)(aff <= 1e-10 && bow >= 2e-4), NULL, "anchor targets: the given yarn moved by an affine map is its own target to %.1e m; bowed by 1 mm, its targets are up to %.2e m away", (double)aff, (double)bow));
+  }
   PetscCall(PetscFree4(y->xanchor, x0, x, p));
+  y->xanchor = NULL;
   y->anchored = PETSC_FALSE;
   PetscCall(RunDestroy(&r));
   PetscCall(VKCurvesFree(&c));

@@ -7,7 +7,7 @@
  *                           + c_v I_j/(2 dt) (theta_j - theta_n,j)^2
  *                           + stretch + c_s/(2 dt L) ((e - e_n) . t_n)^2 ]
  *          + sum_stencils bending and twist + sum_glue stretch + sum_pairs contact
- *          (+ sum_i k_a l_i/2 |x_i - x0_i|^2 in the anchored stage of relax.c),
+ *          (+ sum_i k_a l_i/2 |x_i - t_i|^2 in the anchored stage of relax.c),
  * xhat = x_n + dt v_n, thetahat = theta_n + dt w_n; the bending stencils
  * are evaluated in the chart of the step (the frames at its start).  depth_i is the penetration of vertex i into the
  * colliders grown by the yarn radius; the friction term is the smoothed
@@ -131,7 +131,7 @@ static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accu
   VKSumAdd(&acc->term[YLS_GRAVITY], work);
   VKSumAdd(&acc->term[YLS_DAMPING], 0.5 * y->cv * m * u2 / dt);
   diag = m / (dt * dt) + y->cv * m / dt;
-  if (y->anchored) { /* the relaxation's anchor: (k_a l_i / 2) |x_i - x0_i|^2, l_i = m_i / linear density */
+  if (y->anchored) { /* the relaxation's springs: (k_a l_i / 2) |x_i - t_i|^2, l_i = m_i / linear density */
     PetscReal ka = y->relax_anchor * m / y->density, a2 = 0;
     for (int k = 0; k < 3; k++) {
       PetscReal da = xi[k] - y->xanchor[3 * i + k];

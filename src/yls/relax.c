@@ -21,9 +21,15 @@
  * Nothing in that flow holds the patch's overall shape, and a tiled pyp
  * stockinette bows by millimetres; -yls_relax_anchor k_a then adds one
  * elastic stage about the plastic result at the last contact radius, with
- * springs k_a l_i |x_i - x0_i|^2 / 2 (l_i the Voronoi length) pulling every
- * vertex toward its given position x0_i: the bow comes out at the cost of
- * some overlap, which a larger -yls_relax_radius_end makes up for.
+ * springs k_a l_i |x_i - t_i|^2 / 2 (l_i the Voronoi length) pulling every
+ * vertex toward its given position x0_i moved by the affine map closest to
+ * the yarn at the start of each step, t_i = c + A (x0_i - c0): the patch
+ * may grow or shrink as a whole, as the loops need at a larger radius, and
+ * the bow comes out, at the cost of some overlap, which a larger
+ * -yls_relax_radius_end makes up for.  (Springs to the given positions
+ * themselves held the patch's footprint and left more overlap, 0.978 r
+ * against 0.999 r on that stockinette at r = 1.3 mm; springs inside the
+ * plastic flow crept without end: docs/BENCHMARKS.md.)
  * -yls_relax_straight relaxes naturally
  * straight, untwisted rods (the periodic relaxation's physics) in place of
  * the given geometry's curvature.  The contact radius is grown from
@@ -92,6 +98,50 @@ static PetscErrorCode FollowRest(VKYLS y)
   PetscFunctionReturn(0);
 }
 
+/* Where the anchored stage's springs pull: the given positions x0 moved by
+ * the affine map c + A (x0 - c0) closest to the current yarn x_n
+ * (mass-weighted least squares), so the patch may grow, shrink or turn as
+ * a whole, and only what no affine map can follow (a bow, a curl) is
+ * pulled back. */
+PetscErrorCode VKYLSAnchorTargets(VKYLS y)
+{
+  const PetscInt   nv = y->model.nv;
+  const PetscReal *m  = y->model.mass, *x0 = y->xgiven;
+  PetscReal        M = 0, c0[3] = {0, 0, 0}, c[3] = {0, 0, 0}, S0[9] = {0}, S1[9] = {0}, S0i[9], A[9] = {0};
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGather(y, y->x, y->xall));
+  for (PetscInt i = 0; i < nv; i++) {
+    M += m[i];
+    for (int k = 0; k < 3; k++) {
+      c0[k] += m[i] * x0[3 * i + k];
+      c[k] += m[i] * y->xall[3 * i + k];
+    }
+  }
+  for (int k = 0; k < 3; k++) {
+    c0[k] /= M;
+    c[k] /= M;
+  }
+  for (PetscInt i = 0; i < nv; i++)
+    for (int k = 0; k < 3; k++)
+      for (int l = 0; l < 3; l++) {
+        S0[3 * k + l] += m[i] * (x0[3 * i + k] - c0[k]) * (x0[3 * i + l] - c0[l]);
+        S1[3 * k + l] += m[i] * (y->xall[3 * i + k] - c[k]) * (x0[3 * i + l] - c0[l]);
+      }
+  for (int k = 0; k < 3; k++) S0[4 * k] += 1e-12 * (S0[0] + S0[4] + S0[8]); /* a flat or straight yarn: A leaves its normals alone */
+  PetscCheck(VKInverse3(S0, S0i) != 0, y->comm, PETSC_ERR_ARG_WRONG, "-yls_relax_anchor: the given positions are all one point");
+  for (int k = 0; k < 3; k++)
+    for (int l = 0; l < 3; l++)
+      for (int j = 0; j < 3; j++) A[3 * k + l] += S1[3 * k + j] * S0i[3 * j + l];
+  for (PetscInt i = 0; i < nv; i++)
+    for (int k = 0; k < 3; k++) {
+      PetscReal t = c[k];
+      for (int l = 0; l < 3; l++) t += A[3 * k + l] * (x0[3 * i + l] - c0[l]);
+      y->xanchor[3 * i + k] = t;
+    }
+  PetscFunctionReturn(0);
+}
+
 /* Proximal steps at the current contact radius until the state is static:
  * the next step's Newton solve converges at its first residual, which at
  * rest is the elastic force alone.  (A proximal step whose Newton solve
@@ -106,6 +156,7 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
     PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r (last |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (double)y->residual, (double)y->tolerance);
     PetscCall(VecSet(y->v, 0));
     y->relax_unfinished = PETSC_FALSE;
+    if (y->anchored) PetscCall(VKYLSAnchorTargets(y));
     PetscCall(VKYLSStep(y));
     (*steps)++;
     PetscCall(SNESGetIterationNumber(y->snes, &its));
@@ -165,8 +216,8 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     PetscCall(PetscArrayzero(y->model.mbar, y->model.nbend));
   }
   if (y->relax_anchor > 0) { /* the given positions, for the anchored stage */
-    PetscCall(PetscMalloc1(3 * y->model.nv, &y->xanchor));
-    PetscCall(VKYLSGather(y, y->x, y->xanchor));
+    PetscCall(PetscMalloc2(3 * y->model.nv, &y->xgiven, 3 * y->model.nv, &y->xanchor));
+    PetscCall(VKYLSGather(y, y->x, y->xgiven));
   }
   PetscCall(SNESGetTolerances(y->snes, NULL, NULL, NULL, &max_it, NULL));
   if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, y->relax_newton_its, PETSC_DEFAULT));
@@ -183,7 +234,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     y->anchored      = PETSC_FALSE;
     y->relax_plastic = PETSC_TRUE;
     steps += anchored_steps;
-    PetscCall(PetscFree(y->xanchor));
+    PetscCall(PetscFree2(y->xgiven, y->xanchor));
   }
   halved = y->stats.halved_steps - stats.halved_steps;
   PetscCall(ResetRest(y));

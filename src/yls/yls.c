@@ -84,7 +84,7 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(VKOptionsRangeInt("-yls_relax_newton_its", "Inexact proximal steps: Newton iterations per step of the relaxation, after which the next step starts from where it stopped (0: each step solved to the tolerance, halved when Newton fails); every step counts against -yls_relax_max_steps", "VKYLSRelax", y->relax_newton_its, &y->relax_newton_its, NULL, 0, 1000));
   PetscCall(PetscOptionsBool("-yls_relax_handles", "Hold the scene's handle vertices where they are at t = 0 during the relaxation (otherwise every vertex is free); volknit yarn -yarn_relax then reads the scene's handles from the -scene_ options", "VKYLSRelax", y->relax_handles, &y->relax_handles, NULL));
   PetscCall(PetscOptionsBool("-yls_relax_plastic", "Plastic relaxation: after every proximal step the rest state (lengths, curvatures, twist) becomes the current one, so yarns pushed apart by contact keep no elastic stress (a patch whose yarns overlap at r reaches the full radius, but may bow); not with -yls_relax_straight or a yarn keeping its cell's rest state", "VKYLSRelax", y->relax_plastic, &y->relax_plastic, NULL));
-  PetscCall(PetscOptionsReal("-yls_relax_anchor", "After a plastic relaxation, one elastic stage in which springs of this stiffness per unit length of yarn, N/m^2, pull every vertex toward its given position (0: none): the patch keeps its overall shape while contact keeps the yarns apart (a tiled pyp stockinette bows 0.5 mm instead of 1.8, docs/BENCHMARKS.md); the springs leave some overlap, which a larger -yls_relax_radius_end makes up for", "VKYLSRelax", y->relax_anchor, &y->relax_anchor, NULL));
+  PetscCall(PetscOptionsReal("-yls_relax_anchor", "After a plastic relaxation, one elastic stage in which springs of this stiffness per unit length of yarn, N/m^2, pull every vertex toward its given position moved by the affine map closest to the yarn (0: none): the patch keeps its shape but may grow or shrink as a whole, while contact keeps the yarns apart (a tiled pyp stockinette bows 0.4 mm instead of 1.8, docs/BENCHMARKS.md); the springs leave some overlap, which a larger -yls_relax_radius_end makes up for", "VKYLSRelax", y->relax_anchor, &y->relax_anchor, NULL));
   PetscCall(PetscOptionsBool("-yls_relax_straight", "Relax as naturally straight, untwisted rods (no rest curvature from the given geometry: the periodic relaxation's physics)", "VKYLSRelax", y->relax_straight, &y->relax_straight, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_radius_end", "Contact radius of the last relaxation stage, in r: above 1 makes up for the overlap the contact penalty leaves (the periodic relaxation reports the radius it needed)", "VKYLSRelax", y->relax_radius_end, &y->relax_radius_end, NULL));
   PetscCall(VKOptionsRangeInt("-yls_relax_max_steps", "Proximal steps per relaxation stage at most", "VKYLSRelax", y->relax_max_steps, &y->relax_max_steps, NULL, 1, PETSC_MAX_INT));
@@ -759,7 +759,7 @@ PetscErrorCode VKYLSDestroy(VKYLS *py)
     PetscCall(PetscFree5(y->theta, y->thn, y->omn, y->thheld, y->mref));
     PetscCall(PetscFree3(y->friction, y->contact_normal, y->contact_collider));
   }
-  PetscCall(PetscFree(y->xanchor)); /* left by a relaxation that failed */
+  PetscCall(PetscFree2(y->xgiven, y->xanchor)); /* left by a relaxation that failed */
   PetscCall(PetscFree(y->pairs));
   PetscCall(PetscFree(y->pattern));
   PetscCall(VecDestroy(&y->x));

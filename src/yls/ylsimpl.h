@@ -44,7 +44,7 @@ struct _n_VKYLS {
   PetscBool   relax_handles;                 /* the scene's handles hold their vertices at t = 0 during the relaxation */
   PetscBool   relax_plastic;                 /* the rest state follows the yarn after every proximal step */
   PetscReal   relax_anchor;                  /* after a plastic relaxation, springs per unit yarn length pull each vertex toward its given position, N/m^2 (0: none) */
-  PetscReal  *xanchor;                       /* replicated: the given positions they pull toward, while relaxing (NULL otherwise) */
+  PetscReal  *xgiven, *xanchor;              /* replicated, while relaxing with springs (NULL otherwise): the given positions; where the springs pull */
   PetscBool   anchored;                      /* the anchored stage: the springs are in the potential */
   PetscLogDouble relax_time;
   PetscInt    nglue;
@@ -97,6 +97,9 @@ struct _n_VKYLS {
 /* The terms of the incremental potential, reported separately. */
 enum { YLS_INERTIA, YLS_GRAVITY, YLS_DAMPING, YLS_COLLIDER, YLS_STRETCH, YLS_BEND, YLS_TWIST, YLS_CONTACT, YLS_GLUE, YLS_ANCHOR, YLS_NTERMS };
 
+/* The anchored relaxation stage's spring targets y->xanchor from the given
+ * positions y->xgiven and the current ones y->x (relax.c). */
+PETSC_INTERN PetscErrorCode VKYLSAnchorTargets(VKYLS);
 /* The values of a parallel vector (3 per vertex) on every rank, in dst. */
 PETSC_INTERN PetscErrorCode VKYLSGather(VKYLS, Vec X, PetscReal dst[]);
 /* Newton's unknowns Q (4 per vertex) on every rank: positions into
