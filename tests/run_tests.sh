@@ -198,7 +198,7 @@ if h5diff -d 1e-6 "$out/overlap_plastic.n1/yarn.h5" "$out/overlap_plastic.n2/yar
 else not_ok "the plastic relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_plastic.n1/yarn.h5, $out/overlap_plastic.n2/yarn.h5)"; fi
 # the plastic flow bows that patch (z extent 7.6 mm measured at
 # -yls_relax_radius_end 1.06); the anchored stage (-yls_relax_anchor) keeps
-# it near its given shape (4.7 mm) at the full radius, the same on 1 and 2
+# it near its given shape (3.7 mm) at the full radius, the same on 1 and 2
 # ranks
 z_extent() { bin/volknit yarn -o "$1/view" -yarn_h5 "$1/yarn.h5" -yarn_view 2>/dev/null | sed -n 's/.*x \[\([^,]*\), \([^]]*\)\] m$/\1 \2/p' | awk '{ printf "%.6f", 1000 * ($2 - $1) }'; }
 # shellcheck disable=SC2086
