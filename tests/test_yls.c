@@ -24,7 +24,8 @@
  *  - the relaxation's anchor springs (-yls_relax_anchor): on a yarn whose
  *    given positions are its own shifted by d, the anchor term is
  *    k_a L |d|^2 / 2 (L the yarn's length), and the potential with the
- *    springs passes a Taylor test (second-order remainder); the springs'
+ *    springs passes a Taylor test (second-order remainder), its Hessian
+ *    gains k_a l_i on the position diagonal and nothing else; the springs'
  *    targets follow an affine motion of the yarn exactly and not a bow;
  *  - 1 and 2 ranks give the same trajectory (the test runs on both).
  * ranks: 1 2
@@ -103,7 +104,7 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   PetscFunctionBegin;
   PetscCall(VKCurvesInit(&c));
   PetscCall(Line(&c, n, a, b));
-  for (PetscInt i = 0; i < n; i++) { /* bent out of any plane: bending has a gradient, an affine map is fitted in 3-D */
+  for (PetscInt i = 0; i < n; i++) { /* bent out of any plane, so that an affine map is fitted in 3-D */
     c.x[3 * i + 1] += 0.003 * PetscCosReal(0.3 * i);
     c.x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i);
   }
@@ -153,6 +154,43 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   PetscCall(VecScatterDestroy(&sc));
   PetscCall(VecDestroy(&Gseq));
   PetscCall(VecDestroy(&G));
+
+  { /* the Hessian: the springs add k_a l_i on the diagonal of the position rows, nothing else:
+     * (H_on - H_off) v = K v for a random v */
+    Mat          Hon;
+    Vec          v, a, b;
+    PetscScalar *ba;
+    PetscInt     lo, hi;
+    PetscReal    err, ref;
+    PetscRandom  rv;
+    PetscCall(VKYLSFindPairs(y, y->xall));
+    PetscCall(VKYLSHessian(y, y->xall, y->theta, y->J));
+    PetscCall(MatDuplicate(y->J, MAT_COPY_VALUES, &Hon));
+    y->anchored = PETSC_FALSE;
+    PetscCall(VKYLSHessian(y, y->xall, y->theta, y->J));
+    y->anchored = PETSC_TRUE;
+    PetscCall(MatCreateVecs(Hon, &v, &a));
+    PetscCall(VecDuplicate(a, &b));
+    PetscCall(PetscRandomCreate(comm, &rv));
+    PetscCall(VecSetRandom(v, rv));
+    PetscCall(PetscRandomDestroy(&rv));
+    PetscCall(MatMult(Hon, v, a));
+    PetscCall(MatMult(y->J, v, b));
+    PetscCall(VecAXPY(a, -1, b)); /* (H_on - H_off) v */
+    PetscCall(VecCopy(v, b));
+    PetscCall(VecGetOwnershipRange(b, &lo, &hi));
+    PetscCall(VecGetArray(b, &ba));
+    for (PetscInt j = lo; j < hi; j++) ba[j - lo] *= j % 4 < 3 ? y->relax_anchor * y->model.mass[j / 4] / y->density : 0; /* K v */
+    PetscCall(VecRestoreArray(b, &ba));
+    PetscCall(VecNorm(b, NORM_2, &ref));
+    PetscCall(VecAXPY(a, -1, b));
+    PetscCall(VecNorm(a, NORM_2, &err));
+    PetscCall(VKTestCheck((PetscBool)(ref > 0 && err <= 1e-9 * ref), NULL, "anchor springs in the Hessian: (H_on - H_off) v = diag(k_a l_i on positions, 0 on twists) v to %.1e relative", (double)(err / ref)));
+    PetscCall(VecDestroy(&v));
+    PetscCall(VecDestroy(&a));
+    PetscCall(VecDestroy(&b));
+    PetscCall(MatDestroy(&Hon));
+  }
 
   { /* the targets: an affine motion of the given yarn is not pulled back, a bow is */
     const PetscReal A[9] = {1.1, 0.05, 0, -0.02, 0.95, 0.01, 0.03, 0, 1.2}, t[3] = {0.002, -0.001, 0.004};

@@ -20,7 +20,8 @@
  * where the elastic relaxation creeps without end, docs/BENCHMARKS.md).
  * Nothing in that flow holds the patch's overall shape, and a tiled pyp
  * stockinette bows by millimetres; -yls_relax_anchor k_a then adds one
- * elastic stage about the plastic result at the last contact radius, with
+ * elastic stage about the plastic result at the last contact radius (its
+ * proximal steps solved exactly, whatever -yls_relax_newton_its), with
  * springs k_a l_i |x_i - t_i|^2 / 2 (l_i the Voronoi length) pulling every
  * vertex toward its given position x0_i moved by the affine map closest to
  * the yarn at the start of each step, t_i = c + A (x0_i - c0): the patch
@@ -128,7 +129,10 @@ PetscErrorCode VKYLSAnchorTargets(VKYLS y)
         S0[3 * k + l] += m[i] * (x0[3 * i + k] - c0[k]) * (x0[3 * i + l] - c0[l]);
         S1[3 * k + l] += m[i] * (y->xall[3 * i + k] - c[k]) * (x0[3 * i + l] - c0[l]);
       }
-  for (int k = 0; k < 3; k++) S0[4 * k] += 1e-12 * (S0[0] + S0[4] + S0[8]); /* a flat or straight yarn: A leaves its normals alone */
+  {
+    PetscReal tr = S0[0] + S0[4] + S0[8];
+    for (int k = 0; k < 3; k++) S0[4 * k] += 1e-12 * tr; /* a flat or straight yarn: A maps its normals to 0, which x0 - c0 never has */
+  }
   PetscCheck(VKInverse3(S0, S0i) != 0, y->comm, PETSC_ERR_ARG_WRONG, "-yls_relax_anchor: the given positions are all one point");
   for (int k = 0; k < 3; k++)
     for (int l = 0; l < 3; l++)
@@ -227,12 +231,15 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     PetscCall(RelaxStage(y, &steps));
   }
   if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, max_it, PETSC_DEFAULT));
-  if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions */
-    y->relax_plastic = PETSC_FALSE;
-    y->anchored      = PETSC_TRUE;
+  if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions; exact steps */
+    PetscInt newton_its = y->relax_newton_its;
+    y->relax_plastic    = PETSC_FALSE;
+    y->relax_newton_its = 0;
+    y->anchored         = PETSC_TRUE;
     PetscCall(RelaxStage(y, &anchored_steps));
-    y->anchored      = PETSC_FALSE;
-    y->relax_plastic = PETSC_TRUE;
+    y->anchored         = PETSC_FALSE;
+    y->relax_newton_its = newton_its;
+    y->relax_plastic    = PETSC_TRUE;
     steps += anchored_steps;
     PetscCall(PetscFree2(y->xgiven, y->xanchor));
   }
