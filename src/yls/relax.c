@@ -21,7 +21,7 @@
  * Nothing in that flow holds the patch's overall shape, and a tiled pyp
  * stockinette bows by millimetres; -yls_relax_anchor k_a then adds one
  * elastic stage about the plastic result at the last contact radius (its
- * proximal steps solved exactly, whatever -yls_relax_newton_its), with
+ * proximal steps as inexact as the stages', -yls_relax_newton_its), with
  * springs k_a l_i |x_i - t_i|^2 / 2 (l_i the Voronoi length) pulling every
  * vertex toward its given position x0_i moved by the affine map closest to
  * the yarn at the start of each step, t_i = c + A (x0_i - c0): the patch
@@ -230,19 +230,16 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     y->model.par.radius    = f * r;
     PetscCall(RelaxStage(y, &steps));
   }
-  if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, max_it, PETSC_DEFAULT));
-  if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions; exact steps */
-    PetscInt newton_its = y->relax_newton_its;
-    y->relax_plastic    = PETSC_FALSE;
-    y->relax_newton_its = 0;
-    y->anchored         = PETSC_TRUE;
+  if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions; steps as inexact as the stages' */
+    y->relax_plastic = PETSC_FALSE;
+    y->anchored      = PETSC_TRUE;
     PetscCall(RelaxStage(y, &anchored_steps));
-    y->anchored         = PETSC_FALSE;
-    y->relax_newton_its = newton_its;
-    y->relax_plastic    = PETSC_TRUE;
+    y->anchored      = PETSC_FALSE;
+    y->relax_plastic = PETSC_TRUE;
     steps += anchored_steps;
     PetscCall(PetscFree2(y->xgiven, y->xanchor));
   }
+  if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, max_it, PETSC_DEFAULT));
   halved = y->stats.halved_steps - stats.halved_steps;
   PetscCall(ResetRest(y));
   /* the scene back */
