@@ -105,7 +105,8 @@ typedef enum {
   VK_PD_MAX_IT         = 3,  /* stopped at -pd_max_it above the tolerance (accepted, unconverged) */
   VK_PD_CONVERGED_FTOL = 4,  /* |grad Phi| <= ftol f_scale */
   VK_PD_CONVERGED_ITS  = 5,  /* -pd_fixed_its: the iterations asked for, residual not measured */
-  VK_PD_NEWTON_FAILED  = 6   /* the Newton polish ended above its target (accepted, unconverged) */
+  VK_PD_NEWTON_FAILED  = 6,  /* the Newton polish ended above its target (accepted, unconverged) */
+  VK_PD_STALLED        = 7   /* neither projected Newton's direction nor the PD step lowers Phi (its round-off), above the tolerance (accepted, unconverged) */
 } VKPDReason;
 PETSC_EXTERN const char *VKPDReasonName(VKPDReason);
 /* A reason that ends a solve with a result that met its tolerance. */
@@ -139,7 +140,7 @@ typedef struct {
   PetscReal      residual0, residual; /* |grad Phi| at the start and the end */
   PetscReal      force_scale, tolerance; /* f_scale and the tolerance on |grad Phi| at the end (N) */
   PetscReal      requested;             /* the tolerance the options ask for, max(ftol f_scale, atol, rtol |grad Phi(x0)|): below tolerance where the round-off floor set it */
-  PetscInt       line_search_restarts;  /* L-BFGS: directions rejected, PD step taken instead */
+  PetscInt       line_search_restarts;  /* L-BFGS and projected Newton: directions rejected, PD step taken instead */
   PetscInt       newton_reason;         /* SNESConvergedReason of the Newton polish (0: none) */
   PetscReal      phi, energy;         /* Phi and the elastic energy at the end */
   PetscInt       inverted, contacts;  /* tets with det F <= 0, nodes inside colliders */

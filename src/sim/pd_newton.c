@@ -149,8 +149,12 @@ PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
  * (SPD: MUMPS Cholesky on an AIJ copy of the node layout, 1.5x faster
  * than its LU; KSP prefix -pd_pnewton_), a descent direction however stiff
  * or heterogeneous gamma is, then backtracks on Phi (Armijo, or a smaller
- * |grad Phi| where Phi's decrease is below its round-off).  Iterations
- * are counted on from `it0` against -pd_max_it. */
+ * |grad Phi| where Phi's decrease is below its round-off).  Where the
+ * projection misjudges a strongly nonconvex energy (g_v far above g_s),
+ * 30 halvings can find no decrease; the PD step x - K^-1 grad Phi is
+ * tried instead, as L-BFGS does (counted as a line-search restart), and
+ * Newton goes on from it if it lowers Phi.  Only when it does not either
+ * does the solve stop, VK_PD_STALLED above its tolerance.  Iterations are counted on from `it0` against -pd_max_it. */
 PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, VKPDStats *st)
 {
   Vec d = pd->xhat, g = pd->r, xold = pd->xold;
@@ -211,12 +215,26 @@ PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, V
       }
       alpha *= 0.5;
     }
-    if (!accepted) { /* no decrease along a descent direction: Phi's round-off; stay */
+    if (!accepted) { /* no decrease along Newton's direction: the PD step from xold, as L-BFGS does */
+      PetscBool ok;
+      PetscCall(VecCopy(xold, x));
+      PetscCall(VKPDEvaluateAt(pd, y, x, st)); /* g at xold again */
+      PetscCall(VKPDSolveK(pd, g, d, &ok));
+      if (!ok) {
+        st->reason         = VK_PD_DIVERGED_GLOBAL;
+        st->fail_iteration = it;
+        break;
+      }
+      st->line_search_restarts++;
+      PetscCall(VecWAXPY(x, -1, d, xold));
+      PetscCall(VKPDEvaluateAt(pd, y, x, st));
+      if (!PetscIsInfOrNanReal(st->phi) && st->phi < phiold) continue;
+      /* not even PD's own step lowers Phi: its round-off; stay */
       PetscCall(VecCopy(xold, x));
       PetscCall(VKPDEvaluateAt(pd, y, x, st));
       st->iterations = it;
       st->tolerance  = st->tolerance > 0 ? st->tolerance : pd->res_floor;
-      if (st->residual > st->tolerance) st->reason = VK_PD_MAX_IT;
+      if (st->residual > st->tolerance) st->reason = VK_PD_STALLED;
       else st->reason = VK_PD_CONVERGED_ATOL;
       break;
     }

@@ -285,7 +285,9 @@ PetscErrorCode VKSimRun(VKSim sim)
   PetscCall(VKTSPDGetStats(sim->ts, &st));
   if (reason < 0) {
     char msg[512];
-    if (st.last.reason == VK_PD_MAX_IT || st.last.reason == VK_PD_NEWTON_FAILED)
+    if (st.last.reason == VK_PD_STALLED)
+      PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) did not converge (%s, -sim_strict): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N after %d iterations, where neither projected Newton's direction nor the PD step lowered Phi any further (its round-off); a larger -pd_ftol, or a smaller time step", (int)(steps + 1), (double)(t + dt), VKPDReasonName(st.last.reason), (double)st.last.residual, (double)(st.last.residual / st.last.tolerance), (double)st.last.tolerance, (int)st.last.iterations));
+    else if (st.last.reason == VK_PD_MAX_IT || st.last.reason == VK_PD_NEWTON_FAILED)
       PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) did not converge (%s, -sim_strict): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N after %d iterations; raise -pd_max_it, or try -pd_type lbfgs", (int)(steps + 1), (double)(t + dt), VKPDReasonName(st.last.reason), (double)st.last.residual, (double)(st.last.residual / st.last.tolerance), (double)st.last.tolerance, (int)st.last.iterations));
     else if (VKPDReasonConverged(st.last.reason)) /* converged only to the round-off floor (VKTSPDStats.roundoff_steps) */
       PetscCall(PetscSNPrintf(msg, sizeof(msg), "step %d (t = %g s) stopped at the round-off floor of |grad Phi| (-sim_strict): %.3e N, %.3g x the requested tolerance %.3e N; the material is too stiff somewhere for -pd_ftol %g (a fitted material: refit with a lower -fit_gamma_max)", (int)(steps + 1), (double)(t + dt), (double)st.last.residual, (double)(st.last.residual / st.last.requested), (double)st.last.requested, (double)sim->pd->ftol));

@@ -79,11 +79,12 @@ static PetscErrorCode TSStep_PD(TS ts)
   /* stopped at the round-off floor above the requested tolerance: the
    * accuracy asked for was not reached, so the step is unconverged too */
   roundoff = (PetscBool)(VKPDReasonConverged(s->last.reason) && s->last.requested > 0 && s->last.residual > s->last.requested);
-  if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED || roundoff) {
+  if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED || s->last.reason == VK_PD_STALLED || roundoff) {
     MPI_Comm comm = PetscObjectComm((PetscObject)ts);
     if (!s->unconverged_steps) s->first_unconverged_step = ts->steps + 1;
     s->unconverged_steps++;
     if (roundoff) s->roundoff_steps++;
+    if (s->last.reason == VK_PD_STALLED) s->stalled_steps++;
     if (p->strict) {
       PetscCall(VecCopy(p->xprev, x));
       ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
@@ -115,6 +116,7 @@ static PetscErrorCode TSStep_PD(TS ts)
   s->iterations += s->last.iterations;
   s->iterations_max = PetscMax(s->iterations_max, s->last.iterations);
   s->newton_its += s->last.newton_its;
+  s->line_search_restarts += s->last.line_search_restarts;
   s->inverted_max = PetscMax(s->inverted_max, s->last.inverted);
   s->contacts_max = PetscMax(s->contacts_max, s->last.contacts);
   s->depth_max    = PetscMax(s->depth_max, s->last.depth);
