@@ -284,7 +284,6 @@ else not_ok "volknit sim -pd_max_it 1 -sim_strict: expected a non-zero exit nami
 # 4 x 4 rib's hang, one rank): where projected Newton's line search finds
 # no decrease, the PD step goes on (line_search_restarts), and every step
 # converges; stopping there instead left 6 of the 30 steps unconverged
-# (reported as MAX_IT after 60-110 of the 200 iterations)
 dv="$out/volume_dominated"
 if timeout "$TIMEOUT" bin/volknit mesh -yarn_pattern rib1x1 -yarn_wales 4 -yarn_courses 4 -o "$dv" > "$dv.log" 2>&1 \
    && timeout "$TIMEOUT" bin/volknit sim -o "$dv" -options_file options/hang.opts -scene_duration 0.2 -mat_gamma_s 1e-8 -mat_gamma_v 1e5 >> "$dv.log" 2>&1 \
