@@ -55,6 +55,15 @@ run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED -pd_global_pc_type columns
 run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED -pd_global_pc_type cholesky -pd_global_pc_factor_mat_solver_type mumps
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED -pd_global_pc_type columns
+# the rest of issue 22's side by side: distributed MUMPS, CG + GAMG and cms at 95 x 95, and one rank at both sizes
+run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED -pd_global_pc_type cholesky -pd_global_pc_factor_mat_solver_type mumps
+run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED -pd_global_ksp_type cg -pd_global_pc_type gamg -pd_global_ksp_rtol 1e-8
+run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 1 $PD_FIXED -pd_global_pc_type cms -dd_domains 512
+run $MPIEXEC -n 1 bin/bench/bench_sim $PD_FIXED -pd_global_ksp_type cg -pd_global_pc_type gamg -pd_global_ksp_rtol 1e-8
+run $MPIEXEC -n 1 bin/bench/bench_sim -bench_steps 5 $PD_FIXED -pd_global_pc_type cms -dd_domains 32
+run $MPIEXEC -n 1 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED
+run $MPIEXEC -n 1 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED -pd_global_pc_type cholesky -pd_global_pc_factor_mat_solver_type mumps
+run $MPIEXEC -n 1 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2 $PD_FIXED -pd_global_ksp_type cg -pd_global_pc_type gamg -pd_global_ksp_rtol 1e-8
 # the default L-BFGS to the default tolerance, direct (subtrees) against one two-level CMS cycle as K^-1
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_steps 5 -pd_global_pc_type cms -dd_domains 32
 run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_steps 2
@@ -62,6 +71,8 @@ run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 95 -bench_courses 95 -bench_s
 if [ "${BENCH_LARGE:-0}" = 1 ]; then # about 2M DOFs, 3 min
   run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 175 -bench_courses 175 -bench_steps 2
   run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 175 -bench_courses 175 -bench_steps 2 -pd_global_pc_type cms -dd_domains 2048
+  run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 175 -bench_courses 175 -bench_steps 2 -pd_global_pc_type cholesky -pd_global_pc_factor_mat_solver_type mumps
+  run $MPIEXEC -n 2 bin/bench/bench_sim -bench_wales 175 -bench_courses 175 -bench_steps 2 -pd_global_ksp_type cg -pd_global_pc_type gamg -pd_global_ksp_rtol 1e-8
 fi
 echo
 echo "Rows produced by:"
