@@ -154,7 +154,8 @@ PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
  * 30 halvings can find no decrease; the PD step x - K^-1 grad Phi is
  * tried instead, as L-BFGS does (counted as a line-search restart), and
  * Newton goes on from it if it lowers Phi.  Only when it does not either
- * does the solve stop, VK_PD_STALLED above its tolerance.  Iterations are counted on from `it0` against -pd_max_it. */
+ * does the solve stop, VK_PD_STALLED above its tolerance.  Iterations are
+ * counted on from `it0` against -pd_max_it. */
 PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, VKPDStats *st)
 {
   Vec d = pd->xhat, g = pd->r, xold = pd->xold;
