@@ -124,16 +124,8 @@ PetscErrorCode VKPDIterateLBFGS(VKPD pd, Vec y, Vec x, VKPDStats *st)
     }
     if (!accepted) { /* back to the PD step from xold, history emptied */
       nh = 0;
-      st->line_search_restarts++;
-      PetscCall(VKPDSolveK(pd, gold, d, &ok));
-      if (!ok) {
-        st->reason         = VK_PD_DIVERGED_GLOBAL;
-        st->fail_iteration = it;
-        PetscCall(VecCopy(xold, x));
-        break;
-      }
-      PetscCall(VecWAXPY(x, -1, d, xold));
-      PetscCall(VKPDEvaluateAt(pd, y, x, st));
+      PetscCall(VKPDStepFromK(pd, y, xold, gold, d, x, it, st, &ok));
+      if (!ok) break;
       continue;
     }
     { /* the pair (s, y), kept when its curvature is positive */

@@ -220,15 +220,8 @@ PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, V
       PetscBool ok;
       PetscCall(VecCopy(xold, x));
       PetscCall(VKPDEvaluateAt(pd, y, x, st)); /* g at xold again */
-      PetscCall(VKPDSolveK(pd, g, d, &ok));
-      if (!ok) {
-        st->reason         = VK_PD_DIVERGED_GLOBAL;
-        st->fail_iteration = it;
-        break;
-      }
-      st->line_search_restarts++;
-      PetscCall(VecWAXPY(x, -1, d, xold));
-      PetscCall(VKPDEvaluateAt(pd, y, x, st));
+      PetscCall(VKPDStepFromK(pd, y, xold, g, d, x, it, st, &ok));
+      if (!ok) break;
       if (!PetscIsInfOrNanReal(st->phi) && st->phi < phiold) continue;
       /* not even PD's own step lowers Phi: its round-off; stay */
       PetscCall(VecCopy(xold, x));

@@ -275,6 +275,22 @@ PetscErrorCode VKPDSolveK(VKPD pd, Vec q, Vec z, PetscBool *ok)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKPDStepFromK(VKPD pd, Vec y, Vec xold, Vec g, Vec d, Vec x, PetscInt it, VKPDStats *st, PetscBool *ok)
+{
+  PetscFunctionBegin;
+  st->line_search_restarts++;
+  PetscCall(VKPDSolveK(pd, g, d, ok));
+  if (!*ok) {
+    st->reason         = VK_PD_DIVERGED_GLOBAL;
+    st->fail_iteration = it;
+    PetscCall(VecCopy(xold, x));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(VecWAXPY(x, -1, d, xold));
+  PetscCall(VKPDEvaluateAt(pd, y, x, st));
+  PetscFunctionReturn(0);
+}
+
 /* Local step of the colliders: b_i += w_i x_i - grad E_i(x_i) on free owned
  * nodes (pd_contact.c; w_i P(x_i) without friction); their energy, the
  * number of nodes inside a collider, the deepest penetration and the

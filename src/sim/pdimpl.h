@@ -120,6 +120,12 @@ PETSC_INTERN PetscErrorCode VKPDEvaluateAt(VKPD, Vec y, Vec x, VKPDStats *st);
 PETSC_INTERN PetscErrorCode VKPDTest(VKPD, PetscInt it, VKPDStats *st);
 /* z = Kel^-1 q for a node vector q that is zero on the eliminated rows. */
 PETSC_INTERN PetscErrorCode VKPDSolveK(VKPD, Vec q, Vec z, PetscBool *ok);
+/* Where a line search found no decrease: the PD step x = xold - K^-1 g
+ * from xold, g = grad Phi(xold) with eliminated rows zeroed, evaluated
+ * into st and counted in st->line_search_restarts (d: work).  If the
+ * global solve fails, x = xold, st->reason = VK_PD_DIVERGED_GLOBAL and
+ * *ok is false. */
+PETSC_INTERN PetscErrorCode VKPDStepFromK(VKPD, Vec y, Vec xold, Vec g, Vec d, Vec x, PetscInt it, VKPDStats *st, PetscBool *ok);
 /* The L-BFGS iterations (pd_lbfgs.c) and the Newton polish (pd_newton.c). */
 PETSC_INTERN PetscErrorCode VKPDIterateLBFGS(VKPD, Vec y, Vec x, VKPDStats *st);
 PETSC_INTERN PetscErrorCode VKPDNewton(VKPD, PetscReal t, Vec y, Vec x, VKPDStats *st);
