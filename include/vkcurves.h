@@ -69,6 +69,11 @@ PETSC_EXTERN PetscErrorCode VKCurvesTransportFrames(const VKCurves *, PetscReal 
 /* Time-parallel transport (DESIGN §3): every segment's n1 rotated by the
  * minimal rotation taking its tangent at xold to its tangent at xnew. */
 PETSC_EXTERN PetscErrorCode VKTransportFramesInTime(PetscInt nseg, const PetscInt seg[], const PetscReal xold[], const PetscReal xnew[], PetscReal n1[]);
+/* The parts of the curves whose xy projection lies in [lo[0], hi[0]] x
+ * [lo[1], hi[1]] as open pieces (a closed curve wholly inside stays
+ * closed); open pieces shorter than min_length are dropped and counted
+ * (crop.c). */
+PETSC_EXTERN PetscErrorCode VKCurvesCrop(const VKCurves *in, const PetscReal lo[], const PetscReal hi[], PetscReal min_length, VKCurves *out, PetscInt *dropped);
 /* Half the typical distance between touching non-adjacent yarn parts. */
 PETSC_EXTERN PetscErrorCode VKCurvesEstimateRadius(const VKCurves *, PetscReal *radius);
 

@@ -7,7 +7,7 @@
  * crossings, the radix sort and the spatial hash against brute force, the
  * one-polyline-per-curve layout of the XDMF outputs, and the per-vertex
  * stretch and curvature of the yarn time series on a stretched circle and
- * a bent line. */
+ * a bent line; a window of curves (crop). */
 #include "../src/yarn/yarnimpl.h" /* white-box: the yarn model's fields */
 #include <vkcurves.h>
 #include <vkyarn.h>
@@ -370,6 +370,78 @@ static PetscErrorCode TestVertexFields(void)
   PetscFunctionReturn(0);
 }
 
+/* A window of curves (VKCurvesCrop): a closed circle half in the box
+ * becomes its inside half as one open piece, a line crossing the box its
+ * inside run, a small circle wholly inside stays closed, a line grazing a
+ * corner of the box leaves a piece under the minimum length (dropped), a
+ * curve outside leaves nothing; every kept vertex is an input vertex
+ * inside the box.  An empty window is an error. */
+static PetscErrorCode TestCrop(void)
+{
+  VKCurves        in, out;
+  PetscReal       x[3 * 400], lo[2] = {0, -0.5}, hi[2] = {2, 1.5}, len[3] = {0, 0, 0};
+  PetscInt        dropped, inside_circle = 0, bad = 0;
+  PetscErrorCode  ierr;
+  const PetscReal pi = PETSC_PI;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&in));
+  for (int i = 0; i < 400; i++) { /* unit circle about the origin, closed: its x >= 0 half is in the box (y in [-0.5, 1.5] cuts it too) */
+    x[3 * i]     = PetscCosReal(2 * pi * i / 400);
+    x[3 * i + 1] = PetscSinReal(2 * pi * i / 400);
+    x[3 * i + 2] = 0;
+    if (x[3 * i] >= 0 && x[3 * i + 1] >= -0.5) inside_circle++;
+  }
+  PetscCall(VKCurvesAdd(&in, 400, x, PETSC_TRUE));
+  for (int i = 0; i <= 100; i++) { /* the line y = 1.2 from x = -1 to 3: inside for x in [0, 2] */
+    x[3 * i]     = -1 + 0.04 * i;
+    x[3 * i + 1] = 1.2;
+    x[3 * i + 2] = 0.1;
+  }
+  PetscCall(VKCurvesAdd(&in, 101, x, PETSC_FALSE));
+  for (int i = 0; i < 40; i++) { /* a small closed circle at (1.5, 0), wholly inside */
+    x[3 * i]     = 1.5 + 0.1 * PetscCosReal(2 * pi * i / 40);
+    x[3 * i + 1] = 0.1 * PetscSinReal(2 * pi * i / 40);
+    x[3 * i + 2] = 0;
+  }
+  PetscCall(VKCurvesAdd(&in, 40, x, PETSC_TRUE));
+  for (int i = 0; i <= 100; i++) { /* a diagonal grazing the corner (2, 1.5): inside for 0.02 of its length */
+    x[3 * i]     = 1.0 + 0.02 * i;
+    x[3 * i + 1] = 2.49 - 0.02 * i;
+    x[3 * i + 2] = 0;
+  }
+  PetscCall(VKCurvesAdd(&in, 101, x, PETSC_FALSE));
+  for (int i = 0; i <= 10; i++) { /* a line far outside */
+    x[3 * i]     = 5 + i;
+    x[3 * i + 1] = 5;
+    x[3 * i + 2] = 0;
+  }
+  PetscCall(VKCurvesAdd(&in, 11, x, PETSC_FALSE));
+  PetscCall(VKCurvesCrop(&in, lo, hi, 0.1, &out, &dropped));
+  for (PetscInt v = 0; v < out.nv; v++) {
+    PetscBool found = PETSC_FALSE;
+    if (!(out.x[3 * v] >= lo[0] && out.x[3 * v] <= hi[0] && out.x[3 * v + 1] >= lo[1] && out.x[3 * v + 1] <= hi[1])) bad++;
+    for (PetscInt w = 0; w < in.nv && !found; w++) found = (PetscBool)(Dist(out.x + 3 * v, in.x + 3 * w) == 0);
+    if (!found) bad++;
+  }
+  for (PetscInt i = 0; i < out.n && i < 3; i++)
+    for (PetscInt v = out.start[i]; v + 1 < out.start[i + 1]; v++) len[i] += Dist(out.x + 3 * v, out.x + 3 * v + 3);
+  PetscCall(VKTestCheck((PetscBool)(out.n == 3 && dropped == 1 && !bad && !out.closed[0] && !out.closed[1] && out.closed[2] && VKCurveSize(&out, 0) == inside_circle && VKCurveSize(&out, 1) == 51 && VKCurveSize(&out, 2) == 40), NULL,
+                        "crop: %d pieces (3: the circle's inside arc and the line's run open, the small circle closed), %d dropped (1), %d arc vertices (%d inside), %d line vertices (51), %d vertices outside the box or not from the input", (int)out.n, (int)dropped, out.n > 0 ? (int)VKCurveSize(&out, 0) : -1, (int)inside_circle, out.n > 1 ? (int)VKCurveSize(&out, 1) : -1, (int)bad));
+  PetscCall(VKTestClose(len[0], 2 * PetscSinReal(pi / 400) * (inside_circle - 1), 1e-12, "crop: the circle's arc keeps its chords (length of the kept polyline)"));
+  PetscCall(VKTestClose(len[1], 2.0, 1e-12, "crop: the line's run spans the box, x from 0 to 2"));
+  PetscCall(VKCurvesFree(&out));
+  {
+    PetscReal lo2[2] = {10, 10}, hi2[2] = {11, 11};
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = VKCurvesCrop(&in, lo2, hi2, 0.1, &out, &dropped);
+    PetscCall(PetscPopErrorHandler());
+    PetscCall(VKTestCheck((PetscBool)(ierr == PETSC_ERR_ARG_WRONG), NULL, "crop: a box with no yarn in it is an error (got %d)", (int)ierr));
+  }
+  PetscCall(VKCurvesFree(&in));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
@@ -379,6 +451,7 @@ int main(int argc, char **argv)
   PetscCall(TestCatmullRom());
   PetscCall(TestFrames());
   PetscCall(TestRadius());
+  PetscCall(TestCrop());
   PetscCall(TestCrossings());
   PetscCall(TestSortAndHash());
   PetscCall(TestVertexFields());

@@ -29,6 +29,7 @@ PetscErrorCode VKYarnCreate(MPI_Comm comm, VKYarn *yarn)
   y->density = DEFAULT_DENSITY;
   y->tiles[0] = y->tiles[1] = 1;
   y->pyp_min_length = -1;
+  y->crop_min_length = -1;
   y->weave.warps = y->weave.wefts = 10;
   PetscCall(PetscStrncpy(y->pattern, "stockinette", sizeof(y->pattern)));
   PetscCall(VKKnitParamsDefault(y->radius, &y->knit));
@@ -239,6 +240,8 @@ static PetscErrorCode CheckSourceOptions(VKYarn y)
     {"-yarn_tiles", 1u << VK_YARN_PYP},
     {"-yarn_pyp_min_length", 1u << VK_YARN_PYP},
     {"-yarn_scale", 1u << VK_YARN_BCC | 1u << VK_YARN_PYP},
+    {"-yarn_crop", 1u << VK_YARN_BCC},
+    {"-yarn_crop_min_length", 1u << VK_YARN_BCC},
   };
   static const char *const what[] = {"a knit pattern or chart (-yarn_pattern, -yarn_chart)", "a weave (-yarn_weave, -yarn_weave_file)", "a BCC file (-yarn_bcc)", "a pyp file (-yarn_pyp)", "a yarn.h5 (-yarn_h5)", "given curves"};
 
@@ -338,6 +341,11 @@ PetscErrorCode VKYarnSetFromOptions(VKYarn y)
   PetscCheck(!set || (n >= 1 && y->tiles[0] >= 1 && y->tiles[1] >= 1), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_tiles needs one or two positive counts");
   PetscCall(PetscOptionsReal("-yarn_pyp_min_length", "Tiled pyp: open yarn pieces shorter than this are dropped (file units; default: the smaller period; 0 keeps all), so no fragment frays at the patch's edges", "VKYarnSetUp", y->pyp_min_length, &y->pyp_min_length, &set));
   PetscCheck(!set || (y->pyp_min_length >= 0 && isfinite(y->pyp_min_length)), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_pyp_min_length must be >= 0 and finite, got %g", (double)y->pyp_min_length);
+  n = 4;
+  PetscCall(PetscOptionsRealArray("-yarn_crop", "BCC: keep only the yarn whose xy projection lies in the box xmin,xmax,ymin,ymax (m, after -yarn_scale): a piece of a published model; the radius is still estimated from the whole model", "VKCurvesCrop", y->crop, &n, &y->crop_set));
+  PetscCheck(!y->crop_set || (n == 4 && isfinite(y->crop[0]) && isfinite(y->crop[1]) && isfinite(y->crop[2]) && isfinite(y->crop[3]) && y->crop[0] < y->crop[1] && y->crop[2] < y->crop[3]), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_crop needs four finite numbers xmin,xmax,ymin,ymax with xmin < xmax and ymin < ymax (m)");
+  PetscCall(PetscOptionsReal("-yarn_crop_min_length", "Cropped BCC: open yarn pieces shorter than this are dropped (m; default 10 r, about a stitch; 0 keeps all), so no fragment frays at the window's edges", "VKCurvesCrop", y->crop_min_length, &y->crop_min_length, &set));
+  PetscCheck(!set || (y->crop_min_length >= 0 && isfinite(y->crop_min_length)), y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yarn_crop_min_length must be >= 0 and finite, got %g", (double)y->crop_min_length);
   PetscCall(PetscOptionsReal("-yarn_scale", "Scale applied to file coordinates to get metres", "VKYarnSetUp", y->scale, &y->scale, NULL));
   PetscCall(PetscOptionsReal("-yarn_radius", "Yarn radius r, m (default 1e-3; BCC: estimated; pyp: from the file)", "VKYarnSetRadius", y->radius, &y->radius, &set));
   if (set) y->radius_set = PETSC_TRUE;
@@ -613,6 +621,16 @@ static PetscErrorCode ReadBCC(VKYarn y, VKCurves *dense)
   PetscCall(VKCurvesFree(&ctrl));
   PetscCall(ierr);
   PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "BCC file %s (%s curves, scale %g)", y->file, type == VK_CURVE_CATMULL_ROM ? "C0 Catmull-Rom" : "PL polyline", (double)y->scale));
+  if (y->crop_set) {
+    VKCurves  window;
+    PetscReal lo[2] = {y->crop[0], y->crop[2]}, hi[2] = {y->crop[1], y->crop[3]}, min = y->crop_min_length < 0 ? 10 * y->radius : y->crop_min_length;
+    char      from[sizeof(y->description)];
+    PetscCall(VKCurvesCrop(dense, lo, hi, min, &window, &y->crop_dropped));
+    PetscCall(VKCurvesFree(dense));
+    *dense = window;
+    PetscCall(PetscStrncpy(from, y->description, sizeof(from)));
+    PetscCall(PetscSNPrintf(y->description, sizeof(y->description), "%s cropped to [%g, %g] x [%g, %g] m (%d pieces under %g m dropped)", from, (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (int)y->crop_dropped, (double)min));
+  }
   PetscFunctionReturn(0);
 }
 

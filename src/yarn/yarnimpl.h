@@ -16,6 +16,10 @@ struct _n_VKYarn {
   PetscInt      tiles[2];
   PetscReal     pyp_min_length; /* tiled open yarns shorter than this (file units; < 0: the smaller period) are dropped */
   PetscInt      pyp_dropped;
+  PetscReal     crop[4];         /* BCC: keep the yarn in [crop[0], crop[1]] x [crop[2], crop[3]] (m) */
+  PetscReal     crop_min_length; /* cropped open pieces shorter than this (m; < 0: 10 r) are dropped */
+  PetscBool     crop_set;
+  PetscInt      crop_dropped;
   PetscReal     scale, radius, density, seglen;
   PetscReal     contact_radius; /* > 0: the rest state is relaxed (VKYLSRelax) and honours this contact radius (<= radius) */
   PetscBool     radius_set, radius_estimated, seglen_set, knit_set[5], weave_set[2], weave_param_set;
