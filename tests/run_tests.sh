@@ -223,6 +223,21 @@ if timeout 300 bin/volknit yarn -o "$out/bcc_elastic" -yarn_bcc meshes/rib_4x4.b
    && timeout 300 bin/volknit yarn -o "$out/bcc_plastic" -yarn_bcc meshes/rib_4x4.bcc -yarn_radius 0.0012 -yarn_relax -yls_relax_plastic -yls_relax_radius_end 1.03 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000 >> "$log" 2>&1 < /dev/null \
    && grep -q 'contact radius 0.0012 m (r = 0.0012 m)' "$log"; then ok
 else not_ok "volknit yarn -yarn_bcc meshes/rib_4x4.bcc -yarn_radius 0.0012 -yarn_relax: expected the elastic relaxation under r and the plastic one at r (see $log)"; fi
+# a window of a BCC model (-yarn_crop): fewer vertices, the radius still
+# estimated from the whole model (1.05859 mm), and at r = 1.2 mm relaxed by
+# options/relax_model.opts to the full radius, the same on 1 and 2 ranks
+log="$out/bcc_crop.log"
+if timeout 120 bin/volknit yarn -o "$out/bcc_crop" -yarn_bcc meshes/rib_4x4.bcc -yarn_crop 0.006,0.030,-0.01,0.03 > "$log" 2>&1 < /dev/null \
+   && grep -q 'cropped to \[0.006, 0.03\] x \[-0.01, 0.03\] m (8 pieces under 0.0105859 m dropped): 4 curves, 304 vertices, .* r = 0.00105859 m' "$log"; then ok
+else not_ok "volknit yarn -yarn_bcc meshes/rib_4x4.bcc -yarn_crop 0.006,0.030,-0.01,0.03: expected 4 curves, 304 vertices (552 uncropped) at the whole model's radius 1.05859 mm (see $log)"; fi
+for n in 1 2; do
+  d="$out/bcc_crop_relax.n$n"
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$d" -yarn_bcc meshes/rib_4x4.bcc -yarn_radius 0.0012 -yarn_crop 0.006,0.030,-0.01,0.03 -yarn_relax -options_file options/relax_model.opts > "$d.log" 2>&1 \
+     && grep -q 'then the anchored stage), contact radius 0.0012 m (r = 0.0012 m)' "$d.log"; then ok
+  else not_ok "a cropped BCC window relaxed by options/relax_model.opts (-n $n): expected the full contact radius (see $d.log)"; fi
+done
+if h5diff -d 1e-6 "$out/bcc_crop_relax.n1/yarn.h5" "$out/bcc_crop_relax.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+else not_ok "the cropped window's relaxation differs between 1 and 2 ranks by more than 1e-6 m ($out/bcc_crop_relax.n1/yarn.h5, $out/bcc_crop_relax.n2/yarn.h5)"; fi
 
 # 3. the mesh command with 1 and 2 ranks gives the same mesh
 cmp_passed=$passed

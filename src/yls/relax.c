@@ -153,17 +153,21 @@ PetscErrorCode VKYLSAnchorTargets(VKYLS y)
  * term m/tau^2 regularizes the Hessian.) */
 static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
 {
+  PetscInt last_its = 0;
+
   PetscFunctionBegin;
   y->dt = y->relax_tau;
   for (PetscInt k = 0;; k++) {
     PetscInt its, halved = y->stats.halved_steps;
-    PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r (last |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (double)y->residual, (double)y->tolerance);
+    PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r: the yarn still moves (the last step took %d Newton iterations, to |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps, or, for a model whose yarns overlap at r (they creep as contact pushes them apart), relax it as a plastic flow: -options_file options/relax_model.opts", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (int)last_its, (double)y->residual, (double)y->tolerance);
     PetscCall(VecSet(y->v, 0));
     y->relax_unfinished = PETSC_FALSE;
     if (y->anchored) PetscCall(VKYLSAnchorTargets(y));
     PetscCall(VKYLSStep(y));
     (*steps)++;
     PetscCall(SNESGetIterationNumber(y->snes, &its));
+    last_its = its;
+    if (y->relax_monitor && (k + 1) % 100 == 0) PetscCall(PetscPrintf(y->comm, "  relaxation at contact radius %g r%s: %d proximal steps, pseudo step %g s, |grad Phi| %.3e N after the last (tolerance %.3e N)\n", (double)(y->model.par.radius / y->par.radius), y->anchored ? " (anchored)" : "", (int)(k + 1), (double)y->dt, (double)y->residual, (double)y->tolerance));
     if (its == 0) break; /* converged at x_n: static */
     if (y->relax_plastic) PetscCall(FollowRest(y));
     /* the slowest modes of a knit creep at tau^2 k / m per step: a
@@ -229,11 +233,13 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     PetscReal f            = y->relax_radius_start + (y->relax_radius_end - y->relax_radius_start) * (PetscReal)s / (PetscReal)y->relax_stages;
     y->model.par.radius    = f * r;
     PetscCall(RelaxStage(y, &steps));
+    if (y->relax_monitor) PetscCall(PetscPrintf(y->comm, "  relaxation stage %d of %d: static at contact radius %g r after %d proximal steps in all (%.1f s)\n", (int)s, (int)y->relax_stages, (double)f, (int)steps, VKWallTime() - t0));
   }
   if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions; steps as inexact as the stages' */
     y->relax_plastic = PETSC_FALSE;
     y->anchored      = PETSC_TRUE;
     PetscCall(RelaxStage(y, &anchored_steps));
+    if (y->relax_monitor) PetscCall(PetscPrintf(y->comm, "  relaxation, anchored stage: static after %d proximal steps (%.1f s)\n", (int)anchored_steps, VKWallTime() - t0));
     y->anchored      = PETSC_FALSE;
     y->relax_plastic = PETSC_TRUE;
     steps += anchored_steps;
