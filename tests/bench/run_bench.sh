@@ -267,6 +267,56 @@ bcc_row() { # radius, mode (patch | patch, plastic, inexact steps | patch, plast
 }
 for r in 0.00106 0.0012 0.0013; do bcc_row $r patch; bcc_row $r "patch, plastic, inexact steps"; bcc_row $r "patch, plastic, anchored"; done
 echo
+# A published model (issue 23): Cem Yuksel's openwork trellis swatch (cemyuksel.com/research/yarnmodels; also in
+# the public repository github.com/H5uan/YarnCloth, Assets/Model/binary/openwork_trellis_pattern.bcc), not in
+# this repository: BENCH_BCC=/path/to/openwork_trellis_pattern.bcc.  Two windows of 40 x 40 mm (-yarn_crop):
+# the middle and the cast-on edge, where the given yarns overlap most (down to 0.35 x 2r between parts of the
+# yarn, 0.018 x 2r at the tail).
+if [ -n "${BENCH_BCC:-}" ] && [ -r "$BENCH_BCC" ]; then
+  echo "A published model, windows of Yuksel's openwork trellis ($BENCH_BCC, -yarn_scale 0.01, radius estimated"
+  echo "from the whole model): the default elastic relaxation against options/relax_model.opts"
+  echo
+  echo "| window | relaxation | ranks | contact radius reached | extent x, y, z, mm | s |"
+  echo "|---|---|---|---|---|---|"
+  : > "$out/commands"
+  model_row() { # window label, crop box, label, ranks, options
+    local win="$1" box="$2" label="$3" n="$4" dir t0 t1 cr r ext
+    shift 4
+    dir="$out/model_$(echo "$win $label $n" | tr -c 'a-z0-9\n' '_')"
+    rm -rf "$dir"
+    t0=$(date +%s.%N)
+    if run $MPIEXEC -n "$n" bin/volknit yarn -o "$dir" -yarn_bcc "$BENCH_BCC" -yarn_scale 0.01 -yarn_crop "$box" "$@" > "$dir.log" 2>&1 < /dev/null; then
+      t1=$(date +%s.%N)
+      cr=$(sed -n 's/.*"contact_radius_m": \([^,]*\),*/\1/p' "$dir/yarn.json"); r=$(sed -n 's/.*"radius_m": \([^,]*\),*/\1/p' "$dir/yarn.json")
+      ext=$(bin/volknit yarn -yarn_h5 "$dir/yarn.h5" -yarn_view 2>/dev/null < /dev/null | sed -n 's/.*bounding box \[\([^,]*\), \([^]]*\)\] x \[\([^,]*\), \([^]]*\)\] x \[\([^,]*\), \([^]]*\)\].*/\1 \2 \3 \4 \5 \6/p' | awk '{ printf "%.1f, %.1f, %.2f", 1000 * ($2 - $1), 1000 * ($4 - $3), 1000 * ($6 - $5) }')
+      if [ -n "$cr" ]; then cr="$(awk -v c="$cr" -v r="$r" 'BEGIN { printf "%.4f", c / r }') r"; else cr="(not relaxed)"; fi
+      echo "| $win | $label | $n | $cr | ${ext:--} | $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') |"
+    else
+      echo "| $win | $label | $n | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-140) | - | - |"
+    fi
+  }
+  for w in "middle -0.02,0.02,-0.02,0.02" "cast-on-edge -0.02,0.02,-0.075,-0.035"; do
+    set -- $w
+    model_row "$1" "$2" "as given" 1
+    model_row "$1" "$2" "elastic (default)" 1 -yarn_relax
+    model_row "$1" "$2" "relax_model.opts" 1 -yarn_relax -options_file options/relax_model.opts
+    model_row "$1" "$2" "relax_model.opts" 2 -yarn_relax -options_file options/relax_model.opts
+    model_row "$1" "$2" "relax_model.opts, radius end 1.1" 1 -yarn_relax -options_file options/relax_model.opts -yls_relax_radius_end 1.1
+  done
+  echo
+  echo "Rows produced by:"
+  cat "$out/commands"
+  for w in middle cast_on_edge; do
+    if h5diff -d 1e-6 "$out/model_${w}_relax_model_opts_1/yarn.h5" "$out/model_${w}_relax_model_opts_2/yarn.h5" /yarn/x > /dev/null 2>&1; then
+      echo "$w: 1 and 2 ranks give the same relaxed yarn to 1e-6 m"
+    else
+      echo "$w: 1 and 2 ranks differ by more than 1e-6 m: $(h5diff -d 1e-6 "$out/model_${w}_relax_model_opts_1/yarn.h5" "$out/model_${w}_relax_model_opts_2/yarn.h5" /yarn/x | tail -1)"
+    fi
+  done
+else
+  echo "(A published model's windows: skipped, BENCH_BCC does not name a readable openwork_trellis_pattern.bcc.)"
+fi
+echo
 echo "Rows produced by:"
 cat "$out/commands"
 echo
