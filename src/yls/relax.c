@@ -159,7 +159,8 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
   y->dt = y->relax_tau;
   for (PetscInt k = 0;; k++) {
     PetscInt its, halved = y->stats.halved_steps;
-    PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r: the yarn still moves (the last step took %d Newton iterations, to |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps, or, for a model whose yarns overlap at r (they creep as contact pushes them apart), relax it as a plastic flow: -options_file options/relax_model.opts", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (int)last_its, (double)y->residual, (double)y->tolerance);
+    PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r: the yarn still moves (the last step took %d Newton iterations, to |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps%s", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (int)last_its, (double)y->residual, (double)y->tolerance,
+               y->relax_plastic ? "" : ", or, for a model whose yarns overlap at r (they creep as contact pushes them apart), relax it as a plastic flow: -options_file options/relax_model.opts");
     PetscCall(VecSet(y->v, 0));
     y->relax_unfinished = PETSC_FALSE;
     if (y->anchored) PetscCall(VKYLSAnchorTargets(y));
