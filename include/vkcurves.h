@@ -51,7 +51,12 @@ PETSC_EXTERN PetscErrorCode VKCurvesGetSegmentCurves(const VKCurves *, PetscInt 
  * |kb| over the Voronoi length; 0 at open ends, infinite where the curve
  * folds back); either output may be NULL (curve_fields.c). */
 PETSC_EXTERN PetscErrorCode VKCurvesVertexFields(const VKCurves *rest, const PetscReal x[], PetscReal stretch[], PetscReal curvature[]);
+PETSC_EXTERN PetscReal      VKCurveLength(const VKCurves *, PetscInt i); /* of curve i, its closing segment included */
 PETSC_EXTERN PetscErrorCode VKCurvesLength(const VKCurves *, PetscReal *);
+/* Removes the open curves shorter than min_length (or of fewer than 2
+ * vertices), counting them; field (per vertex, may be NULL) is compacted
+ * alongside the vertices.  Closed curves are kept whatever their length. */
+PETSC_EXTERN PetscErrorCode VKCurvesDropShortOpen(VKCurves *, PetscReal min_length, PetscReal field[], PetscInt *dropped);
 PETSC_EXTERN PetscErrorCode VKCurvesBoundingBox(const VKCurves *, PetscReal lo[], PetscReal hi[]);
 PETSC_EXTERN PetscErrorCode VKCurvesScale(VKCurves *, PetscReal);
 /* Error naming `what` if a coordinate is NaN/Inf or a curve is too short. */

@@ -442,6 +442,39 @@ static PetscErrorCode TestCrop(void)
   PetscFunctionReturn(0);
 }
 
+/* Open curves under a length go, closed ones stay, and a per-vertex field
+ * follows the vertices kept. */
+static PetscErrorCode TestDropShortOpen(void)
+{
+  VKCurves  c;
+  PetscReal x[3 * 5], field[13];
+  PetscInt  dropped, bad = 0;
+  const PetscInt size[5] = {3, 2, 1, 4, 3}; /* open 2 long, open 0.5, open 1 vertex, closed tiny, open 2 long */
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  for (int i = 0; i < 5; i++) {
+    PetscReal step = i == 1 ? 0.5 : (i == 3 ? 0.01 : 1);
+    for (int k = 0; k < size[i]; k++) { /* along x; the closed one a square of side step */
+      x[3 * k]     = i == 3 ? step * (k == 1 || k == 2) : step * k;
+      x[3 * k + 1] = i == 3 ? step * (k >= 2) : 0;
+      x[3 * k + 2] = i;
+    }
+    PetscCall(VKCurvesAdd(&c, size[i], x, (PetscBool)(i == 3)));
+  }
+  for (int v = 0; v < 13; v++) field[v] = v;
+  PetscCall(VKTestClose(VKCurveLength(&c, 0), 2.0, 1e-15, "VKCurveLength of an open polyline"));
+  PetscCall(VKTestClose(VKCurveLength(&c, 3), 0.04, 1e-14, "VKCurveLength of a closed square includes its closing segment"));
+  PetscCall(VKCurvesDropShortOpen(&c, 1.0, field, &dropped));
+  {
+    const PetscReal expect[10] = {0, 1, 2, 6, 7, 8, 9, 10, 11, 12};
+    for (int v = 0; v < 10 && c.nv == 10; v++) bad += field[v] != expect[v];
+  }
+  PetscCall(VKTestCheck((PetscBool)(c.n == 3 && dropped == 2 && c.nv == 10 && !bad && c.closed[1] && !c.closed[0] && !c.closed[2] && c.x[3 * 3 + 2] == 3 && c.x[3 * 7 + 2] == 4), NULL, "drop short open curves: %d curves kept (3: two long open, the closed square), %d dropped (2: the short one and the single vertex), %d vertices (10), %d field entries misplaced", (int)c.n, (int)dropped, (int)c.nv, (int)bad));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
@@ -452,6 +485,7 @@ int main(int argc, char **argv)
   PetscCall(TestFrames());
   PetscCall(TestRadius());
   PetscCall(TestCrop());
+  PetscCall(TestDropShortOpen());
   PetscCall(TestCrossings());
   PetscCall(TestSortAndHash());
   PetscCall(TestVertexFields());

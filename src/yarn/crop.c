@@ -13,25 +13,11 @@ static PetscBool Inside(const PetscReal p[], const PetscReal lo[], const PetscRe
   return (PetscBool)(p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1]);
 }
 
-static PetscReal PieceLength(const PetscReal x[], PetscInt m, const PetscInt idx[])
-{
-  PetscReal L = 0;
-  for (PetscInt k = 0; k + 1 < m; k++) {
-    const PetscReal *p = x + 3 * idx[k], *q = x + 3 * idx[k + 1];
-    L += PetscSqrtReal(PetscSqr(q[0] - p[0]) + PetscSqr(q[1] - p[1]) + PetscSqr(q[2] - p[2]));
-  }
-  return L;
-}
-
-/* The open piece of vertices idx[0..m) of `in`, if long enough. */
-static PetscErrorCode AddPiece(const VKCurves *in, PetscInt m, const PetscInt idx[], PetscReal min_length, PetscReal *buf, VKCurves *out, PetscInt *dropped)
+/* The open piece of vertices idx[0..m) of `in`. */
+static PetscErrorCode AddPiece(const VKCurves *in, PetscInt m, const PetscInt idx[], PetscReal *buf, VKCurves *out)
 {
   PetscFunctionBegin;
   if (m == 0) PetscFunctionReturn(0);
-  if (m < 2 || PieceLength(in->x, m, idx) < min_length) {
-    (*dropped)++;
-    PetscFunctionReturn(0);
-  }
   for (PetscInt k = 0; k < m; k++)
     for (int a = 0; a < 3; a++) buf[3 * k + a] = in->x[3 * idx[k] + a];
   PetscCall(VKCurvesAdd(out, m, buf, PETSC_FALSE));
@@ -45,7 +31,6 @@ PetscErrorCode VKCurvesCrop(const VKCurves *in, const PetscReal lo[], const Pets
 
   PetscFunctionBegin;
   PetscCheck(lo[0] < hi[0] && lo[1] < hi[1], PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "Crop box [%g, %g] x [%g, %g] is empty", (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1]);
-  *dropped = 0;
   for (PetscInt i = 0; i < in->n; i++) mmax = PetscMax(mmax, VKCurveSize(in, i));
   PetscCall(PetscMalloc2(mmax, &idx, 3 * mmax, &buf));
   PetscCall(VKCurvesInit(out));
@@ -62,13 +47,14 @@ PetscErrorCode VKCurvesCrop(const VKCurves *in, const PetscReal lo[], const Pets
       PetscInt v = b + (first + k) % m;
       if (Inside(in->x + 3 * v, lo, hi)) idx[len++] = v;
       else {
-        PetscCall(AddPiece(in, len, idx, min_length, buf, out, dropped));
+        PetscCall(AddPiece(in, len, idx, buf, out));
         len = 0;
       }
     }
-    PetscCall(AddPiece(in, len, idx, min_length, buf, out, dropped));
+    PetscCall(AddPiece(in, len, idx, buf, out));
   }
   PetscCall(PetscFree2(idx, buf));
+  PetscCall(VKCurvesDropShortOpen(out, min_length, NULL, dropped));
   if (out->n == 0) {
     PetscCall(VKCurvesFree(out));
     SETERRQ(PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "No yarn piece of at least %g m lies in the crop box [%g, %g] x [%g, %g] m", (double)min_length, (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1]);

@@ -126,19 +126,49 @@ PetscErrorCode VKCurvesGetSegmentCurves(const VKCurves *c, PetscInt **curve)
   PetscFunctionReturn(0);
 }
 
+static void AddCurveLength(const VKCurves *c, PetscInt i, VKSum *sum)
+{
+  PetscInt b = c->start[i], m = VKCurveSize(c, i), ns = VKCurveNumSegments(c, i);
+  for (PetscInt k = 0; k < ns; k++) {
+    const PetscReal *p = c->x + 3 * (b + k), *q = c->x + 3 * (b + (k + 1) % m);
+    VKSumAdd(sum, PetscSqrtReal(PetscSqr(q[0] - p[0]) + PetscSqr(q[1] - p[1]) + PetscSqr(q[2] - p[2])));
+  }
+}
+
+PetscReal VKCurveLength(const VKCurves *c, PetscInt i)
+{
+  VKSum sum = {0, 0};
+  AddCurveLength(c, i, &sum);
+  return VKSumValue(&sum);
+}
+
 PetscErrorCode VKCurvesLength(const VKCurves *c, PetscReal *len)
 {
   VKSum sum = {0, 0};
 
   PetscFunctionBegin;
-  for (PetscInt i = 0; i < c->n; i++) {
-    PetscInt b = c->start[i], m = VKCurveSize(c, i), ns = VKCurveNumSegments(c, i);
-    for (PetscInt k = 0; k < ns; k++) {
-      const PetscReal *p = c->x + 3 * (b + k), *q = c->x + 3 * (b + (k + 1) % m);
-      VKSumAdd(&sum, PetscSqrtReal(PetscSqr(q[0] - p[0]) + PetscSqr(q[1] - p[1]) + PetscSqr(q[2] - p[2])));
-    }
-  }
+  for (PetscInt i = 0; i < c->n; i++) AddCurveLength(c, i, &sum);
   *len = VKSumValue(&sum);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKCurvesDropShortOpen(VKCurves *c, PetscReal min_length, PetscReal field[], PetscInt *dropped)
+{
+  VKCurves kept;
+
+  PetscFunctionBegin;
+  *dropped = 0;
+  PetscCall(VKCurvesInit(&kept));
+  for (PetscInt i = 0; i < c->n; i++) {
+    if (!c->closed[i] && (VKCurveSize(c, i) < 2 || VKCurveLength(c, i) < min_length)) {
+      (*dropped)++;
+      continue;
+    }
+    if (field) PetscCall(PetscArraymove(field + kept.nv, field + c->start[i], VKCurveSize(c, i))); /* kept.nv <= c->start[i] */
+    PetscCall(VKCurvesAdd(&kept, VKCurveSize(c, i), c->x + 3 * c->start[i], c->closed[i]));
+  }
+  PetscCall(VKCurvesFree(c));
+  *c = kept;
   PetscFunctionReturn(0);
 }
 

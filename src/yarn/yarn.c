@@ -640,25 +640,12 @@ static PetscErrorCode ReadBCC(VKYarn y, VKCurves *dense)
 static PetscErrorCode DropFragments(VKYarn y, PetscReal period, VKCurves *c, PetscReal *lnext)
 {
   PetscReal min = y->pyp_min_length < 0 ? period : y->pyp_min_length;
-  VKCurves  kept;
 
   PetscFunctionBegin;
   y->pyp_dropped = 0;
   if (!(min > 0)) PetscFunctionReturn(0);
-  PetscCall(VKCurvesInit(&kept));
-  for (PetscInt i = 0; i < c->n; i++) {
-    PetscReal L = 0;
-    for (PetscInt v = c->start[i]; v + 1 < c->start[i + 1]; v++) L += PetscSqrtReal(PetscSqr(c->x[3 * v + 3] - c->x[3 * v]) + PetscSqr(c->x[3 * v + 4] - c->x[3 * v + 1]) + PetscSqr(c->x[3 * v + 5] - c->x[3 * v + 2]));
-    if (!c->closed[i] && L < min) {
-      y->pyp_dropped++;
-      continue;
-    }
-    if (lnext) PetscCall(PetscArraymove(lnext + kept.nv, lnext + c->start[i], VKCurveSize(c, i))); /* kept.nv <= c->start[i] */
-    PetscCall(VKCurvesAdd(&kept, VKCurveSize(c, i), c->x + 3 * c->start[i], c->closed[i]));
-  }
-  PetscCheck(kept.n > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Every yarn of the tiled pyp patch is shorter than %g (-yarn_pyp_min_length): tile more (-yarn_tiles) or give a smaller length", (double)min);
-  PetscCall(VKCurvesFree(c));
-  *c = kept;
+  PetscCall(VKCurvesDropShortOpen(c, min, lnext, &y->pyp_dropped));
+  PetscCheck(c->n > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "Every yarn of the tiled pyp patch is shorter than %g (-yarn_pyp_min_length): tile more (-yarn_tiles) or give a smaller length", (double)min);
   PetscFunctionReturn(0);
 }
 
