@@ -18,6 +18,15 @@
  * next step and yarns pushed apart keep no elastic stress (a plastic flow;
  * a tiled pyp patch whose loops overlap at r reaches the full radius,
  * where the elastic relaxation creeps without end, docs/BENCHMARKS.md).
+ * Each plastic step moves the yarn about as far as contact outweighs the
+ * elastic resistance about its start, so -yls_relax_plastic_kc, a stiffer
+ * contact for the plastic stages only, pushes overlapping yarns apart in
+ * fewer steps (a published model's cast-on edge: 129 plastic steps at
+ * 1e4 N/m against 409 at the default 1e3, docs/BENCHMARKS.md).  The
+ * plastic flow is path-dependent: where given yarns overlap deeply,
+ * parallel round-off steers it to a different yarn on each number of
+ * ranks, so -yls_relax_serial (VKYLSRelaxYarn) relaxes on rank 0 alone
+ * and gives its result to all.
  * Nothing in that flow holds the patch's overall shape, and a tiled pyp
  * stockinette bows by millimetres; -yls_relax_anchor k_a then adds one
  * elastic stage about the plastic result at the last contact radius (its
@@ -146,6 +155,18 @@ PetscErrorCode VKYLSAnchorTargets(VKYLS y)
   PetscFunctionReturn(0);
 }
 
+/* The largest vertex motion of the last step, in r (y->xn: where it started). */
+static PetscErrorCode StepMotion(VKYLS y, PetscReal *motion)
+{
+  PetscReal d2 = 0;
+
+  PetscFunctionBegin;
+  PetscCall(VKYLSGather(y, y->x, y->xall));
+  for (PetscInt v = 0; v < y->model.nv; v++) d2 = PetscMax(d2, PetscSqr(y->xall[3 * v] - y->xn[3 * v]) + PetscSqr(y->xall[3 * v + 1] - y->xn[3 * v + 1]) + PetscSqr(y->xall[3 * v + 2] - y->xn[3 * v + 2]));
+  *motion = PetscSqrtReal(d2) / y->par.radius;
+  PetscFunctionReturn(0);
+}
+
 /* Proximal steps at the current contact radius until the state is static:
  * the next step's Newton solve converges at its first residual, which at
  * rest is the elastic force alone.  (A proximal step whose Newton solve
@@ -153,7 +174,8 @@ PetscErrorCode VKYLSAnchorTargets(VKYLS y)
  * term m/tau^2 regularizes the Hessian.) */
 static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
 {
-  PetscInt last_its = 0;
+  PetscInt  last_its = 0;
+  PetscReal motion_max = 0;
 
   PetscFunctionBegin;
   y->dt = y->relax_tau;
@@ -168,7 +190,17 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
     (*steps)++;
     PetscCall(SNESGetIterationNumber(y->snes, &its));
     last_its = its;
-    if (y->relax_monitor && (k + 1) % 100 == 0) PetscCall(PetscPrintf(y->comm, "  relaxation at contact radius %g r%s: %d proximal steps, pseudo step %g s, |grad Phi| %.3e N after the last (tolerance %.3e N)\n", (double)(y->model.par.radius / y->par.radius), y->anchored ? " (anchored)" : "", (int)(k + 1), (double)y->dt, (double)y->residual, (double)y->tolerance));
+    if (y->relax_monitor) {
+      PetscReal motion = 0;
+      PetscCall(StepMotion(y, &motion));
+      motion_max = PetscMax(motion_max, motion);
+    }
+    if (y->relax_monitor && (k + 1) % 100 == 0) {
+      PetscReal dmin = 1;
+      PetscCall(VKYLSMinDistance(y, &dmin, NULL));
+      PetscCall(PetscPrintf(y->comm, "  relaxation at contact radius %g r%s: %d proximal steps, pseudo step %g s, |grad Phi| %.3e N after the last (tolerance %.3e N), closest axes %.5f x the contact distance, largest step %.2e r over the last 100\n", (double)(y->model.par.radius / y->par.radius), y->anchored ? " (anchored)" : "", (int)(k + 1), (double)y->dt, (double)y->residual, (double)y->tolerance, (double)dmin, (double)motion_max));
+      motion_max = 0;
+    }
     if (its == 0) break; /* converged at x_n: static */
     if (y->relax_plastic) PetscCall(FollowRest(y));
     /* the slowest modes of a knit creep at tau^2 k / m per step: a
@@ -202,6 +234,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     const PetscReal *L;
     PetscCall(VKYarnGetRestLengths(y->yarn, &L));
     PetscCheck(y->relax_plastic || !(y->relax_anchor > 0), y->comm, PETSC_ERR_ARG_INCOMP, "-yls_relax_anchor acts after a plastic relaxation: give -yls_relax_plastic too");
+    PetscCheck(y->relax_plastic || !(y->relax_plastic_kc > 0), y->comm, PETSC_ERR_ARG_INCOMP, "-yls_relax_plastic_kc is the contact stiffness of a plastic relaxation: give -yls_relax_plastic too");
     PetscCheck(!y->relax_plastic || !(y->relax_straight || L), y->comm, PETSC_ERR_ARG_INCOMP, "-yls_relax_plastic makes the yarn's geometry its rest state after every step: it cannot relax %s", L ? "a yarn that keeps its cell's rest state" : "naturally straight rods (-yls_relax_straight)");
   }
   /* no scene, no damping, a long pseudo time step */
@@ -230,12 +263,14 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   }
   PetscCall(SNESGetTolerances(y->snes, NULL, NULL, NULL, &max_it, NULL));
   if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, y->relax_newton_its, PETSC_DEFAULT));
+  if (y->relax_plastic && y->relax_plastic_kc > 0) y->model.par.kc = y->relax_plastic_kc; /* carried through FollowRest by the model's parameters */
   for (PetscInt s = 1; s <= y->relax_stages; s++) {
     PetscReal f            = y->relax_radius_start + (y->relax_radius_end - y->relax_radius_start) * (PetscReal)s / (PetscReal)y->relax_stages;
     y->model.par.radius    = f * r;
     PetscCall(RelaxStage(y, &steps));
     if (y->relax_monitor) PetscCall(PetscPrintf(y->comm, "  relaxation stage %d of %d: static at contact radius %g r after %d proximal steps in all (%.1f s)\n", (int)s, (int)y->relax_stages, (double)f, (int)steps, VKWallTime() - t0));
   }
+  y->model.par.kc = y->par.kc;
   if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions; steps as inexact as the stages' */
     y->relax_plastic = PETSC_FALSE;
     y->anchored      = PETSC_TRUE;
@@ -297,20 +332,61 @@ PetscErrorCode VKYLSKeepRest(VKYarn yarn, PetscReal *dmin_over_2r)
   PetscFunctionReturn(0);
 }
 
+/* With -yls_relax_serial rank 0 relaxes the whole yarn alone (its VKYLS on
+ * PETSC_COMM_SELF) while the others wait, and its result, or its error,
+ * is then given to all: the relaxed yarn does not depend on the number of
+ * ranks. */
 PetscErrorCode VKYLSRelaxYarn(VKYarn yarn)
 {
-  VKScene  scene;
-  VKYLS    y;
-  MPI_Comm comm;
+  VKScene     scene;
+  VKYLS       y;
+  MPI_Comm    comm;
+  PetscMPIInt rank;
+  PetscBool   serial;
 
   PetscFunctionBegin;
   PetscCall(VKYarnGetComm(yarn, &comm));
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCall(VKSceneCreate(comm, &scene)); /* the relaxation ignores the scene, but for its handles with -yls_relax_handles */
   PetscCall(VKYLSCreate(yarn, scene, &y));
   PetscCall(VKYLSSetFromOptions(y));
   if (y->relax_handles) PetscCall(VKSceneSetFromOptions(scene));
-  PetscCall(VKYLSRelax(y));
+  serial = y->relax_serial;
+  if (!serial) PetscCall(VKYLSRelax(y));
+  else {
+    int  code = 0;
+    char msg[1024] = "";
+    if (rank == 0) {
+      y->comm = PETSC_COMM_SELF; /* before VKYLSSetUp distributes anything */
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+      code = (int)VKYLSRelax(y);
+      PetscCall(PetscPopErrorHandler());
+      if (code) {
+        const char *text;
+        char       *specific = NULL;
+        PetscCall(PetscErrorMessage(code, &text, &specific));
+        PetscCall(PetscStrncpy(msg, specific && specific[0] ? specific : text, sizeof(msg)));
+      }
+    }
+    PetscCallMPI(MPI_Bcast(&code, 1, MPI_INT, 0, comm));
+    if (code) {
+      PetscCallMPI(MPI_Bcast(msg, (PetscMPIInt)sizeof(msg), MPI_CHAR, 0, comm));
+      SETERRQ(comm, (PetscErrorCode)code, "%s", msg);
+    }
+  }
   PetscCall(VKYLSDestroy(&y));
   PetscCall(VKSceneDestroy(&scene));
+  if (serial) {
+    const VKCurves *c;
+    PetscReal       radius, *x;
+    PetscCall(VKYarnGetCurves(yarn, &c));
+    PetscCall(VKYarnGetProperties(yarn, NULL, NULL, &radius));
+    PetscCall(PetscMalloc1(3 * c->nv, &x));
+    PetscCall(PetscArraycpy(x, c->x, 3 * c->nv));
+    PetscCallMPI(MPI_Bcast(x, (PetscMPIInt)(3 * c->nv), MPIU_REAL, 0, comm));
+    PetscCallMPI(MPI_Bcast(&radius, 1, MPIU_REAL, 0, comm));
+    PetscCall(VKYarnSetRelaxed(yarn, x, radius));
+    PetscCall(PetscFree(x));
+  }
   PetscFunctionReturn(0);
 }

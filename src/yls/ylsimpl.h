@@ -44,6 +44,8 @@ struct _n_VKYLS {
   PetscBool   relax_handles;                 /* the scene's handles hold their vertices at t = 0 during the relaxation */
   PetscBool   relax_plastic;                 /* the rest state follows the yarn after every proximal step */
   PetscBool   relax_monitor;                 /* a line per relaxation stage and per 100 proximal steps */
+  PetscReal   relax_plastic_kc;              /* contact stiffness of the plastic stages, N/m (0: -yls_kc) */
+  PetscBool   relax_serial;                  /* VKYLSRelaxYarn relaxes on one rank and broadcasts the result */
   PetscReal   relax_anchor;                  /* after a plastic relaxation, springs per unit yarn length pull each vertex toward its given position, N/m^2 (0: none) */
   PetscReal  *xgiven, *xanchor;              /* replicated, while relaxing with springs (NULL otherwise): the given positions; where the springs pull */
   PetscBool   anchored;                      /* the anchored stage: the springs are in the potential */
