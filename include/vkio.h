@@ -45,6 +45,23 @@ PETSC_EXTERN PetscErrorCode VKCollective(MPI_Comm, PetscErrorCode ierr0, const c
       SETERRQ(comm, ierr_c_, "%s", spec_c_ && spec_c_[0] ? spec_c_ : text_c_); \
     } \
   } while (0)
+/* Raise on every rank of `comm` the error `ierr0` that rank 0 caught
+ * quietly (ignored elsewhere), with rank 0's message, printed once. */
+PETSC_EXTERN PetscErrorCode VKRaiseFromRank0(MPI_Comm, PetscErrorCode ierr0);
+/* Run `call` on rank 0 of `comm` alone (the others skip it and wait): its
+ * error is caught there and raised on every rank by VKRaiseFromRank0. */
+#define VKCallOnRank0(comm, call) \
+  do { \
+    PetscMPIInt    rank_r0_; \
+    PetscErrorCode ierr_r0_ = 0; \
+    PetscCallMPI(MPI_Comm_rank(comm, &rank_r0_)); \
+    if (!rank_r0_) { \
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL)); \
+      ierr_r0_ = (call); \
+      PetscCall(PetscPopErrorHandler()); \
+    } \
+    PetscCall(VKRaiseFromRank0(comm, ierr_r0_)); \
+  } while (0)
 /* Tests for a readable regular file (on rank 0, result on all ranks). */
 PETSC_EXTERN PetscErrorCode VKFileExists(MPI_Comm, const char path[], PetscBool *exists);
 

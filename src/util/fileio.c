@@ -27,6 +27,28 @@ PetscErrorCode VKCollective(MPI_Comm comm, PetscErrorCode ierr0, const char what
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKRaiseFromRank0(MPI_Comm comm, PetscErrorCode ierr0)
+{
+  int  code = (int)ierr0;
+  char msg[1024] = "";
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Bcast(&code, 1, MPI_INT, 0, comm));
+  if (!code) PetscFunctionReturn(0);
+  {
+    PetscMPIInt rank;
+    PetscCallMPI(MPI_Comm_rank(comm, &rank));
+    if (!rank) {
+      const char *text = NULL;
+      char       *specific = NULL;
+      PetscCall(PetscErrorMessage(code, &text, &specific));
+      PetscCall(PetscStrncpy(msg, specific && specific[0] ? specific : (text ? text : "unknown error"), sizeof(msg)));
+    }
+  }
+  PetscCallMPI(MPI_Bcast(msg, (PetscMPIInt)sizeof(msg), MPI_CHAR, 0, comm));
+  SETERRQ(comm, (PetscErrorCode)code, "%s", msg);
+}
+
 PetscErrorCode VKFileExists(MPI_Comm comm, const char path[], PetscBool *exists)
 {
   PetscMPIInt rank;

@@ -58,6 +58,7 @@
  * contact radius stays the last stage's, at which the relaxed state is in
  * equilibrium. */
 #include "ylsimpl.h"
+#include <vkio.h>
 
 #define YLS_RELAX_EASY_ITS   8  /* Newton iterations of a proximal step that let the next one grow */
 
@@ -354,25 +355,8 @@ PetscErrorCode VKYLSRelaxYarn(VKYarn yarn)
   serial = y->relax_serial;
   if (!serial) PetscCall(VKYLSRelax(y));
   else {
-    int  code = 0;
-    char msg[1024] = "";
-    if (rank == 0) {
-      y->comm = PETSC_COMM_SELF; /* before VKYLSSetUp distributes anything */
-      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-      code = (int)VKYLSRelax(y);
-      PetscCall(PetscPopErrorHandler());
-      if (code) {
-        const char *text;
-        char       *specific = NULL;
-        PetscCall(PetscErrorMessage(code, &text, &specific));
-        PetscCall(PetscStrncpy(msg, specific && specific[0] ? specific : text, sizeof(msg)));
-      }
-    }
-    PetscCallMPI(MPI_Bcast(&code, 1, MPI_INT, 0, comm));
-    if (code) {
-      PetscCallMPI(MPI_Bcast(msg, (PetscMPIInt)sizeof(msg), MPI_CHAR, 0, comm));
-      SETERRQ(comm, (PetscErrorCode)code, "%s", msg);
-    }
+    if (rank == 0) y->comm = PETSC_COMM_SELF; /* before VKYLSSetUp distributes anything */
+    VKCallOnRank0(comm, VKYLSRelax(y));
   }
   PetscCall(VKYLSDestroy(&y));
   PetscCall(VKSceneDestroy(&scene));
