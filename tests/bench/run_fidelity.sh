@@ -21,7 +21,10 @@
 #      run time, for the report's log-log plot;
 #   6. volknit report on all of them; a Markdown table on stdout, with
 #      per scene each held-out fit against the uniform searched on the
-#      fit's own training scene ("held out: ... fit better / uniform better").
+#      fit's own training scene ("held out: ... fit better / uniform better");
+#   7. with python3 present, tools/error_scales.py on each scene's best
+#      uniform and own fit: how much of the error varies inside a stitch,
+#      with the knit's repeat, or with the patch's overall extent.
 # Sizes from the environment: FID_PATTERNS (rib1x1), FID_WALES x FID_COURSES
 # (8 x 7, about 2K yarn vertices), FID_SCENES (hang stretch drape twist),
 # FID_DURATION (0.2 s: the twist's yarn-level run, at dt 0.18 ms, takes
@@ -186,6 +189,20 @@ for pat in $PATTERNS; do
     done
   done
 done
+if command -v python3 > /dev/null; then # where the error lives (tools/error_scales.py): a scene's best uniform and its own fit
+  echo
+  echo "At what scale each scene's best uniform material and own fit miss the yarns (tools/error_scales.py):"
+  for pat in $PATTERNS; do
+    case $pat in stockinette) rep=1x1 ;; rib1x1) rep=2x1 ;; rib2x2) rep=4x1 ;; garter) rep=1x2 ;; seed) rep=2x2 ;; basketweave) rep=8x8 ;; *) rep=1x1 ;; esac
+    d="$top/${pat}_${W}x${C}"
+    for s in $SCENES; do
+      dir=$(sdir "$s")
+      for m in "ubest$TAG" "fit_$s$TAG"; do
+        [ -s "$dir/$m/sim.h5" ] && echo "    tools/error_scales.py $dir/yls $dir/$m $W $C $rep" >> "$cmds" && python3 tools/error_scales.py "$dir/yls" "$dir/$m" "$W" "$C" "$rep" | sed 's/^/    /'
+      done
+    done
+  done
+fi
 echo
 echo "Commands:"
 cat "$cmds"
