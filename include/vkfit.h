@@ -88,8 +88,10 @@ typedef struct {
 } VKFitEqStats;
 
 /* One iteration of the schedule, as fit.csv records it.  stage is the
- * harmonic basis size r, 0 for the full gamma. */
-typedef enum { VK_FIT_GD, VK_FIT_GN } VKFitMethod;
+ * harmonic basis size r, 0 for the full gamma; the method: gradient
+ * descent and Gauss-Newton (the frames loss), Gauss-Newton (the harmonic
+ * stages of the trajectory loss), L-BFGS (its full stage). */
+typedef enum { VK_FIT_GD, VK_FIT_GN, VK_FIT_LBFGS } VKFitMethod;
 PETSC_EXTERN const char *const VKFitMethods[];
 typedef struct {
   PetscInt    sample, stage, iteration;
@@ -320,6 +322,17 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r,
  * holds the prior; lossf[i] (optional) per frame of trajectory i.  A
  * parameter one scene leaves free is held by another. */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[], VKFitStageReason *);
+/* The loss at gamma and its gradient dL/dgamma in every parameter, by one
+ * rollout and one adjoint pass backwards over its steps
+ * (trajectory_full.c); *ok false (and the gradient zero) if the rollout
+ * did not reach its equilibria. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryGradient(VKFitTrajectory, Vec gamma, PetscReal *loss, Vec dldgamma, PetscBool *ok);
+/* The full stage: -fit_trajectory_full_its L-BFGS iterations on every
+ * parameter (in the logit of its place between floor and ceiling), on the
+ * objective of VKFitTrajectoryOptimizeJoint (prior included); gamma in
+ * and out, lossf[i] (optional) per frame; iterations recorded as stage 0
+ * (the full gamma), method L-BFGS. */
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimizeFull(PetscInt nt, VKFitTrajectory T[], Vec gamma, PetscReal *lossf[], VKFitStageReason *);
 /* The best uniform material on the trajectory loss (uniform.c; DESIGN §11's
  * baseline): g_s = g_v = g in [lo, hi] Pa by a half-decade scan of log g
  * and golden-section search to 1 %, on sum_i L_i (sum_i L_i / L_i(rest) for

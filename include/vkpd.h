@@ -240,6 +240,11 @@ PETSC_EXTERN PetscErrorCode VKPDGradient(VKPD, Vec y, Vec x, Vec g);
  * replaced by kdiag I, into a matrix from VKMeshCreateNodeMat(mesh, 3): the
  * Jacobian of Newton's steps and the operator of the fitting's adjoint. */
 PETSC_EXTERN PetscErrorCode VKPDHessian(VKPD, Vec x, Mat H);
+/* Put the step state VKPDHessian and VKPDGradient evaluate with back to
+ * that of an earlier step, as its VKPDSolve left it: its end time t, its
+ * length dt and its start position prev (friction; kept by reference, may
+ * be NULL): for an adjoint pass that revisits the steps of a rollout. */
+PETSC_EXTERN PetscErrorCode VKPDSetStepState(VKPD, PetscReal t, PetscReal dt, Vec prev);
 /* Rows of the eliminated (handle and frozen) owned nodes of a node vector
  * of block size 3: zeroed in v, or listed as global row numbers (3 per
  * node, PetscMalloc'ed, *n entries). */

@@ -27,7 +27,13 @@
  *  - the joint fit of two scenes (this stretch and a hang) on one material
  *    starts at the sum of their losses, each over its loss at rest (to the
  *    equilibria's tolerance: on 2
- *    ranks a rollout repeated differs by ~4e-12) and recovers gamma*.
+ *    ranks a rollout repeated differs by ~4e-12) and recovers gamma*;
+ *  - the adjoint gradient in every parameter (trajectory_full.c) passes a
+ *    Taylor test (order 2) along a per-tet direction no harmonic basis
+ *    spans, and projected on the harmonic basis it is the forward
+ *    sensitivities' gradient;
+ *  - the full stage (L-BFGS on every parameter) from the uniform start
+ *    lowers the loss a thousandfold and says how it stopped.
  * ranks: 1 2
  */
 #include "../src/fit/fitimpl.h" /* white-box: the fit's solvers, schedule and state */
@@ -497,6 +503,93 @@ static PetscErrorCode TestCeiling(void)
   PetscFunctionReturn(0);
 }
 
+/* The adjoint gradient dL/dgamma: a Taylor test along gamma_i xi_i with
+ * xi_i = sin(1.7 i + 0.3) per parameter (global index), and B^T (e o
+ * dL/dgamma) against the harmonic gradient of the forward sensitivities. */
+static PetscErrorCode TestAdjointGradient(void)
+{
+  Problem   p;
+  Vec       dl, dir, trial, e;
+  PetscReal L, Lf, gq[6], Pq[36], bq[6], r[5], gd, worst = 0, scale = 0, order;
+  PetscBool ok, okf, allok;
+  PetscInt  lo, hi;
+  int       pairs;
+  char      d[320];
+
+  PetscFunctionBegin;
+  PetscCall(Build(&p, PETSC_FALSE));
+  PetscCall(VecDuplicate(p.gamma0, &dl));
+  PetscCall(VecDuplicate(p.gamma0, &dir));
+  PetscCall(VecDuplicate(p.gamma0, &trial));
+  PetscCall(VecDuplicate(p.gamma0, &e));
+  PetscCall(VKFitTrajectoryGradient(p.T, p.gamma0, &L, dl, &ok));
+  PetscCall(VecGetOwnershipRange(dir, &lo, &hi));
+  for (PetscInt i = lo; i < hi; i++) {
+    PetscScalar g;
+    PetscCall(VecGetValues(p.gamma0, 1, &i, &g));
+    PetscCall(VecSetValue(dir, i, g * PetscSinReal(1.7 * i + 0.3), INSERT_VALUES));
+  }
+  PetscCall(VecAssemblyBegin(dir));
+  PetscCall(VecAssemblyEnd(dir));
+  PetscCall(VecDot(dl, dir, &gd));
+  allok = ok;
+  for (int k = 0; k < 5; k++) {
+    PetscReal h = 0.2 * PetscPowReal(2, -k), Lh;
+    PetscCall(VecWAXPY(trial, h, dir, p.gamma0));
+    PetscCall(VKFitTrajectoryEvaluate(p.T, trial, 0, &Lh, NULL, NULL, NULL, &okf));
+    allok = (PetscBool)(allok && okf);
+    r[k]  = PetscAbsReal(Lh - L - h * gd);
+  }
+  order = VKTestTaylorOrder(5, r, 1e-12 * L, &pairs);
+  PetscCall(PetscSNPrintf(d, sizeof(d), "remainders %.3e %.3e %.3e %.3e %.3e, order %.2f over %d pairs (L %.3e, g.dir %.3e)", (double)r[0], (double)r[1], (double)r[2], (double)r[3], (double)r[4], (double)order, pairs, (double)L, (double)gd));
+  PetscCall(VKTestCheck((PetscBool)(allok && pairs >= 3 && order > 1.8 && PetscAbsReal(gd) > 1e-3 * L), d, "trajectory: Taylor test of the adjoint gradient in every parameter along a per-tet direction (order %.2f)", (double)order));
+  /* projected on the harmonic basis: the forward sensitivities' gradient */
+  PetscCall(VKFitTrajectoryEvaluate(p.T, p.gamma0, 3, &Lf, NULL, gq, Pq, &okf));
+  PetscCall(VKFitGammaFactor_Private(p.fit, p.gamma0, e));
+  PetscCall(VecPointwiseMult(e, e, dl));
+  PetscCall(VKFitHarmonicApplyTranspose(p.fit, 3, e, bq));
+  for (int j = 0; j < 6; j++) {
+    worst = PetscMax(worst, PetscAbsReal(bq[j] - gq[j]));
+    scale = PetscMax(scale, PetscAbsReal(gq[j]));
+  }
+  PetscCall(PetscSNPrintf(d, sizeof(d), "forward %.6e %.6e %.6e ..., adjoint %.6e %.6e %.6e ...; largest difference %.3e of %.3e; losses %.14e and %.14e", (double)gq[0], (double)gq[1], (double)gq[2], (double)bq[0], (double)bq[1], (double)bq[2], (double)worst, (double)scale, (double)L, (double)Lf));
+  PetscCall(VKTestCheck((PetscBool)(okf && scale > 0 && worst <= 1e-8 * scale && PetscAbsReal(L - Lf) <= 1e-9 * L), d, "trajectory: the adjoint gradient projected on the harmonic basis is the forward sensitivities' (to %.1e)", (double)(worst / scale)));
+  PetscCall(VecDestroy(&dl));
+  PetscCall(VecDestroy(&dir));
+  PetscCall(VecDestroy(&trial));
+  PetscCall(VecDestroy(&e));
+  PetscCall(Destroy(&p));
+  PetscFunctionReturn(0);
+}
+
+/* The full stage from the uniform start: the loss falls a thousandfold
+ * (the data's material lies in the span of every parameter), the stage
+ * reports how it ended, and its iterations are recorded as stage 0, L-BFGS. */
+static PetscErrorCode TestFullStage(void)
+{
+  Problem          p;
+  Vec              gamma;
+  PetscReal        L0, L1;
+  PetscBool        ok;
+  VKFitStageReason why;
+  char             d[256];
+
+  PetscFunctionBegin;
+  PetscCall(Build(&p, PETSC_FALSE));
+  PetscCall(VecDuplicate(p.gamma0, &gamma));
+  PetscCall(VecCopy(p.gamma0, gamma));
+  PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L0, NULL, NULL, NULL, &ok));
+  p.fit->traj_full_its = 60;
+  p.fit->nhist         = 0;
+  PetscCall(VKFitTrajectoryOptimizeFull(1, &p.T, gamma, NULL, &why));
+  PetscCall(VKFitTrajectoryEvaluate(p.T, gamma, 0, &L1, NULL, NULL, NULL, &ok));
+  PetscCall(PetscSNPrintf(d, sizeof(d), "loss %.3e -> %.3e in %d iterations (%s), the last recorded loss %.3e at stage %d, %s", (double)L0, (double)L1, (int)(p.fit->nhist - 1), VKFitStageReasons[why], (double)p.fit->hist[p.fit->nhist - 1].loss, (int)p.fit->hist[p.fit->nhist - 1].stage, VKFitMethods[p.fit->hist[p.fit->nhist - 1].method]));
+  PetscCall(VKTestCheck((PetscBool)(ok && L1 < 1e-3 * L0 && p.fit->nhist > 1 && PetscAbsReal(p.fit->hist[p.fit->nhist - 1].loss - L1) <= 1e-9 * L1 && p.fit->hist[p.fit->nhist - 1].stage == 0 && p.fit->hist[p.fit->nhist - 1].method == VK_FIT_LBFGS), d, "trajectory: the full stage lowers the loss %.0fx from the uniform start (%s)", (double)(L0 / L1), VKFitStageReasons[why]));
+  PetscCall(VecDestroy(&gamma));
+  PetscCall(Destroy(&p));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL));
@@ -508,6 +601,8 @@ int main(int argc, char **argv)
   PetscCall(TestPrior());
   PetscCall(TestJoint());
   PetscCall(TestCeiling());
+  PetscCall(TestAdjointGradient());
+  PetscCall(TestFullStage());
   {
     int rc = VKTestFinish();
     PetscCall(SlepcFinalize());

@@ -10,7 +10,7 @@
 #include <vkutil.h>
 
 const char *const VKFitInertias[] = {"implicit", "data", "none", "VKFitInertia", "VK_FIT_INERTIA_", NULL};
-const char *const VKFitMethods[]  = {"GD", "GN", "VKFitMethod", "VK_FIT_", NULL};
+const char *const VKFitMethods[]  = {"GD", "GN", "LBFGS", "VKFitMethod", "VK_FIT_", NULL};
 const char *const VKFitLosses[]   = {"frames", "trajectory", "VKFitLoss", "VK_FIT_LOSS_", NULL};
 const char *const VKFitStageReasons[] = {"converged", "stalled", "iteration_limit", "VKFitStageReason", "VK_FIT_STAGE_", NULL};
 
@@ -201,7 +201,8 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   }
   PetscCall(PetscOptionsReal("-fit_trajectory_dt", "Time step of the trajectory loss's rollout (0: volknit sim's default, min(1/150 s, -scene_output_interval)); give the -ts_dt the simulation will use", "VKFitTrajectoryStep", fit->traj_dt, &fit->traj_dt, NULL));
   PetscCall(PetscOptionsReal("-fit_trajectory_prior", "Weight mu of the trajectory fit's prior mu L0 mean_i log^2((gamma_i - floor)/(gamma0_i - floor)): parameters the frames do not determine stay near the start material gamma0 (L0 its loss)", "VKFitTrajectoryOptimize", fit->traj_prior, &fit->traj_prior, NULL));
-  PetscCall(PetscOptionsReal("-fit_trajectory_max_factor", "Largest factor by which one trajectory Gauss-Newton iteration changes a parameter", "VKFitTrajectoryOptimize", fit->traj_max_factor, &fit->traj_max_factor, NULL));
+  PetscCall(PetscOptionsReal("-fit_trajectory_max_factor", "Largest factor by which one trajectory Gauss-Newton iteration (or the first trial of a full-stage L-BFGS iteration) changes a parameter", "VKFitTrajectoryOptimize", fit->traj_max_factor, &fit->traj_max_factor, NULL));
+  PetscCall(VKOptionsRangeInt("-fit_trajectory_full_its", "After the harmonic stages of -fit_loss trajectory, a stage of this many L-BFGS iterations on every parameter, by adjoint gradients (0: none)", "VKFitTrajectoryOptimizeFull", fit->traj_full_its, &fit->traj_full_its, NULL, 0, PETSC_MAX_INT));
   PetscCall(PetscOptionsEnum("-fit_inertia", "Inertia in the equilibrium of a frame: implicit, M (x - 2 xhat_{i-1} + xhat_{i-2})/dt^2; data, the data acceleration as a force; none, static", "VKFitEquilibrium", VKFitInertias, (PetscEnum)fit->inertia, (PetscEnum *)&fit->inertia, NULL));
   PetscOptionsEnd();
   PetscCheck(fit->eq_rtol > 0 && fit->eq_rtol < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_eq_rtol must be in (0, 1), got %g", (double)fit->eq_rtol);

@@ -1,8 +1,9 @@
 /* fitimpl.h: what the fitting's source files share and users of vkfit.h
  * do not need: the objects' structs (the shape fit, the fit, the
- * yarn-level data), the shape-fit target of a yarn frame and the writer of
- * a finished fit's outputs (run.c), used by both losses (run.c for the
- * frames loss, trajectory.c for the trajectory loss). */
+ * yarn-level data, the trajectory loss), the shape-fit target of a yarn
+ * frame and the writer of a finished fit's outputs (run.c), used by both
+ * losses (run.c for the frames loss, trajectory.c and trajectory_full.c
+ * for the trajectory loss). */
 #pragma once
 #include <vkfit.h>
 
@@ -48,6 +49,7 @@ struct _n_VKFit {
   PetscReal    traj_dt; /* the rollout's time step (0: volknit sim's default) */
   PetscReal    traj_max_factor; /* largest change of a parameter in one trajectory iteration */
   PetscReal    traj_prior;      /* weight of the log-distance from the start material, x the start's loss */
+  PetscInt     traj_full_its;   /* L-BFGS iterations on every parameter after the harmonic stages (trajectory_full.c) */
   /* adjoint */
   Mat       H, J;
   KSP       kadj; /* prefix -fit_adjoint_ */
@@ -95,6 +97,57 @@ struct _n_VKFit {
   void     *checkpoint_ctx;
   PetscBool setup;
 };
+
+/* The trajectory loss (trajectory.c) and its full-parameter stage
+ * (trajectory_full.c). */
+struct _n_VKFitTrajectory {
+  VKFit      fit;
+  PetscInt   nf;
+  PetscReal *t, *eps_hat, *lossf;
+  Vec       *xhat, *xk;          /* targets, and the rollout at the frames */
+  PetscReal  force_min;          /* the data's inertial force scale: a floor of each step's */
+  PetscReal  rest_loss;          /* the loss of staying at rest: a joint fit's unit for this trajectory */
+  PetscInt   steps;              /* of the last rollout */
+  PetscReal  eq_worst;           /* largest |g|/tolerance of its steps */
+  PetscInt   inverted_max;       /* most tets inverted at one step's equilibrium */
+  VKFitFrame f;                  /* the step being solved */
+  Vec        xold, xcur, grad, As;
+  Vec        xold2;              /* x two steps back, for the extrapolated first guess */
+  PetscInt   rmax;               /* sensitivity storage: 2 rmax columns, three generations */
+  Vec       *S[3], *Gb;
+  Vec        gref, dlog;         /* the prior's reference material (the first stage's start), and scratch */
+  PetscReal  lref;               /* its loss */
+  /* with record set, a rollout keeps every step for the adjoint pass
+   * (trajectory_full.c): xs[n] the equilibrium of step n (xs[0] rest),
+   * ts[n] and hs[n] its time and length, frame_step[k] the step of frame k */
+  PetscBool  record;
+  PetscInt   nrec;               /* Vecs allocated in xs */
+  Vec       *xs;
+  PetscReal *ts, *hs;
+  PetscInt  *frame_step;
+};
+
+#define VK_FIT_FLOOR_LIFT 1e-3 /* of the floor (ceiling), for a parameter that starts a stage on it */
+/* p = (gamma - g0)/(g1 - g0) in [0, 1]: where gamma sits between floor and ceiling */
+static inline PetscReal VKFitPlace(PetscReal g0, PetscReal g1, PetscReal gamma)
+{
+  return PetscMin(PetscMax((gamma - g0) / (g1 - g0), 0), 1);
+}
+/* logit p of parameter i's place between floor and ceiling, p kept the
+ * floor lift inside either bound */
+static inline PetscReal VKFitLogit(VKFit fit, PetscInt i, PetscReal gamma)
+{
+  PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], lift = VK_FIT_FLOOR_LIFT * g0 / (g1 - g0);
+  PetscReal p = PetscMin(PetscMax(VKFitPlace(g0, g1, gamma), lift), 1 - lift);
+
+  return PetscLogReal(p) - log1p(-p);
+}
+/* dgamma/dw at w = 0 per parameter, (gamma - g0)(g1 - gamma)/(g1 - g0):
+ * the factor of the logistic parametrization gamma = g0 + (g1 - g0)
+ * sigma(logit p + w) of the trajectory stages. */
+PETSC_INTERN PetscErrorCode VKFitGammaFactor_Private(VKFit, Vec gamma, Vec factor);
+/* One iteration of a trajectory stage into the fit's history (and the monitor). */
+PETSC_INTERN PetscErrorCode VKFitTrajectoryRecord_Private(VKFitTrajectory, PetscInt r, VKFitMethod, PetscInt it, PetscReal loss, PetscReal gnorm, PetscReal change);
 
 /* A yarn-level run's frames (data.c). */
 struct _n_VKFitData {

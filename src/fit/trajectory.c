@@ -48,26 +48,6 @@
 #include <vkutil.h>
 #include <vklog.h>
 
-#define FLOOR_LIFT 1e-3 /* of the floor (ceiling), for a parameter that starts a stage on it */
-
-struct _n_VKFitTrajectory {
-  VKFit      fit;
-  PetscInt   nf;
-  PetscReal *t, *eps_hat, *lossf;
-  Vec       *xhat, *xk;          /* targets, and the rollout at the frames */
-  PetscReal  force_min;          /* the data's inertial force scale: a floor of each step's */
-  PetscReal  rest_loss;          /* the loss of staying at rest: a joint fit's unit for this trajectory */
-  PetscInt   steps;              /* of the last rollout */
-  PetscReal  eq_worst;           /* largest |g|/tolerance of its steps */
-  PetscInt   inverted_max;       /* most tets inverted at one step's equilibrium */
-  VKFitFrame f;                  /* the step being solved */
-  Vec        xold, xcur, grad, As;
-  Vec        xold2;              /* x two steps back, for the extrapolated first guess */
-  PetscInt   rmax;               /* sensitivity storage: 2 rmax columns, three generations */
-  Vec       *S[3], *Gb;
-  Vec        gref, dlog;         /* the prior's reference material (the first stage's start), and scratch */
-  PetscReal  lref;               /* its loss */
-};
 
 PetscReal VKFitTrajectoryStep(VKFit fit)
 {
@@ -118,6 +98,7 @@ PetscErrorCode VKFitTrajectoryCreate(VKFit fit, PetscInt nf, const PetscReal t[]
   T->nf  = nf;
   PetscCall(PetscMalloc3(nf, &T->t, nf, &T->eps_hat, nf, &T->lossf));
   PetscCall(PetscMalloc2(nf, &T->xhat, nf, &T->xk));
+  PetscCall(PetscMalloc1(nf, &T->frame_step));
   for (PetscInt k = 0; k < nf; k++) {
     T->t[k]       = t[k];
     T->eps_hat[k] = eps_hat[k];
@@ -145,6 +126,33 @@ PetscErrorCode VKFitTrajectoryCreate(VKFit fit, PetscInt nf, const PetscReal t[]
   }
   PetscCall(VecDestroy(&rest));
   *out = T;
+  PetscFunctionReturn(0);
+}
+
+/* With T->record: step n's equilibrium, time and length into xs[n], ts[n], hs[n] (n = 0: rest). */
+static PetscErrorCode RecordStep(VKFitTrajectory T, PetscInt n, Vec x, PetscReal t, PetscReal h)
+{
+  PetscFunctionBegin;
+  if (n >= T->nrec) {
+    PetscInt   cap = PetscMax(2 * T->nrec, n + 16);
+    Vec       *xs;
+    PetscReal *ts, *hs;
+    PetscCall(PetscMalloc3(cap, &xs, cap, &ts, cap, &hs));
+    for (PetscInt i = 0; i < T->nrec; i++) {
+      xs[i] = T->xs[i];
+      ts[i] = T->ts[i];
+      hs[i] = T->hs[i];
+    }
+    for (PetscInt i = T->nrec; i < cap; i++) PetscCall(VecDuplicate(T->xcur, &xs[i]));
+    PetscCall(PetscFree3(T->xs, T->ts, T->hs));
+    T->xs   = xs;
+    T->ts   = ts;
+    T->hs   = hs;
+    T->nrec = cap;
+  }
+  PetscCall(VecCopy(x, T->xs[n]));
+  T->ts[n] = t;
+  T->hs[n] = h;
   PetscFunctionReturn(0);
 }
 
@@ -177,6 +185,9 @@ PetscErrorCode VKFitTrajectoryDestroy(VKFitTrajectory *p)
   PetscCall(VecDestroy(&T->As));
   PetscCall(VKFitFrameDestroy(&T->f));
   PetscCall(FreeSensitivities(T));
+  for (PetscInt i = 0; i < T->nrec; i++) PetscCall(VecDestroy(&T->xs[i]));
+  PetscCall(PetscFree3(T->xs, T->ts, T->hs)); /* one allocation: not VecDestroyVecs */
+  PetscCall(PetscFree(T->frame_step));
   PetscCall(VecDestroy(&T->gref));
   PetscCall(VecDestroy(&T->dlog));
   PetscCall(PetscFree(*p));
@@ -205,18 +216,12 @@ PetscErrorCode VKFitTrajectoryGetPositions(VKFitTrajectory T, PetscInt k, Vec x)
   PetscFunctionReturn(0);
 }
 
-/* p = (gamma - g0)/(g1 - g0) in [0, 1]: where gamma sits between floor and ceiling */
-static inline PetscReal Place(PetscReal g0, PetscReal g1, PetscReal gamma)
-{
-  return PetscMin(PetscMax((gamma - g0) / (g1 - g0), 0), 1);
-}
-
 /* gamma' = g0 + (g1 - g0) sigma(logit p + w): a parameter moved by w in
  * the logistic-harmonic parametrization between its floor g0 and ceiling
  * g1, written so that neither exp(w) nor exp(-w) overflows */
 static inline PetscReal Moved(PetscReal g0, PetscReal g1, PetscReal gamma, PetscReal w)
 {
-  PetscReal p = Place(g0, g1, gamma), ew;
+  PetscReal p = VKFitPlace(g0, g1, gamma), ew;
 
   if (w > 0) {
     ew = PetscExpReal(-PetscMin(w, 700));
@@ -226,8 +231,7 @@ static inline PetscReal Moved(PetscReal g0, PetscReal g1, PetscReal gamma, Petsc
   return p < 1 ? g0 + (g1 - g0) * (p * ew / (1 - p + p * ew)) : g1;
 }
 
-/* dgamma/dw at w = 0 per parameter: (gamma - g0)(g1 - gamma)/(g1 - g0) */
-static PetscErrorCode GammaExcess(VKFit fit, Vec gamma, Vec excess)
+PetscErrorCode VKFitGammaFactor_Private(VKFit fit, Vec gamma, Vec excess)
 {
   PetscInt           n;
   const PetscScalar *g;
@@ -238,7 +242,7 @@ static PetscErrorCode GammaExcess(VKFit fit, Vec gamma, Vec excess)
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArray(excess, &e));
   for (PetscInt i = 0; i < n; i++) {
-    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = Place(g0, g1, g[i]);
+    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = VKFitPlace(g0, g1, g[i]);
     e[i] = (g1 - g0) * p * (1 - p);
   }
   PetscCall(VecRestoreArrayRead(gamma, &g));
@@ -347,11 +351,11 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
     PetscCall(VecDuplicateVecs(gamma, 2 * r, &T->Gb));
     T->rmax = r;
   }
-  if (r) { /* dgamma/dq_j = e o b_j (GammaExcess); S = 0 at rest */
+  if (r) { /* dgamma/dq_j = e o b_j (VKFitGammaFactor_Private); S = 0 at rest */
     PetscReal *e;
     Vec        excess;
     PetscCall(VecDuplicate(gamma, &excess));
-    PetscCall(GammaExcess(fit, gamma, excess));
+    PetscCall(VKFitGammaFactor_Private(fit, gamma, excess));
     PetscCall(PetscCalloc1(2 * r, &e));
     for (PetscInt j = 0; j < 2 * r; j++) {
       e[j] = 1;
@@ -373,6 +377,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
   T->inverted_max = 0;
   PetscCall(VKMeshGetRestPositions(fit->mesh, T->xcur));
   PetscCall(VecCopy(T->xcur, T->xold));
+  if (T->record) PetscCall(RecordStep(T, 0, T->xcur, 0, dt));
   T->f.scale_min = T->force_min;
   for (PetscInt k = 0; k < T->nf && *ok; k++) {
     while (t < T->t[k] - 1e-9 * dt && *ok) {
@@ -395,6 +400,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
       T->inverted_max = PetscMax(T->inverted_max, st.inverted);
       if (!*ok) break;
       if (r) PetscCall(Sensitivities(T, r, h, a));
+      if (T->record) PetscCall(RecordStep(T, T->steps, T->f.x, t + h, h));
       PetscCall(VecCopy(T->xold, T->xold2));
       PetscCall(VecCopy(T->xcur, T->xold));
       PetscCall(VecCopy(T->f.x, T->xcur));
@@ -403,6 +409,7 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
       t += h;
     }
     if (*ok) PetscCall(AddFrame(T, k, r, loss, grad, P));
+    T->frame_step[k] = T->steps;
   }
   if (!*ok) *loss = PETSC_INFINITY;
   PetscCall(PetscInfo(NULL, "rollout: loss %.10e over %d steps, worst |g|/tol %.3g, up to %d tets inverted\n", (double)*loss, (int)T->steps, (double)T->eq_worst, (int)T->inverted_max));
@@ -411,15 +418,15 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode Record(VKFitTrajectory T, PetscInt r, PetscInt it, PetscReal loss, PetscReal gnorm, PetscReal change)
+PetscErrorCode VKFitTrajectoryRecord_Private(VKFitTrajectory T, PetscInt r, VKFitMethod method, PetscInt it, PetscReal loss, PetscReal gnorm, PetscReal change)
 {
   VKFit        fit = T->fit;
-  VKFitIterate rec = {-1, r, it, VK_FIT_GN, loss, gnorm, change, T->eq_worst * fit->eq_rtol, VKWallTime() - fit->wall0};
+  VKFitIterate rec = {-1, r, it, method, loss, gnorm, change, T->eq_worst * fit->eq_rtol, VKWallTime() - fit->wall0};
 
   PetscFunctionBegin;
   PetscCall(VKFitAppendIterate(fit, &rec));
   if (it > 0) fit->nits++;
-  if (fit->monitor) PetscCall(PetscPrintf(fit->comm, "  fit trajectory r=%-3d GN %3d loss %.6e |grad| %.3e largest change x%.3g (%d steps, worst |g|/tol %.2f)\n", (int)r, (int)it, (double)loss, (double)gnorm, (double)PetscExpReal(change), (int)T->steps, (double)T->eq_worst));
+  if (fit->monitor) PetscCall(PetscPrintf(fit->comm, "  fit trajectory r=%-3d %s %3d loss %.6e |grad| %.3e largest change x%.3g (%d steps, worst |g|/tol %.2f)\n", (int)r, VKFitMethods[method], (int)it, (double)loss, (double)gnorm, (double)PetscExpReal(change), (int)T->steps, (double)T->eq_worst));
   PetscFunctionReturn(0);
 }
 
@@ -439,7 +446,7 @@ static PetscErrorCode CapScale(VKFit fit, PetscInt r, Vec gamma, const PetscReal
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArrayRead(work, &w));
   for (PetscInt i = 0; i < m; i++) { /* sigma(u + s w) reaches the bound's place q at s = (logit q - u)/w */
-    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = Place(g0, g1, g[i]), to = g[i] * PetscExpReal(w[i] > 0 ? cap : -cap), q = Place(g0, g1, to), bound = PETSC_INFINITY;
+    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = VKFitPlace(g0, g1, g[i]), to = g[i] * PetscExpReal(w[i] > 0 ? cap : -cap), q = VKFitPlace(g0, g1, to), bound = PETSC_INFINITY;
     if (p > 0 && p < 1 && q > 0 && q < 1 && w[i] != 0) bound = (PetscLogReal(q / (1 - q)) - PetscLogReal(p / (1 - p))) / w[i];
     s = PetscMin(s, bound);
   }
@@ -492,16 +499,6 @@ PetscErrorCode VKFitTrajectorySetPriorReference(VKFitTrajectory T, Vec gamma, Pe
   PetscFunctionReturn(0);
 }
 
-/* logit p of parameter i's place between floor and ceiling, p kept the
- * floor lift inside either bound */
-static PetscReal Logit(VKFit fit, PetscInt i, PetscReal gamma)
-{
-  PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], lift = FLOOR_LIFT * g0 / (g1 - g0);
-  PetscReal p = PetscMin(PetscMax(Place(g0, g1, gamma), lift), 1 - lift);
-
-  return PetscLogReal(p) - log1p(-p);
-}
-
 /* c = mu L_ref / (2 ne); d_i = logit p(gamma_i) - logit p(gref_i), the
  * parameter's move in the coordinates of the harmonic step (exactly B_r q
  * between two materials it connects); B_r orthonormal, so P gains 2c I. */
@@ -521,7 +518,7 @@ PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory T, PetscInt r, Vec gamma,
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArrayRead(T->gref, &gr));
   PetscCall(VecGetArray(T->dlog, &d));
-  for (PetscInt i = 0; i < m; i++) d[i] = Logit(fit, i, g[i]) - Logit(fit, i, gr[i]);
+  for (PetscInt i = 0; i < m; i++) d[i] = VKFitLogit(fit, i, g[i]) - VKFitLogit(fit, i, gr[i]);
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArrayRead(T->gref, &gr));
   PetscCall(VecRestoreArray(T->dlog, &d));
@@ -599,7 +596,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
     PetscInt     m;
     PetscCall(VecGetLocalSize(gamma, &m));
     PetscCall(VecGetArray(gamma, &g));
-    for (PetscInt i = 0; i < m; i++) g[i] = PetscMin(PetscMax(g[i], (1 + FLOOR_LIFT) * fit->gamma_min[i % 2]), (1 - FLOOR_LIFT) * fit->gamma_max[i % 2]);
+    for (PetscInt i = 0; i < m; i++) g[i] = PetscMin(PetscMax(g[i], (1 + VK_FIT_FLOOR_LIFT) * fit->gamma_min[i % 2]), (1 - VK_FIT_FLOOR_LIFT) * fit->gamma_max[i % 2]);
     PetscCall(VecRestoreArray(gamma, &g));
   }
   PetscCall(EvaluateAll(nt, T, gamma, r, &loss, grad, P, scratch, &bad, &ok));
@@ -611,7 +608,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
   loss0 = loss;
   PetscCall(VKFitTrajectoryAddPrior(T[0], r, gamma, &obj, grad, P));
   for (PetscInt j = 0; j < n; j++) gnorm += grad[j] * grad[j];
-  PetscCall(Record(T[0], r, 0, loss, PetscSqrtReal(gnorm), 0));
+  PetscCall(VKFitTrajectoryRecord_Private(T[0], r, VK_FIT_GN, 0, loss, PetscSqrtReal(gnorm), 0));
   for (it = 1; it <= fit->gn_its; it++) {
     PetscBool accepted = PETSC_FALSE, failed = PETSC_FALSE;
     PetscReal change   = 0, lmax = 0;
@@ -656,7 +653,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
       PetscReal prev = obj;
       loss           = lt;
       obj            = ot;
-      PetscCall(Record(T[0], r, it, loss, PetscSqrtReal(gnorm), change));
+      PetscCall(VKFitTrajectoryRecord_Private(T[0], r, VK_FIT_GN, it, loss, PetscSqrtReal(gnorm), change));
       if (prev - obj <= fit->rtol * prev) {
         why = VK_FIT_STAGE_CONVERGED;
         break;
@@ -725,7 +722,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   fit->nhist = fit->nits = fit->traj_failed_rollouts = 0;
   for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitSetUp(fits[i]));
   PetscCall(VKMakeDirectory(fit->comm, dir));
-  PetscCall(PetscMalloc5(fit->nharm, &stages, fit->nharm, &stage_its, fit->nharm, &why, nf, &frames, nf, &traj));
+  PetscCall(PetscMalloc5(fit->nharm + 1, &stages, fit->nharm + 1, &stage_its, fit->nharm + 1, &why, nf, &frames, nf, &traj));
   for (PetscInt h = 0; h < fit->nharm; h++)
     if (fit->harm_r[h] < VKMeshTetCount(fit->mesh)) stages[nst++] = fit->harm_r[h];
   PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)VKMeshTetCount(fit->mesh));
@@ -773,6 +770,16 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
     if (why[s] == VK_FIT_STAGE_ITERATION_LIMIT) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stopped at -fit_gn_its %d with the loss still falling by more than -fit_rtol %g: not converged\n", (int)stages[s], (int)fit->gn_its, (double)fit->rtol));
     if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n", (int)stages[s]));
+  }
+  if (fit->traj_full_its > 0) { /* every parameter: stage 0, as the frames loss's full gamma */
+    PetscReal before = fit->hist[fit->nhist - 1].loss;
+    PetscInt  its0   = fit->nits, s = nst++;
+    stages[s] = 0;
+    PetscCall(VKFitTrajectoryOptimizeFull(nt, T, gamma, lossf, &why[s]));
+    stage_its[s] = fit->nits - its0;
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: full stage (%d parameters, L-BFGS by adjoint gradients): trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)(2 * VKMeshTetCount(fit->mesh)), (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
+    if (why[s] == VK_FIT_STAGE_ITERATION_LIMIT) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: the full stage stopped at -fit_trajectory_full_its %d with the loss still falling by more than -fit_rtol %g: not converged\n", (int)fit->traj_full_its, (double)fit->rtol));
+    if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: the full stage stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n"));
   }
   /* of the last accepted rollouts: a rollout again could land on another side of a step's tolerance */
   for (PetscInt k = 0; k < nf; k++) {

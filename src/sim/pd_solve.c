@@ -139,6 +139,15 @@ static PetscErrorCode KineticTerm(VKPD pd, Vec x, Vec y, PetscReal *T)
 }
 
 /* r = K x - b with handle rows zeroed; returns |r|. */
+PetscErrorCode VKPDSetStepState(VKPD pd, PetscReal t, PetscReal dt, Vec prev)
+{
+  PetscFunctionBegin;
+  PetscCall(VKPDSetTimeStep(pd, dt));
+  pd->t    = t;
+  pd->prev = prev;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKPDZeroEliminatedRows(VKPD pd, Vec v)
 {
   PetscScalar *a;
