@@ -218,6 +218,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCheck(fit->traj_dt >= 0 && isfinite(fit->traj_dt), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_dt must be positive and finite (or 0 for volknit sim's default), got %g", (double)fit->traj_dt);
   PetscCheck(fit->traj_prior >= 0 && isfinite(fit->traj_prior), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_prior must be >= 0 and finite, got %g", (double)fit->traj_prior);
   PetscCheck(fit->traj_max_factor > 1 && isfinite(fit->traj_max_factor), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_trajectory_max_factor must be > 1 and finite, got %g", (double)fit->traj_max_factor);
+  PetscCheck(fit->traj_full_its == 0 || fit->loss == VK_FIT_LOSS_TRAJECTORY, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_trajectory_full_its applies to -fit_loss trajectory; the frames loss fits every parameter after its harmonic stages anyway");
   PetscCheck(fit->loss != VK_FIT_LOSS_TRAJECTORY || fit->inertia == VK_FIT_INERTIA_IMPLICIT, fit->comm, PETSC_ERR_ARG_INCOMP, "-fit_loss trajectory rolls the model out as volknit sim does, with implicit inertia; -fit_inertia %s applies to -fit_loss frames only", VKFitInertias[fit->inertia]);
   PetscCheck(fit->gamma_min_rel > 0 && fit->gamma_min_rel < 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_min must be in (0, 1), got %g", (double)fit->gamma_min_rel);
   PetscCheck(fit->gamma_max_rel > 1 && isfinite(fit->gamma_max_rel), fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "-fit_gamma_max must be a finite number above 1, got %g", (double)fit->gamma_max_rel);

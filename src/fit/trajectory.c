@@ -761,7 +761,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   for (PetscInt i = 1; i < nt; i++) PetscCall(PetscPrintf(fit->comm, "%s%s", i == nt - 1 ? " and " : ", ", data[i]->path));
   PetscCall(PetscPrintf(fit->comm, ", %d frames, rolled out at dt %g s; %d parameters in harmonic stages r =", (int)nf, (double)VKFitTrajectoryStep(fit), (int)(2 * VKMeshTetCount(fit->mesh))));
   for (PetscInt s = 0; s < nst; s++) PetscCall(PetscPrintf(fit->comm, " %d", (int)stages[s]));
-  PetscCall(PetscPrintf(fit->comm, "\n"));
+  PetscCall(PetscPrintf(fit->comm, "%s\n", fit->traj_full_its > 0 ? ", then all of them" : ""));
   for (PetscInt s = 0; s < nst; s++) {
     PetscReal before = fit->nhist ? fit->hist[fit->nhist - 1].loss : l0;
     PetscInt  its0   = fit->nits;
