@@ -26,8 +26,10 @@
  * bounds (dgamma_i/du_i = (gamma_i - g0)(g1 - gamma_i)/(g1 - g0), the
  * harmonic stages' parametrization with the identity for a basis); a
  * backtracking Armijo line search whose first trial moves no u_i by more
- * than log(-fit_trajectory_max_factor); a trial whose rollout does not
- * reach its equilibria is rejected like one that does not lower the loss. */
+ * than log(-fit_trajectory_max_factor), along the gradient once more when
+ * no step along the quasi-Newton direction is accepted; a trial whose
+ * rollout does not reach its equilibria is rejected like one that does
+ * not lower the loss. */
 #include "fitimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
@@ -257,24 +259,31 @@ PetscErrorCode VKFitTrajectoryOptimizeFull(PetscInt nt, VKFitTrajectory T[], Vec
       why = VK_FIT_STAGE_CONVERGED;
       break;
     }
-    PetscCall(Direction(np, head, s, y, rho, g, d));
-    PetscCall(VecDot(g, d, &gd));
-    if (!(gd < 0)) { /* not a descent direction: forget the pairs */
-      np = 0;
-      PetscCall(VecAXPBY(d, -1, 0, g));
+    /* the quasi-Newton direction; if no step along it is accepted, once
+     * more along the gradient with the pairs forgotten (they may describe
+     * the loss where it was, not where it is) */
+    for (int attempt = 0; attempt < 2 && !accepted; attempt++) {
+      if (attempt && !np) break;
+      if (attempt) np = 0;
+      PetscCall(Direction(np, head, s, y, rho, g, d));
       PetscCall(VecDot(g, d, &gd));
-    }
-    PetscCall(VecNorm(d, NORM_INFINITY, &dmax));
-    step = dmax > cap ? cap / dmax : 1;
-    for (PetscInt tries = 0; tries <= fit->max_halvings && !accepted; tries++) {
-      PetscCall(VecWAXPY(ut, step, d, u));
-      PetscCall(Evaluate(&o, ut, &objt, &losst, gt, &ok));
-      if (!ok) {
-        failed = PETSC_TRUE;
-        fit->traj_failed_rollouts++;
+      if (!(gd < 0)) { /* not a descent direction: forget the pairs */
+        np = 0;
+        PetscCall(VecAXPBY(d, -1, 0, g));
+        PetscCall(VecDot(g, d, &gd));
       }
-      if (ok && objt <= obj + ARMIJO * step * gd && objt < obj) accepted = PETSC_TRUE;
-      else step *= 0.5;
+      PetscCall(VecNorm(d, NORM_INFINITY, &dmax));
+      step = dmax > cap ? cap / dmax : 1;
+      for (PetscInt tries = 0; tries <= fit->max_halvings && !accepted; tries++) {
+        PetscCall(VecWAXPY(ut, step, d, u));
+        PetscCall(Evaluate(&o, ut, &objt, &losst, gt, &ok));
+        if (!ok) {
+          failed = PETSC_TRUE;
+          fit->traj_failed_rollouts++;
+        }
+        if (ok && objt <= obj + ARMIJO * step * gd && objt < obj) accepted = PETSC_TRUE;
+        else step *= 0.5;
+      }
     }
     if (!accepted) {
       why = failed ? VK_FIT_STAGE_STALLED : VK_FIT_STAGE_CONVERGED;
