@@ -43,11 +43,12 @@
  * well below the ceiling), gamma0 the
  * start: measured on the rib stretch, the frames leave the overall
  * stiffness almost free and the fit drifts 1000-fold stiffer for a few
- * per cent of loss (docs/FIDELITY.md). */
+ * per cent of loss (docs/FIDELITY.md).  After the harmonic stages,
+ * -fit_trajectory_full_its moves every parameter at once by adjoint
+ * gradients (trajectory_full.c), from rollouts this file records. */
 #include "fitimpl.h"
 #include <vkutil.h>
 #include <vklog.h>
-
 
 PetscReal VKFitTrajectoryStep(VKFit fit)
 {
