@@ -90,10 +90,12 @@ PETSC_EXTERN PetscErrorCode PCCMSGetUpdateCounts(PC, PetscInt *kept, PetscInt *k
 PETSC_EXTERN PetscErrorCode VKSimInitializePackage(void);
 /* The sequential solver of this rank (after set-up). */
 PETSC_EXTERN PetscErrorCode VKPCColumnsGetKSP(PC, KSP *);
-/* The default solver of a scalar SPD matrix with three right-hand sides
- * (PD's K, the shape fit's A): preonly with PC subtrees on up to 3 ranks
- * (PC columns where PETSc has no CHOLMOD), one distributed MUMPS Cholesky
- * factor beyond. */
+/* The default solver of an SPD matrix (PD's K and the shape fit's A, with
+ * three right-hand sides; projected Newton's Hessian, with one): preonly
+ * with PC subtrees on up to 3 ranks (PC columns where PETSc has no
+ * CHOLMOD), one distributed MUMPS Cholesky factor beyond.  Up to 3 ranks
+ * its result does not depend on the run; distributed MUMPS's does, in the
+ * last bits (it sums contribution blocks in the order they arrive). */
 PETSC_EXTERN PetscErrorCode VKKSPSetDirectSolver(KSP);
 
 typedef enum {

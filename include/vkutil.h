@@ -148,6 +148,12 @@ PETSC_EXTERN PetscErrorCode VKVecAddPerNode(Vec v, PetscReal a, const PetscReal 
 /* ksp: KSPPREONLY with a MUMPS factorization of the given type (PCLU,
  * PCCHOLESKY) as its PC (direct_solver.c). */
 PETSC_EXTERN PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor);
+/* The same, with a result that does not depend on the run on up to 3
+ * ranks: there PCREDUNDANT, a sequential MUMPS factor on every rank
+ * (options under the KSP's prefix + "redundant_"); beyond, VKKSPSetMUMPS.
+ * For the fit's and the equilibria's Hessians; call after the KSP's
+ * options prefix is set (direct_solver.c). */
+PETSC_EXTERN PetscErrorCode VKKSPSetReproducibleMUMPS(KSP ksp, PCType factor);
 /* MUMPS's workspace relaxation ICNTL(14) of ksp's factorization, *percent
  * (20, MUMPS's default, at first), raised 4x (to 80, 320, 1280, at most
  * 1600 %) through the options database under the factor's prefix (the

@@ -62,7 +62,7 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   PetscCall(VKPDSetType(fit->pd, VK_PD_TYPE_PD));
   PetscCall(KSPCreate(fit->comm, &fit->kadj));
   PetscCall(KSPSetOptionsPrefix(fit->kadj, "fit_adjoint_"));
-  PetscCall(VKKSPSetMUMPS(fit->kadj, PCLU));
+  PetscCall(VKKSPSetReproducibleMUMPS(fit->kadj, PCLU));
   PetscCall(VKFitCreateKKTSolver(fit));
   *out = fit;
   PetscFunctionReturn(0);

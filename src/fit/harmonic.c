@@ -92,7 +92,7 @@ PetscErrorCode VKFitHarmonicSetUp(VKFit fit, PetscInt r)
   PetscCall(EPSGetST(eps, &st));
   PetscCall(STSetType(st, STSINVERT));
   PetscCall(STGetKSP(st, &ksp));
-  PetscCall(VKKSPSetMUMPS(ksp, PCCHOLESKY));
+  PetscCall(VKKSPSetReproducibleMUMPS(ksp, PCCHOLESKY));
   PetscCall(EPSSetFromOptions(eps));
   PetscCall(EPSSolve(eps));
   PetscCall(EPSGetConverged(eps, &nconv));

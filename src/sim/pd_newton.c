@@ -9,7 +9,9 @@
  * the minimum: the decrease |g|^2/H drops below the round-off of Phi long
  * before |g| reaches 1e-12 relative.)  Newton runs after PD, close to the
  * minimum, so the gradient merit does not lead it to a saddle.  Defaults:
- * newtonls, bt, MUMPS LU (the exact Hessian may be indefinite). */
+ * newtonls, bt, MUMPS LU (the exact Hessian may be indefinite; one
+ * sequential factor on every rank up to 3 ranks, so that a run does not
+ * depend on the order in which distributed MUMPS sums its blocks). */
 #include <vkpd.h>
 #include <vklog.h>
 #include <vkutil.h>
@@ -97,7 +99,7 @@ static PetscErrorCode NewtonCreate(VKPD pd)
   PetscCall(SNESGetLineSearch(pd->snes, &ls));
   PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
   PetscCall(SNESGetKSP(pd->snes, &ksp));
-  PetscCall(VKKSPSetMUMPS(ksp, PCLU));
+  PetscCall(VKKSPSetReproducibleMUMPS(ksp, PCLU));
   PetscCall(VKMeshCreateNodeMat(pd->mesh, 3, &pd->H));
   PetscCall(SNESSetFunction(pd->snes, NULL, NewtonFunction, pd));
   PetscCall(SNESSetJacobian(pd->snes, pd->H, pd->H, NewtonJacobian, pd));
@@ -146,8 +148,11 @@ PetscErrorCode VKPDNewton(VKPD pd, PetscReal t, Vec y, Vec x, VKPDStats *st)
 
 /* Projected Newton (Teran et al. 2005): where L-BFGS stalls, the step
  * solves (M/dt^2 + the per-tet PSD projection of d2E/dx2) d = -grad Phi
- * (SPD: MUMPS Cholesky on an AIJ copy of the node layout, 1.5x faster
- * than its LU; KSP prefix -pd_pnewton_), a descent direction however stiff
+ * (SPD: on an AIJ copy of the node layout, factored by the global step's
+ * default direct solver, VKKSPSetDirectSolver: PC subtrees on up to 3
+ * ranks, whose result does not depend on the run, where distributed MUMPS
+ * sums its contribution blocks in the order they arrive; KSP prefix
+ * -pd_pnewton_), a descent direction however stiff
  * or heterogeneous gamma is, then backtracks on Phi (Armijo, or a smaller
  * |grad Phi| where Phi's decrease is below its round-off).  Where the
  * projection misjudges a strongly nonconvex energy (g_v far above g_s),
@@ -168,7 +173,7 @@ PetscErrorCode VKPDIterateProjectedNewton(VKPD pd, Vec y, Vec x, PetscInt it0, V
       PetscCall(PetscSNPrintf(p, sizeof(p), "%spd_pnewton_", pd->prefix));
       PetscCall(KSPSetOptionsPrefix(pd->pksp, p));
     }
-    PetscCall(VKKSPSetMUMPS(pd->pksp, PCCHOLESKY));
+    PetscCall(VKKSPSetDirectSolver(pd->pksp));
     PetscCall(KSPSetFromOptions(pd->pksp));
   }
   if (!pd->Hp) {

@@ -4,7 +4,14 @@
  * prefix still override both (KSPSetFromOptions after this).  And the one
  * remedy for a factorization whose delayed pivots outgrow MUMPS's
  * workspace estimate (INFOG(1) = -9, PETSc's FACTOR_OUTMEMORY): a larger
- * workspace relaxation ICNTL(14) for every later factorization. */
+ * workspace relaxation ICNTL(14) for every later factorization.
+ *
+ * Distributed MUMPS assembles its contribution blocks in the order they
+ * arrive, so two runs of the same command on 2 ranks differ in the last
+ * bits; the twist's rollouts amplify that to fits that end apart (1.1974
+ * against 1.3993 in two runs, docs/FIDELITY.md).  VKKSPSetReproducibleMUMPS
+ * gives up the distributed factor on up to 3 ranks for one that every rank
+ * computes alone, in the same order every time. */
 #include <vkutil.h>
 
 PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor)
@@ -16,6 +23,26 @@ PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor)
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, factor));
   PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKKSPSetReproducibleMUMPS(KSP ksp, PCType factor)
+{
+  PC          pc;
+  KSP         inner;
+  PetscMPIInt size;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)ksp), &size));
+  if (size == 1 || size > 3) {
+    PetscCall(VKKSPSetMUMPS(ksp, factor));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCREDUNDANT));
+  PetscCall(PCRedundantGetKSP(pc, &inner));
+  PetscCall(VKKSPSetMUMPS(inner, factor));
   PetscFunctionReturn(0);
 }
 
