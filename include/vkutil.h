@@ -154,6 +154,9 @@ PETSC_EXTERN PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor);
  * For the fit's and the equilibria's Hessians; call after the KSP's
  * options prefix is set (direct_solver.c). */
 PETSC_EXTERN PetscErrorCode VKKSPSetReproducibleMUMPS(KSP ksp, PCType factor);
+/* PCREDUNDANT with a sequential MUMPS factor on every rank, on any number
+ * of ranks (options under the KSP's prefix + "redundant_"). */
+PETSC_EXTERN PetscErrorCode VKKSPSetRedundantMUMPS(KSP ksp, PCType factor);
 /* MUMPS's workspace relaxation ICNTL(14) of ksp's factorization, *percent
  * (20, MUMPS's default, at first), raised 4x (to 80, 320, 1280, at most
  * 1600 %) through the options database under the factor's prefix (the

@@ -178,7 +178,6 @@ static PetscErrorCode Equilibrate(Mat K, Vec rhs, Vec *scale)
 
 PetscErrorCode VKFitCreateKKTSolver(VKFit fit)
 {
-  PC          pc;
   PetscMPIInt size;
 
   PetscFunctionBegin;
@@ -186,14 +185,7 @@ PetscErrorCode VKFitCreateKKTSolver(VKFit fit)
   PetscCall(KSPSetOptionsPrefix(fit->kkkt, "fit_kkt_"));
   PetscCallMPI(MPI_Comm_size(fit->comm, &size));
   if (size == 1) PetscCall(VKKSPSetMUMPS(fit->kkkt, PCCHOLESKY));
-  else { /* distributed MUMPS LDL^T fails on the KKT matrix (above) */
-    KSP inner;
-    PetscCall(KSPSetType(fit->kkkt, KSPPREONLY));
-    PetscCall(KSPGetPC(fit->kkkt, &pc));
-    PetscCall(PCSetType(pc, PCREDUNDANT));
-    PetscCall(PCRedundantGetKSP(pc, &inner));
-    PetscCall(VKKSPSetMUMPS(inner, PCCHOLESKY));
-  }
+  else PetscCall(VKKSPSetRedundantMUMPS(fit->kkkt, PCCHOLESKY)); /* distributed MUMPS LDL^T fails on the KKT matrix (above) */
   PetscFunctionReturn(0);
 }
 

@@ -26,23 +26,28 @@ PetscErrorCode VKKSPSetMUMPS(KSP ksp, PCType factor)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKKSPSetReproducibleMUMPS(KSP ksp, PCType factor)
+PetscErrorCode VKKSPSetRedundantMUMPS(KSP ksp, PCType factor)
 {
-  PC          pc;
-  KSP         inner;
-  PetscMPIInt size;
+  PC  pc;
+  KSP inner;
 
   PetscFunctionBegin;
-  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)ksp), &size));
-  if (size == 1 || size > 3) {
-    PetscCall(VKKSPSetMUMPS(ksp, factor));
-    PetscFunctionReturn(0);
-  }
   PetscCall(KSPSetType(ksp, KSPPREONLY));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, PCREDUNDANT));
   PetscCall(PCRedundantGetKSP(pc, &inner));
   PetscCall(VKKSPSetMUMPS(inner, factor));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKKSPSetReproducibleMUMPS(KSP ksp, PCType factor)
+{
+  PetscMPIInt size;
+
+  PetscFunctionBegin;
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)ksp), &size));
+  if (size == 1 || size > 3) PetscCall(VKKSPSetMUMPS(ksp, factor));
+  else PetscCall(VKKSPSetRedundantMUMPS(ksp, factor));
   PetscFunctionReturn(0);
 }
 
