@@ -84,6 +84,11 @@ PETSC_EXTERN void VKSpatialHashItems(const VKSpatialHash *, const PetscInt c[], 
  * eigenvalues clamped to zero, in place (work: 2 n^2 + n reals). */
 PETSC_EXTERN void VKSymEigN(PetscInt n, const PetscReal S[], PetscReal l[], PetscReal Q[], PetscReal work[]);
 PETSC_EXTERN void VKProjectPSD(PetscInt n, PetscReal H[], PetscReal work[]);
+/* Of n points x (3 each) with weights w (NULL: equal), the weighted centre
+ * c and the principal directions (axes: 3 unit rows) with the RMS spreads
+ * along them: the direction of least spread first (a flat patch's normal),
+ * then the longest, then the other. */
+PETSC_EXTERN void VKPrincipalAxes(PetscInt n, const PetscReal x[], const PetscReal w[], PetscReal c[], PetscReal axes[], PetscReal spread[]);
 
 /* Unit vector along v (left alone if zero). */
 static inline void VKNormalize3(PetscReal v[])

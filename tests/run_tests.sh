@@ -215,6 +215,22 @@ for n in 1 2; do
 done
 if h5diff -d 1e-6 "$out/overlap_anchor.n1/yarn.h5" "$out/overlap_anchor.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
 else not_ok "the anchored relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_anchor.n1/yarn.h5, $out/overlap_anchor.n2/yarn.h5)"; fi
+# the band of -yls_relax_flat 1 keeps every vertex within 1 r of its given
+# height at the full radius (the plain plastic flow moves them by up to 2.5
+# r, measured), the same on 1 and 2 ranks
+max_dz() { bin/tests/tool_yarn_heights "$1/yarn.h5" "$2/yarn.h5" -r 0.0012 2> /dev/null | sed -n 's/.*largest \([0-9.]*\) r.*/\1/p'; }
+timeout 60 bin/volknit yarn -o "$out/overlap_given" ${overlap% -yarn_relax} > "$out/overlap_given.log" 2>&1 < /dev/null
+dzplain=$(max_dz "$out/overlap_given" "$out/overlap_plain106")
+for n in 1 2; do
+  d="$out/overlap_flat.n$n"; dz=
+  # shellcheck disable=SC2086
+  if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$d" $overlap -yls_relax_plastic -yls_relax_radius_end 1.06 -yls_relax_stages 8 -yls_relax_newton_its 5 -yls_relax_max_steps 1000 -yls_relax_flat 1 > "$d.log" 2>&1 \
+     && grep -q 'contact radius 0.0012 m (r = 0.0012 m)' "$d.log" \
+     && dz=$(max_dz "$out/overlap_given" "$d") && awk -v z="$dz" -v p="$dzplain" 'BEGIN { exit !(z != "" && z <= 1.02 && p > 1.5) }'; then ok
+  else not_ok "volknit yarn $overlap -yls_relax_plastic -yls_relax_flat 1 (-n $n): expected the full contact radius and every vertex within 1.02 r of its given height (the plain plastic flow: ${dzplain:-?} r, over 1.5), got ${dz:-?} r (see $d.log)"; fi
+done
+if h5diff -d 1e-6 "$out/overlap_flat.n1/yarn.h5" "$out/overlap_flat.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+else not_ok "the relaxation with -yls_relax_flat differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_flat.n1/yarn.h5, $out/overlap_flat.n2/yarn.h5)"; fi
 # and a BCC model that is not periodic, the rib of meshes/ at r = 1.2 mm:
 # the elastic relaxation ends under r (measured 0.9776 r), the plastic one at r
 log="$out/bcc_plastic.log"

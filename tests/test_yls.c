@@ -27,6 +27,10 @@
  *    springs passes a Taylor test (second-order remainder), its Hessian
  *    gains k_a l_i on the position diagonal and nothing else; the springs'
  *    targets follow an affine motion of the yarn exactly and not a bow;
+ *  - the band of -yls_relax_flat: given heights b + d below the yarn give
+ *    the term k_f L d^2 / 2; with given heights spread across the band, the
+ *    potential passes a Taylor test and the Hessian gains k_f l_i n n^T on
+ *    the vertices beyond it and nothing else;
  *  - 1 and 2 ranks give the same trajectory (the test runs on both).
  * ranks: 1 2
  */
@@ -86,20 +90,98 @@ static PetscErrorCode TestForceExtension(MPI_Comm comm)
   PetscFunctionReturn(0);
 }
 
+/* Taylor remainders |E(x0 + h p) - E(x0) - h grad E(x0) . p| of the
+ * yarn's potential at h = 1e-6 m x 2^-j, j = 0..3, p random in [-1, 1]
+ * (the same on every rank); y->xall, xn, vn, tn are set to rest at x0. */
+static PetscErrorCode PotentialTaylor(VKYLS y, const PetscReal x0[], PetscReal rem[4])
+{
+  PetscInt           n = y->model.nv;
+  PetscReal          E0, E1, gp = 0, *x, *p;
+  Vec                G, Gseq;
+  VecScatter         sc;
+  const PetscScalar *g;
+  PetscRandom        rnd;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc2(3 * n, &x, 3 * n, &p));
+  PetscCall(PetscArraycpy(y->xall, x0, 3 * n));
+  PetscCall(PetscArraycpy(y->xn, x0, 3 * n));
+  PetscCall(PetscArrayzero(y->vn, 3 * n));
+  PetscCall(VKYLSTangents(y, y->xn, y->tn));
+  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscCall(VKYLSPotential(y, y->xall, y->theta, NULL, NULL, &E0));
+  PetscCall(VecDuplicate(y->q, &G));
+  PetscCall(VKYLSGradient(y, y->xall, y->theta, G));
+  PetscCall(VecScatterCreateToAll(G, &sc, &Gseq));
+  PetscCall(VecScatterBegin(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd)); /* the same sequence on every rank */
+  PetscCall(PetscRandomSetInterval(rnd, -1, 1));
+  for (PetscInt i = 0; i < 3 * n; i++) PetscCall(PetscRandomGetValueReal(rnd, &p[i]));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(VecGetArrayRead(Gseq, &g));
+  for (PetscInt i = 0; i < n; i++)
+    for (int k = 0; k < 3; k++) gp += g[4 * i + k] * p[3 * i + k];
+  PetscCall(VecRestoreArrayRead(Gseq, &g));
+  for (int j = 0; j < 4; j++) {
+    PetscReal h = 1e-6 * PetscPowReal(0.5, j);
+    for (PetscInt i = 0; i < 3 * n; i++) x[i] = x0[i] + h * p[i];
+    PetscCall(VKYLSFindPairs(y, x));
+    PetscCall(VKYLSPotential(y, x, y->theta, NULL, NULL, &E1));
+    rem[j] = PetscAbsReal(E1 - E0 - h * gp);
+  }
+  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscCall(VecScatterDestroy(&sc));
+  PetscCall(VecDestroy(&Gseq));
+  PetscCall(VecDestroy(&G));
+  PetscCall(PetscFree2(x, p));
+  PetscFunctionReturn(0);
+}
+
+static PetscBool SecondOrder(const PetscReal rem[4])
+{
+  return (PetscBool)(rem[0] > 0 && rem[2] / rem[3] > 3.5 && rem[2] / rem[3] < 4.5 && rem[0] / rem[1] > 3.5 && rem[0] / rem[1] < 4.5);
+}
+
+/* What a relaxation term adds to the Hessian at y->xall: (H_on - H_off) v
+ * for a random v, *on toggling the term, into dH (a vector of the Hessian's
+ * layout, created here). */
+static PetscErrorCode HessianDifference(VKYLS y, PetscBool *on, Vec *v, Vec *dH)
+{
+  Mat         Hon;
+  Vec         b;
+  PetscRandom rv;
+
+  PetscFunctionBegin;
+  *on = PETSC_TRUE;
+  PetscCall(VKYLSHessian(y, y->xall, y->theta, y->J));
+  PetscCall(MatDuplicate(y->J, MAT_COPY_VALUES, &Hon));
+  *on = PETSC_FALSE;
+  PetscCall(VKYLSHessian(y, y->xall, y->theta, y->J));
+  *on = PETSC_TRUE;
+  PetscCall(MatCreateVecs(Hon, v, dH));
+  PetscCall(VecDuplicate(*dH, &b));
+  PetscCall(PetscRandomCreate(PetscObjectComm((PetscObject)Hon), &rv));
+  PetscCall(VecSetRandom(*v, rv));
+  PetscCall(PetscRandomDestroy(&rv));
+  PetscCall(MatMult(Hon, *v, *dH));
+  PetscCall(MatMult(y->J, *v, b));
+  PetscCall(VecAXPY(*dH, -1, b));
+  PetscCall(VecDestroy(&b));
+  PetscCall(MatDestroy(&Hon));
+  PetscFunctionReturn(0);
+}
+
 /* The anchored stage's springs on a bent yarn pulled toward its own
  * positions shifted by d: the term's value, and a Taylor test of the whole
  * potential, E(x + h p) - E(x) - h grad E . p = O(h^2). */
 static PetscErrorCode TestAnchor(MPI_Comm comm)
 {
-  VKCurves           c;
-  Run                r;
-  VKYLS              y;
-  Vec                G, Gseq;
-  VecScatter         sc;
-  const PetscScalar *g;
-  PetscReal          a[3] = {0, 0, 0}, b[3] = {0.03, 0.01, 0}, d[3] = {2e-4, -1e-4, 3e-4}, term[YLS_NTERMS], E0, E1, gp, want, len = 0, rem[4], *x0, *x, *p;
-  PetscInt           n = 31;
-  PetscRandom        rnd;
+  VKCurves   c;
+  Run        r;
+  VKYLS      y;
+  PetscReal  a[3] = {0, 0, 0}, b[3] = {0.03, 0.01, 0}, d[3] = {2e-4, -1e-4, 3e-4}, term[YLS_NTERMS], E0, want, len = 0, rem[4], *x0, *x, *p;
+  PetscInt   n = 31;
 
   PetscFunctionBegin;
   PetscCall(VKCurvesInit(&c));
@@ -119,77 +201,30 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   for (PetscInt i = 0; i < n; i++)
     for (int k = 0; k < 3; k++) y->xanchor[3 * i + k] = x0[3 * i + k] + d[k];
   y->anchored = PETSC_TRUE;
-  PetscCall(PetscArraycpy(y->xall, x0, 3 * n));
-  PetscCall(PetscArraycpy(y->xn, x0, 3 * n));
-  PetscCall(PetscArrayzero(y->vn, 3 * n));
-  PetscCall(VKYLSTangents(y, y->xn, y->tn));
-  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscCall(PotentialTaylor(y, x0, rem));
   PetscCall(VKYLSPotential(y, y->xall, y->theta, term, NULL, &E0));
   for (PetscInt i = 0; i + 1 < n; i++) len += PetscSqrtReal(PetscSqr(x0[3 * i + 3] - x0[3 * i]) + PetscSqr(x0[3 * i + 4] - x0[3 * i + 1]) + PetscSqr(x0[3 * i + 5] - x0[3 * i + 2]));
   want = 0.5 * y->relax_anchor * len * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(term[YLS_ANCHOR] / want - 1) <= 1e-9), NULL, "anchor springs, given positions shifted by %.1e m: term %.6e J, k_a L |d|^2 / 2 = %.6e J", (double)PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), (double)term[YLS_ANCHOR], (double)want));
-
-  PetscCall(VecDuplicate(y->q, &G));
-  PetscCall(VKYLSGradient(y, y->xall, y->theta, G));
-  PetscCall(VecScatterCreateToAll(G, &sc, &Gseq));
-  PetscCall(VecScatterBegin(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sc, G, Gseq, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd)); /* the same sequence on every rank */
-  PetscCall(PetscRandomSetInterval(rnd, -1, 1));
-  for (PetscInt i = 0; i < 3 * n; i++) PetscCall(PetscRandomGetValueReal(rnd, &p[i]));
-  PetscCall(PetscRandomDestroy(&rnd));
-  PetscCall(VecGetArrayRead(Gseq, &g));
-  gp = 0;
-  for (PetscInt i = 0; i < n; i++)
-    for (int k = 0; k < 3; k++) gp += g[4 * i + k] * p[3 * i + k];
-  PetscCall(VecRestoreArrayRead(Gseq, &g));
-  for (int j = 0; j < 4; j++) {
-    PetscReal h = 1e-6 * PetscPowReal(0.5, j);
-    for (PetscInt i = 0; i < 3 * n; i++) x[i] = x0[i] + h * p[i];
-    PetscCall(VKYLSFindPairs(y, x));
-    PetscCall(VKYLSPotential(y, x, y->theta, NULL, NULL, &E1));
-    rem[j] = PetscAbsReal(E1 - E0 - h * gp);
-  }
-  PetscCall(VKTestCheck((PetscBool)(rem[0] > 0 && rem[2] / rem[3] > 3.5 && rem[2] / rem[3] < 4.5 && rem[0] / rem[1] > 3.5 && rem[0] / rem[1] < 4.5), NULL, "potential with the anchor springs: Taylor remainders %.2e %.2e %.2e %.2e J as h halves (ratios %.2f %.2f %.2f, want 4)", (double)rem[0], (double)rem[1], (double)rem[2], (double)rem[3], (double)(rem[0] / rem[1]), (double)(rem[1] / rem[2]), (double)(rem[2] / rem[3])));
-  PetscCall(VecScatterDestroy(&sc));
-  PetscCall(VecDestroy(&Gseq));
-  PetscCall(VecDestroy(&G));
+  PetscCall(VKTestCheck(SecondOrder(rem), NULL, "potential with the anchor springs: Taylor remainders %.2e %.2e %.2e %.2e J as h halves (ratios %.2f %.2f %.2f, want 4)", (double)rem[0], (double)rem[1], (double)rem[2], (double)rem[3], (double)(rem[0] / rem[1]), (double)(rem[1] / rem[2]), (double)(rem[2] / rem[3])));
 
   { /* the Hessian: the springs add k_a l_i on the diagonal of the position rows, nothing else:
      * (H_on - H_off) v = K v for a random v */
-    Mat          Hon;
-    Vec          v, a, b;
+    Vec          v, dH;
     PetscScalar *ba;
     PetscInt     lo, hi;
     PetscReal    err, ref;
-    PetscRandom  rv;
-    PetscCall(VKYLSFindPairs(y, y->xall));
-    PetscCall(VKYLSHessian(y, y->xall, y->theta, y->J));
-    PetscCall(MatDuplicate(y->J, MAT_COPY_VALUES, &Hon));
-    y->anchored = PETSC_FALSE;
-    PetscCall(VKYLSHessian(y, y->xall, y->theta, y->J));
-    y->anchored = PETSC_TRUE;
-    PetscCall(MatCreateVecs(Hon, &v, &a));
-    PetscCall(VecDuplicate(a, &b));
-    PetscCall(PetscRandomCreate(comm, &rv));
-    PetscCall(VecSetRandom(v, rv));
-    PetscCall(PetscRandomDestroy(&rv));
-    PetscCall(MatMult(Hon, v, a));
-    PetscCall(MatMult(y->J, v, b));
-    PetscCall(VecAXPY(a, -1, b)); /* (H_on - H_off) v */
-    PetscCall(VecCopy(v, b));
-    PetscCall(VecGetOwnershipRange(b, &lo, &hi));
-    PetscCall(VecGetArray(b, &ba));
+    PetscCall(HessianDifference(y, &y->anchored, &v, &dH));
+    PetscCall(VecGetOwnershipRange(v, &lo, &hi));
+    PetscCall(VecGetArray(v, &ba));
     for (PetscInt j = lo; j < hi; j++) ba[j - lo] *= j % 4 < 3 ? y->relax_anchor * y->model.mass[j / 4] / y->density : 0; /* K v */
-    PetscCall(VecRestoreArray(b, &ba));
-    PetscCall(VecNorm(b, NORM_2, &ref));
-    PetscCall(VecAXPY(a, -1, b));
-    PetscCall(VecNorm(a, NORM_2, &err));
+    PetscCall(VecRestoreArray(v, &ba));
+    PetscCall(VecNorm(v, NORM_2, &ref));
+    PetscCall(VecAXPY(dH, -1, v));
+    PetscCall(VecNorm(dH, NORM_2, &err));
     PetscCall(VKTestCheck((PetscBool)(ref > 0 && err <= 1e-9 * ref), NULL, "anchor springs in the Hessian: (H_on - H_off) v = diag(k_a l_i on positions, 0 on twists) v to %.1e relative", (double)(err / ref)));
     PetscCall(VecDestroy(&v));
-    PetscCall(VecDestroy(&a));
-    PetscCall(VecDestroy(&b));
-    PetscCall(MatDestroy(&Hon));
+    PetscCall(VecDestroy(&dH));
   }
 
   { /* the targets: an affine motion of the given yarn is not pulled back, a bow is */
@@ -222,6 +257,81 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   PetscCall(PetscFree4(y->xanchor, x0, x, p));
   y->xanchor = NULL;
   y->anchored = PETSC_FALSE;
+  PetscCall(RunDestroy(&r));
+  PetscCall(VKCurvesFree(&c));
+  PetscFunctionReturn(0);
+}
+
+/* The band of -yls_relax_flat on the same bent yarn, normal z: given
+ * heights below the yarn by b + d give the term k_f L d^2 / 2; with given
+ * heights spread across the band, a Taylor test of the whole potential and
+ * the Hessian's k_f l_i n n^T on the vertices beyond the band. */
+static PetscErrorCode TestFlatBand(MPI_Comm comm)
+{
+  VKCurves  c;
+  Run       r;
+  VKYLS     y;
+  PetscReal a[3] = {0, 0, 0}, b[3] = {0.03, 0.01, 0}, d = 2e-4, band, term[YLS_NTERMS], E0, want, len = 0, rem[4], *x0, *given;
+  PetscInt  n = 31, beyond = 0;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(&c));
+  PetscCall(Line(&c, n, a, b));
+  for (PetscInt i = 0; i < n; i++) {
+    c.x[3 * i + 1] += 0.003 * PetscCosReal(0.3 * i);
+    c.x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i);
+  }
+  PetscCall(RunCreate(comm, &c, &r));
+  y = r.yls;
+  PetscCall(VKYLSSetUp(y));
+  n               = y->model.nv;
+  y->relaxing     = PETSC_TRUE;
+  y->relax_flat   = 2;
+  y->relax_flat_k = 1e8; /* stiff enough that its gradient shows in the remainder */
+  y->flat_normal[0] = y->flat_normal[1] = 0;
+  y->flat_normal[2] = 1;
+  band              = y->relax_flat * y->par.radius;
+  PetscCall(PetscMalloc2(3 * n, &x0, 3 * n, &given));
+  PetscCall(VKYLSGather(y, y->x, x0));
+  y->xgiven = given;
+  for (PetscInt i = 0; i < 3 * n; i++) given[i] = x0[i] - (i % 3 == 2 ? band + d : 0);
+  PetscCall(PetscArraycpy(y->xall, x0, 3 * n));
+  PetscCall(VKYLSFindPairs(y, y->xall));
+  PetscCall(VKYLSPotential(y, y->xall, y->theta, term, NULL, &E0));
+  for (PetscInt i = 0; i + 1 < n; i++) len += PetscSqrtReal(PetscSqr(x0[3 * i + 3] - x0[3 * i]) + PetscSqr(x0[3 * i + 4] - x0[3 * i + 1]) + PetscSqr(x0[3 * i + 5] - x0[3 * i + 2]));
+  want = 0.5 * y->relax_flat_k * len * d * d;
+  PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(term[YLS_FLAT] / want - 1) <= 1e-9), NULL, "flat band, given heights %.1e m beyond the band: term %.6e J, k_f L d^2 / 2 = %.6e J", (double)d, (double)term[YLS_FLAT], (double)want));
+
+  for (PetscInt i = 0; i < n; i++) { /* heights across the band, on both sides */
+    PetscReal h = 2 * band * PetscSinReal(0.7 * i + 0.3);
+    given[3 * i + 2] = x0[3 * i + 2] - h;
+    if (PetscAbsReal(h) > band) beyond++;
+  }
+  PetscCall(PotentialTaylor(y, x0, rem));
+  PetscCall(VKTestCheck((PetscBool)(SecondOrder(rem) && beyond > 0 && beyond < n), NULL, "potential with the flat band (%d of %d vertices beyond it): Taylor remainders %.2e %.2e %.2e %.2e J as h halves (ratios %.2f %.2f %.2f, want 4)", (int)beyond, (int)n, (double)rem[0], (double)rem[1], (double)rem[2], (double)rem[3], (double)(rem[0] / rem[1]), (double)(rem[1] / rem[2]), (double)(rem[2] / rem[3])));
+  { /* (H_on - H_off) v = k_f l_i v_z on the z rows of the vertices beyond the band, 0 elsewhere */
+    Vec          v, dH;
+    PetscScalar *va;
+    PetscInt     lo, hi;
+    PetscReal    err, ref;
+    PetscCall(HessianDifference(y, &y->relaxing, &v, &dH));
+    PetscCall(VecGetOwnershipRange(v, &lo, &hi));
+    PetscCall(VecGetArray(v, &va));
+    for (PetscInt j = lo; j < hi; j++) {
+      PetscInt i = j / 4;
+      va[j - lo] *= j % 4 == 2 && PetscAbsReal(x0[3 * i + 2] - given[3 * i + 2]) > band ? y->relax_flat_k * y->model.mass[i] / y->density : 0;
+    }
+    PetscCall(VecRestoreArray(v, &va));
+    PetscCall(VecNorm(v, NORM_2, &ref));
+    PetscCall(VecAXPY(dH, -1, v));
+    PetscCall(VecNorm(dH, NORM_2, &err));
+    PetscCall(VKTestCheck((PetscBool)(ref > 0 && err <= 1e-9 * ref), NULL, "flat band in the Hessian: (H_on - H_off) v = k_f l_i n n^T v on the vertices beyond the band to %.1e relative", (double)(err / ref)));
+    PetscCall(VecDestroy(&v));
+    PetscCall(VecDestroy(&dH));
+  }
+  y->xgiven   = NULL;
+  y->relaxing = PETSC_FALSE;
+  PetscCall(PetscFree2(x0, given));
   PetscCall(RunDestroy(&r));
   PetscCall(VKCurvesFree(&c));
   PetscFunctionReturn(0);
@@ -608,6 +718,7 @@ int main(int argc, char **argv)
   PetscCall(TestCrossing(PETSC_COMM_WORLD, &xworld));
   PetscCall(TestConservation(PETSC_COMM_WORLD));
   PetscCall(TestAnchor(PETSC_COMM_WORLD));
+  PetscCall(TestFlatBand(PETSC_COMM_WORLD));
   PetscCall(PetscOptionsGetString(NULL, NULL, "-o", dir, sizeof(dir), NULL));
   PetscCall(TestRelaxedStill(PETSC_COMM_WORLD, dir, &rworld));
   PetscCall(TestRelaxIgnoresScene(PETSC_COMM_WORLD, rworld));

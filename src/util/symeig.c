@@ -2,7 +2,8 @@
  * a few dozen) by the cyclic Jacobi method, and the projection of a
  * symmetric matrix onto the positive semi-definite cone (negative
  * eigenvalues clamped to zero), used for per-element Hessians of the rod
- * model (DESIGN §4). */
+ * model (DESIGN §4); and the principal directions of a point cloud (a
+ * flat yarn patch's normal, relax.c). */
 #include <vkutil.h>
 
 void VKSymEigN(PetscInt n, const PetscReal S[], PetscReal l[], PetscReal Q[], PetscReal work[])
@@ -64,4 +65,38 @@ void VKProjectPSD(PetscInt n, PetscReal H[], PetscReal work[])
         if (l[k] > 0) h += Q[n * i + k] * l[k] * Q[n * j + k];
       H[n * i + j] = h;
     }
+}
+
+void VKPrincipalAxes(PetscInt n, const PetscReal x[], const PetscReal w[], PetscReal c[], PetscReal axes[], PetscReal spread[])
+{
+  PetscReal W = 0, S[9] = {0}, l[3], Q[9], work[9];
+  int       order[3] = {0, 1, 2};
+
+  for (int k = 0; k < 3; k++) c[k] = 0;
+  for (PetscInt i = 0; i < n; i++) {
+    PetscReal wi = w ? w[i] : 1;
+    W += wi;
+    for (int k = 0; k < 3; k++) c[k] += wi * x[3 * i + k];
+  }
+  for (int k = 0; k < 3; k++) c[k] /= W;
+  for (PetscInt i = 0; i < n; i++)
+    for (int k = 0; k < 3; k++)
+      for (int j = 0; j < 3; j++) S[3 * k + j] += (w ? w[i] : 1) * (x[3 * i + k] - c[k]) * (x[3 * i + j] - c[j]);
+  VKSymEigN(3, S, l, Q, work);
+  for (int a = 0; a < 3; a++) /* ascending */
+    for (int b = a + 1; b < 3; b++)
+      if (l[order[b]] < l[order[a]]) {
+        int t    = order[a];
+        order[a] = order[b];
+        order[b] = t;
+      }
+  { /* least, largest, middle */
+    int t    = order[1];
+    order[1] = order[2];
+    order[2] = t;
+  }
+  for (int a = 0; a < 3; a++) {
+    for (int k = 0; k < 3; k++) axes[3 * a + k] = Q[3 * k + order[a]];
+    spread[a] = PetscSqrtReal(PetscMax(l[order[a]], 0) / W);
+  }
 }

@@ -7,7 +7,9 @@
  *                           + c_v I_j/(2 dt) (theta_j - theta_n,j)^2
  *                           + stretch + c_s/(2 dt L) ((e - e_n) . t_n)^2 ]
  *          + sum_stencils bending and twist + sum_glue stretch + sum_pairs contact
- *          (+ sum_i k_a l_i/2 |x_i - t_i|^2 in the anchored stage of relax.c),
+ *          (+ sum_i k_a l_i/2 |x_i - t_i|^2 in the anchored stage of relax.c,
+ *           + sum_i k_f l_i/2 (|n . (x_i - x0_i)| - b)_+^2 while relax.c keeps a
+ *           flat patch flat: n its normal, x0 the given positions),
  * xhat = x_n + dt v_n, thetahat = theta_n + dt w_n; the bending stencils
  * are evaluated in the chart of the step (the frames at its start).  depth_i is the penetration of vertex i into the
  * colliders grown by the yarn radius; the friction term is the smoothed
@@ -142,6 +144,18 @@ static PetscErrorCode VertexTerms(VKYLS y, const PetscReal x[], PetscInt i, Accu
     diag += ka;
   }
   for (int k = 0; k < 3; k++) He[4 * k] = diag;
+  if (y->relaxing && y->relax_flat > 0 && y->xgiven) { /* the band: (k_f l_i / 2) (|h_i| - b)_+^2, h_i = n . (x_i - x0_i) */
+    PetscReal kf = y->relax_flat_k * m / y->density, b = y->relax_flat * y->par.radius, h = 0, e;
+    for (int k = 0; k < 3; k++) h += y->flat_normal[k] * (xi[k] - y->xgiven[3 * i + k]);
+    e = PetscAbsReal(h) - b;
+    if (e > 0) {
+      VKSumAdd(&acc->term[YLS_FLAT], 0.5 * kf * e * e);
+      for (int k = 0; k < 3; k++) {
+        ge[k] += kf * e * (h > 0 ? 1 : -1) * y->flat_normal[k];
+        for (int l = 0; l < 3; l++) He[3 * k + l] += kf * y->flat_normal[k] * y->flat_normal[l];
+      }
+    }
+  }
   depth = y->ncolliders ? VKSceneContact(y->scene, t1, xi, y->par.radius, n, &which) : 0;
   if (depth > 0) {
     VKSumAdd(&acc->term[YLS_COLLIDER], 0.5 * y->kw * depth * depth);

@@ -40,6 +40,14 @@
  * themselves held the patch's footprint and left more overlap, 0.978 r
  * against 0.999 r on that stockinette at r = 1.3 mm; springs inside the
  * plastic flow crept without end: docs/BENCHMARKS.md.)
+ * On a large swatch that single affine map fights the given overlaps and
+ * the anchored stage does not finish, while the plastic stages alone let
+ * its cast-on edge ruffle by 13 r; -yls_relax_flat b keeps a flat patch
+ * flat another way, in every stage: springs k_f l_i (|h_i| - b r)_+^2 / 2
+ * on each vertex's height change h_i = n . (x_i - x0_i) beyond a band of
+ * b r, n the given patch's normal (its direction of least spread), so
+ * crossing yarns may part within the band and the patch may grow or shrink
+ * in its plane, but no ruffle or bow outgrows the band.
  * -yls_relax_straight relaxes naturally
  * straight, untwisted rods (the periodic relaxation's physics) in place of
  * the given geometry's curvature.  The contact radius is grown from
@@ -156,6 +164,19 @@ PetscErrorCode VKYLSAnchorTargets(VKYLS y)
   PetscFunctionReturn(0);
 }
 
+/* The band's direction: the given positions' direction of least spread
+ * (mass-weighted), the normal of a flat patch. */
+static PetscErrorCode FlatNormal(VKYLS y)
+{
+  PetscReal c[3], axes[9], spread[3];
+
+  PetscFunctionBegin;
+  VKPrincipalAxes(y->model.nv, y->xgiven, y->model.mass, c, axes, spread);
+  for (int k = 0; k < 3; k++) y->flat_normal[k] = axes[k];
+  PetscCheck(spread[0] < 0.7 * spread[2], y->comm, PETSC_ERR_ARG_WRONG, "-yls_relax_flat keeps a flat patch flat, but the given yarn has no thin direction (RMS spreads %g, %g, %g m about its centre): it is not a flat patch", (double)spread[0], (double)spread[1], (double)spread[2]);
+  PetscFunctionReturn(0);
+}
+
 /* The largest vertex motion of the last step, in r (y->xn: where it started). */
 static PetscErrorCode StepMotion(VKYLS y, PetscReal *motion)
 {
@@ -183,7 +204,7 @@ static PetscErrorCode RelaxStage(VKYLS y, PetscInt *steps)
   for (PetscInt k = 0;; k++) {
     PetscInt its, halved = y->stats.halved_steps;
     PetscCheck(k < y->relax_max_steps, y->comm, PETSC_ERR_NOT_CONVERGED, "The relaxation did not reach a static state in %d proximal steps at contact radius %g r: the yarn still moves (the last step took %d Newton iterations, to |grad Phi| = %.3e N, tolerance %.3e N); raise -yls_relax_max_steps%s", (int)y->relax_max_steps, (double)(y->model.par.radius / y->par.radius), (int)last_its, (double)y->residual, (double)y->tolerance,
-               y->relax_plastic ? "" : ", or, for a model whose yarns overlap at r (they creep as contact pushes them apart), relax it as a plastic flow: -options_file options/relax_model.opts");
+               y->relax_plastic || y->anchored ? "" : ", or, for a model whose yarns overlap at r (they creep as contact pushes them apart), relax it as a plastic flow: -options_file options/relax_model.opts");
     PetscCall(VecSet(y->v, 0));
     y->relax_unfinished = PETSC_FALSE;
     if (y->anchored) PetscCall(VKYLSAnchorTargets(y));
@@ -221,6 +242,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   PetscReal      g[3], dt, cv, cs, r, *thheld;
   VKYLSStats     stats;
   PetscLogDouble t0 = VKWallTime();
+  char           flatband[128] = "";
 
   PetscFunctionBegin;
   PetscCall(VKYLSSetUp(y)); /* sets r and dt */
@@ -258,9 +280,10 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     PetscCall(PetscArrayzero(y->model.wbar, 4 * y->model.nbend));
     PetscCall(PetscArrayzero(y->model.mbar, y->model.nbend));
   }
-  if (y->relax_anchor > 0) { /* the given positions, for the anchored stage */
+  if (y->relax_anchor > 0 || y->relax_flat > 0) { /* the given positions, for the anchored stage and the band */
     PetscCall(PetscMalloc2(3 * y->model.nv, &y->xgiven, 3 * y->model.nv, &y->xanchor));
     PetscCall(VKYLSGather(y, y->x, y->xgiven));
+    if (y->relax_flat > 0) PetscCall(FlatNormal(y));
   }
   PetscCall(SNESGetTolerances(y->snes, NULL, NULL, NULL, &max_it, NULL));
   if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, y->relax_newton_its, PETSC_DEFAULT));
@@ -272,7 +295,7 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     if (y->relax_monitor) PetscCall(PetscPrintf(y->comm, "  relaxation stage %d of %d: static at contact radius %g r after %d proximal steps in all (%.1f s)\n", (int)s, (int)y->relax_stages, (double)f, (int)steps, VKWallTime() - t0));
   }
   y->model.par.kc = y->par.kc;
-  if (y->xanchor) { /* elastic about the plastic result, pulled toward the given positions; steps as inexact as the stages' */
+  if (y->relax_anchor > 0) { /* elastic about the plastic result, pulled toward the given positions; steps as inexact as the stages' */
     y->relax_plastic = PETSC_FALSE;
     y->anchored      = PETSC_TRUE;
     PetscCall(RelaxStage(y, &anchored_steps));
@@ -280,8 +303,8 @@ PetscErrorCode VKYLSRelax(VKYLS y)
     y->anchored      = PETSC_FALSE;
     y->relax_plastic = PETSC_TRUE;
     steps += anchored_steps;
-    PetscCall(PetscFree2(y->xgiven, y->xanchor));
   }
+  PetscCall(PetscFree2(y->xgiven, y->xanchor));
   if (y->relax_newton_its > 0) PetscCall(SNESSetTolerances(y->snes, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, max_it, PETSC_DEFAULT));
   halved = y->stats.halved_steps - stats.halved_steps;
   PetscCall(ResetRest(y));
@@ -301,7 +324,8 @@ PetscErrorCode VKYLSRelax(VKYLS y)
   y->relax_time        = VKWallTime() - t0;
   y->stats             = stats;
   y->stats.dmin_over_2r = PETSC_INFINITY;
-  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d halved; %d radius stages from %g r to %g r%s), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)halved, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->relax_radius_end, y->relax_anchor > 0 ? ", then the anchored stage" : "", (double)y->model.par.radius, (double)r, y->relax_time));
+  if (y->relax_flat > 0) snprintf(flatband, sizeof(flatband), "; heights held in a band of +-%g r about the given ones", (double)y->relax_flat);
+  if (!y->quiet) PetscCall(PetscPrintf(y->comm, "volknit yls: relaxed the yarns in %d proximal steps (%d halved; %d radius stages from %g r to %g r%s%s), contact radius %g m (r = %g m) (%.2f s)\n", (int)steps, (int)halved, (int)y->relax_stages, (double)y->relax_radius_start, (double)y->relax_radius_end, y->relax_anchor > 0 ? ", then the anchored stage" : "", flatband, (double)y->model.par.radius, (double)r, y->relax_time));
   PetscFunctionReturn(0);
 }
 

@@ -52,6 +52,7 @@ PetscErrorCode VKYLSCreate(VKYarn yarn, VKScene scene, VKYLS *out)
   y->relax_tau_growth   = 1024;
   y->relax_newton_its   = 0; /* each proximal step solved to the tolerance */
   y->relax_plastic_kc   = 0; /* -yls_kc */
+  y->relax_flat_k       = 1e6; /* a published swatch's cast-on edge in a band of 2 r: static after 566 steps at 1e6, still creeping after 1,000 steps of one stage at 1e4 (docs/BENCHMARKS.md) */
   *out            = y;
   PetscFunctionReturn(0);
 }
@@ -86,6 +87,8 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCall(PetscOptionsBool("-yls_relax_handles", "Hold the scene's handle vertices where they are at t = 0 during the relaxation (otherwise every vertex is free); volknit yarn -yarn_relax then reads the scene's handles from the -scene_ options", "VKYLSRelax", y->relax_handles, &y->relax_handles, NULL));
   PetscCall(PetscOptionsBool("-yls_relax_plastic", "Plastic relaxation: after every proximal step the rest state (lengths, curvatures, twist) becomes the current one, so yarns pushed apart by contact keep no elastic stress (a patch whose yarns overlap at r reaches the full radius, but may bow); not with -yls_relax_straight or a yarn keeping its cell's rest state", "VKYLSRelax", y->relax_plastic, &y->relax_plastic, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_anchor", "After a plastic relaxation, one elastic stage in which springs of this stiffness per unit length of yarn, N/m^2, pull every vertex toward its given position moved by the affine map closest to the yarn (0: none): the patch keeps its shape but may grow or shrink as a whole, while contact keeps the yarns apart (a tiled pyp stockinette bows 0.4 mm instead of 1.8, docs/BENCHMARKS.md); the springs leave some overlap, which a larger -yls_relax_radius_end makes up for", "VKYLSRelax", y->relax_anchor, &y->relax_anchor, NULL));
+  PetscCall(PetscOptionsReal("-yls_relax_flat", "Keep a flat patch flat while relaxing: each vertex moves freely within this many yarn radii of its given height above the given patch's plane (its direction of least spread), and springs of stiffness -yls_relax_flat_k pull it back from beyond (0: no band); out of the plane only, so the patch may grow or shrink in it (a published swatch ruffles its edge by 10 r without, docs/BENCHMARKS.md)", "VKYLSRelax", y->relax_flat, &y->relax_flat, NULL));
+  PetscCall(PetscOptionsReal("-yls_relax_flat_k", "Stiffness per unit length of yarn, N/m^2, of the springs beyond -yls_relax_flat's band", "VKYLSRelax", y->relax_flat_k, &y->relax_flat_k, NULL));
   PetscCall(PetscOptionsReal("-yls_relax_plastic_kc", "Contact stiffness of the plastic relaxation's stages, N/m (0: -yls_kc): with the rest state following the yarn, each proximal step moves the yarn about as far as contact outweighs its elastic resistance, so a stiffer contact pushes overlapping yarns apart in fewer steps; the anchored stage and the run use -yls_kc", "VKYLSRelax", y->relax_plastic_kc, &y->relax_plastic_kc, NULL));
   PetscCall(PetscOptionsBool("-yls_relax_serial", "With -yarn_relax: relax on one process and hand its result to the others, so the relaxed yarn is the same on any number of ranks (a plastic flow is path-dependent: parallel round-off steers it elsewhere where yarns overlap deeply), at the speed of one rank", "VKYLSRelaxYarn", y->relax_serial, &y->relax_serial, NULL));
   PetscCall(PetscOptionsBool("-yls_relax_monitor", "Print the relaxation's progress: a line per contact-radius stage, and per 100 proximal steps one with the force, the closest axes over the contact distance and the largest step of those 100", "VKYLSRelax", y->relax_monitor, &y->relax_monitor, NULL));
@@ -107,6 +110,8 @@ PetscErrorCode VKYLSSetFromOptions(VKYLS y)
   PetscCheck(y->relax_radius_end >= 1 && y->relax_radius_end <= 2, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_radius_end must be in [1, 2] (in yarn radii), got %g", (double)y->relax_radius_end);
   PetscCheck(y->relax_plastic_kc >= 0 && y->relax_plastic_kc < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_plastic_kc must be >= 0 and finite (N/m; 0: -yls_kc), got %g", (double)y->relax_plastic_kc);
   PetscCheck(y->relax_anchor >= 0 && y->relax_anchor < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_anchor must be >= 0 and finite (N/m^2), got %g", (double)y->relax_anchor);
+  PetscCheck(y->relax_flat >= 0 && y->relax_flat < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_flat must be >= 0 and finite (yarn radii; 0: no band), got %g", (double)y->relax_flat);
+  PetscCheck(y->relax_flat_k > 0 && y->relax_flat_k < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_flat_k must be positive and finite (N/m^2), got %g", (double)y->relax_flat_k);
   PetscCheck(y->relax_tau_growth >= 1 && y->relax_tau_growth < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_relax_tau_growth must be >= 1 and finite, got %g", (double)y->relax_tau_growth);
   PetscCheck(y->dt >= 0 && y->dt < PETSC_INFINITY, y->comm, PETSC_ERR_ARG_OUTOFRANGE, "-yls_dt must be positive and finite, got %g", (double)y->dt);
   PetscFunctionReturn(0);

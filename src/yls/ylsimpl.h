@@ -47,7 +47,10 @@ struct _n_VKYLS {
   PetscReal   relax_plastic_kc;              /* contact stiffness of the plastic stages, N/m (0: -yls_kc) */
   PetscBool   relax_serial;                  /* VKYLSRelaxYarn relaxes on one rank and broadcasts the result */
   PetscReal   relax_anchor;                  /* after a plastic relaxation, springs per unit yarn length pull each vertex toward its given position, N/m^2 (0: none) */
-  PetscReal  *xgiven, *xanchor;              /* replicated, while relaxing with springs (NULL otherwise): the given positions; where the springs pull */
+  PetscReal   relax_flat;                    /* half-width, in r, of the band about its given height in which a vertex moves freely out of the given patch's plane (0: no band) */
+  PetscReal   relax_flat_k;                  /* stiffness per unit yarn length of the springs beyond that band, N/m^2 */
+  PetscReal   flat_normal[3];                /* the given patch's normal: its positions' direction of least spread */
+  PetscReal  *xgiven, *xanchor;              /* replicated, while relaxing with springs or the band (NULL otherwise): the given positions; where the anchor springs pull */
   PetscBool   anchored;                      /* the anchored stage: the springs are in the potential */
   PetscLogDouble relax_time;
   PetscInt    nglue;
@@ -98,7 +101,7 @@ struct _n_VKYLS {
 };
 
 /* The terms of the incremental potential, reported separately. */
-enum { YLS_INERTIA, YLS_GRAVITY, YLS_DAMPING, YLS_COLLIDER, YLS_STRETCH, YLS_BEND, YLS_TWIST, YLS_CONTACT, YLS_GLUE, YLS_ANCHOR, YLS_NTERMS };
+enum { YLS_INERTIA, YLS_GRAVITY, YLS_DAMPING, YLS_COLLIDER, YLS_STRETCH, YLS_BEND, YLS_TWIST, YLS_CONTACT, YLS_GLUE, YLS_ANCHOR, YLS_FLAT, YLS_NTERMS };
 
 /* The anchored relaxation stage's spring targets y->xanchor from the given
  * positions y->xgiven and the current ones y->x (relax.c). */
