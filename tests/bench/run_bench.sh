@@ -276,11 +276,11 @@ if [ -n "${BENCH_BCC:-}" ] && [ -r "$BENCH_BCC" ]; then
   echo "A published model, windows of Yuksel's openwork trellis ($BENCH_BCC, -yarn_scale 0.01, radius estimated"
   echo "from the whole model): the default elastic relaxation against options/relax_model.opts"
   echo
-  echo "| window | relaxation | ranks | contact radius reached | extent x, y, z, mm | s |"
-  echo "|---|---|---|---|---|---|"
+  echo "| window | relaxation | ranks | contact radius reached | extent x, y, z, mm | height change: RMS, largest, range of 4 x 4 cell means, r | s |"
+  echo "|---|---|---|---|---|---|---|"
   : > "$out/commands"
   model_row() { # window label, crop box, label, ranks, options
-    local win="$1" box="$2" label="$3" n="$4" dir t0 t1 cr r ext
+    local win="$1" box="$2" label="$3" n="$4" dir t0 t1 cr r ext dz
     shift 4
     dir="$out/model_$(echo "$win $label $n" | tr -c 'a-z0-9\n' '_')"
     rm -rf "$dir"
@@ -290,9 +290,11 @@ if [ -n "${BENCH_BCC:-}" ] && [ -r "$BENCH_BCC" ]; then
       cr=$(sed -n 's/.*"contact_radius_m": \([^,]*\),*/\1/p' "$dir/yarn.json"); r=$(sed -n 's/.*"radius_m": \([^,]*\),*/\1/p' "$dir/yarn.json")
       ext=$(bin/volknit yarn -yarn_h5 "$dir/yarn.h5" -yarn_view 2>/dev/null < /dev/null | sed -n 's/.*bounding box \[\([^,]*\), \([^]]*\)\] x \[\([^,]*\), \([^]]*\)\] x \[\([^,]*\), \([^]]*\)\].*/\1 \2 \3 \4 \5 \6/p' | awk '{ printf "%.1f, %.1f, %.2f", 1000 * ($2 - $1), 1000 * ($4 - $3), 1000 * ($6 - $5) }')
       if [ -n "$cr" ]; then cr="$(awk -v c="$cr" -v r="$r" 'BEGIN { printf "%.4f", c / r }') r"; else cr="(not relaxed)"; fi
-      echo "| $win | $label | $n | $cr | ${ext:--} | $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') |"
+      dz=$(bin/tests/tool_yarn_heights "$out/model_$(echo "$win" | tr -c 'a-z0-9\n' '_')_as_given_1/yarn.h5" "$dir/yarn.h5" -r "$r" -cells 4,4 2> /dev/null \
+           | sed -n 's/height change: RMS \([^ ]*\) r, largest \([^ ]*\) r; mean over 4 x 4 cells from \([^ ]*\) r to \([^ ]*\) r/\1, \2, \3 .. \4/p')
+      echo "| $win | $label | $n | $cr | ${ext:--} | ${dz:--} | $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') |"
     else
-      echo "| $win | $label | $n | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-140) | - | - |"
+      echo "| $win | $label | $n | failed: $(grep -o 'error: .*' "$dir.log" | head -1 | cut -c8-140) | - | - | - |"
     fi
   }
   for w in "middle -0.02,0.02,-0.02,0.02" "cast-on-edge -0.02,0.02,-0.075,-0.035"; do
@@ -304,6 +306,10 @@ if [ -n "${BENCH_BCC:-}" ] && [ -r "$BENCH_BCC" ]; then
     model_row "$1" "$2" "relax_model.opts in parallel (-yls_relax_serial 0)" 2 -yarn_relax -options_file options/relax_model.opts -yls_relax_serial 0
     model_row "$1" "$2" "relax_model.opts, plastic contact at -yls_kc (-yls_relax_plastic_kc 0)" 1 -yarn_relax -options_file options/relax_model.opts -yls_relax_plastic_kc 0
     model_row "$1" "$2" "relax_model.opts, radius end 1.1" 1 -yarn_relax -options_file options/relax_model.opts -yls_relax_radius_end 1.1
+    model_row "$1" "$2" "relax_model.opts, plastic stages only (-yls_relax_anchor 0)" 1 -yarn_relax -options_file options/relax_model.opts -yls_relax_anchor 0
+    model_row "$1" "$2" "relax_model.opts, plastic stages in a band of 2 r (-yls_relax_anchor 0 -yls_relax_flat 2)" 1 -yarn_relax -options_file options/relax_model.opts -yls_relax_anchor 0 -yls_relax_flat 2
+    model_row "$1" "$2" "relax_model.opts, plastic stages in a band of 2 r (-yls_relax_anchor 0 -yls_relax_flat 2)" 2 -yarn_relax -options_file options/relax_model.opts -yls_relax_anchor 0 -yls_relax_flat 2
+    model_row "$1" "$2" "relax_model.opts with a band of 2 r (-yls_relax_flat 2)" 1 -yarn_relax -options_file options/relax_model.opts -yls_relax_flat 2
   done
   echo
   echo "Rows produced by:"
@@ -315,6 +321,13 @@ if [ -n "${BENCH_BCC:-}" ] && [ -r "$BENCH_BCC" ]; then
     else
       echo "$w: relax_model.opts on 1 and 2 ranks differs: $(h5diff "$a" "$out/model_${w}_relax_model_opts_2/yarn.h5" /yarn/x | tail -1)"
     fi
+    a="$out/model_${w}_relax_model_opts__plastic_stages_in_a_band_of_2_r___yls_relax_anchor_0__yls_relax_flat_2__1/yarn.h5"
+    if h5diff "$a" "${a%1/yarn.h5}2/yarn.h5" /yarn/x > /dev/null 2>&1; then
+      echo "$w: the plastic stages in a band of 2 r on 1 and 2 ranks give the same relaxed yarn, bit for bit"
+    else
+      echo "$w: the plastic stages in a band of 2 r on 1 and 2 ranks differ: $(h5diff "$a" "${a%1/yarn.h5}2/yarn.h5" /yarn/x | tail -1)"
+    fi
+    a="$out/model_${w}_relax_model_opts_1/yarn.h5"
     b="$out/model_${w}_relax_model_opts_in_parallel___yls_relax_serial_0__2/yarn.h5"
     if h5diff -d 1e-6 "$a" "$b" /yarn/x > /dev/null 2>&1; then
       echo "$w: relaxed in parallel on 2 ranks, the same yarn as on 1 to 1e-6 m"
