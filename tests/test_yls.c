@@ -172,6 +172,34 @@ static PetscErrorCode HessianDifference(VKYLS y, PetscBool *on, Vec *v, Vec *dH)
   PetscFunctionReturn(0);
 }
 
+/* A yarn of 31 vertices along 3 cm, bent out of any plane (so that an
+ * affine map is fitted in 3-D), set up for a relaxation's terms; and the
+ * length of its polyline x (n vertices). */
+static PetscErrorCode BentYarn(MPI_Comm comm, VKCurves *c, Run *r)
+{
+  PetscReal a[3] = {0, 0, 0}, b[3] = {0.03, 0.01, 0};
+  PetscInt  n    = 31;
+
+  PetscFunctionBegin;
+  PetscCall(VKCurvesInit(c));
+  PetscCall(Line(c, n, a, b));
+  for (PetscInt i = 0; i < n; i++) {
+    c->x[3 * i + 1] += 0.003 * PetscCosReal(0.3 * i);
+    c->x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i);
+  }
+  PetscCall(RunCreate(comm, c, r));
+  PetscCall(VKYLSSetUp(r->yls));
+  r->yls->relaxing = PETSC_TRUE;
+  PetscFunctionReturn(0);
+}
+
+static PetscReal PolylineLength(PetscInt n, const PetscReal x[])
+{
+  PetscReal len = 0;
+  for (PetscInt i = 0; i + 1 < n; i++) len += PetscSqrtReal(PetscSqr(x[3 * i + 3] - x[3 * i]) + PetscSqr(x[3 * i + 4] - x[3 * i + 1]) + PetscSqr(x[3 * i + 5] - x[3 * i + 2]));
+  return len;
+}
+
 /* The anchored stage's springs on a bent yarn pulled toward its own
  * positions shifted by d: the term's value, and a Taylor test of the whole
  * potential, E(x + h p) - E(x) - h grad E . p = O(h^2). */
@@ -180,21 +208,13 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   VKCurves   c;
   Run        r;
   VKYLS      y;
-  PetscReal  a[3] = {0, 0, 0}, b[3] = {0.03, 0.01, 0}, d[3] = {2e-4, -1e-4, 3e-4}, term[YLS_NTERMS], E0, want, len = 0, rem[4], *x0, *x, *p;
-  PetscInt   n = 31;
+  PetscReal  d[3] = {2e-4, -1e-4, 3e-4}, term[YLS_NTERMS], E0, want, rem[4], *x0, *x, *p;
+  PetscInt   n;
 
   PetscFunctionBegin;
-  PetscCall(VKCurvesInit(&c));
-  PetscCall(Line(&c, n, a, b));
-  for (PetscInt i = 0; i < n; i++) { /* bent out of any plane, so that an affine map is fitted in 3-D */
-    c.x[3 * i + 1] += 0.003 * PetscCosReal(0.3 * i);
-    c.x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i);
-  }
-  PetscCall(RunCreate(comm, &c, &r));
-  y = r.yls;
-  PetscCall(VKYLSSetUp(y));
+  PetscCall(BentYarn(comm, &c, &r));
+  y               = r.yls;
   n               = y->model.nv; /* the yarn as set up (resampled) */
-  y->relaxing     = PETSC_TRUE;
   y->relax_anchor = 1e6; /* stiff enough that its gradient shows in the remainder */
   PetscCall(PetscMalloc4(3 * n, &y->xanchor, 3 * n, &x0, 3 * n, &x, 3 * n, &p));
   PetscCall(VKYLSGather(y, y->x, x0));
@@ -203,8 +223,7 @@ static PetscErrorCode TestAnchor(MPI_Comm comm)
   y->anchored = PETSC_TRUE;
   PetscCall(PotentialTaylor(y, x0, rem));
   PetscCall(VKYLSPotential(y, y->xall, y->theta, term, NULL, &E0));
-  for (PetscInt i = 0; i + 1 < n; i++) len += PetscSqrtReal(PetscSqr(x0[3 * i + 3] - x0[3 * i]) + PetscSqr(x0[3 * i + 4] - x0[3 * i + 1]) + PetscSqr(x0[3 * i + 5] - x0[3 * i + 2]));
-  want = 0.5 * y->relax_anchor * len * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  want = 0.5 * y->relax_anchor * PolylineLength(n, x0) * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(term[YLS_ANCHOR] / want - 1) <= 1e-9), NULL, "anchor springs, given positions shifted by %.1e m: term %.6e J, k_a L |d|^2 / 2 = %.6e J", (double)PetscSqrtReal(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), (double)term[YLS_ANCHOR], (double)want));
   PetscCall(VKTestCheck(SecondOrder(rem), NULL, "potential with the anchor springs: Taylor remainders %.2e %.2e %.2e %.2e J as h halves (ratios %.2f %.2f %.2f, want 4)", (double)rem[0], (double)rem[1], (double)rem[2], (double)rem[3], (double)(rem[0] / rem[1]), (double)(rem[1] / rem[2]), (double)(rem[2] / rem[3])));
 
@@ -271,21 +290,13 @@ static PetscErrorCode TestFlatBand(MPI_Comm comm)
   VKCurves  c;
   Run       r;
   VKYLS     y;
-  PetscReal a[3] = {0, 0, 0}, b[3] = {0.03, 0.01, 0}, d = 2e-4, band, term[YLS_NTERMS], E0, want, len = 0, rem[4], *x0, *given;
-  PetscInt  n = 31, beyond = 0;
+  PetscReal d = 2e-4, band, term[YLS_NTERMS], E0, want, rem[4], *x0, *given;
+  PetscInt  n, beyond = 0;
 
   PetscFunctionBegin;
-  PetscCall(VKCurvesInit(&c));
-  PetscCall(Line(&c, n, a, b));
-  for (PetscInt i = 0; i < n; i++) {
-    c.x[3 * i + 1] += 0.003 * PetscCosReal(0.3 * i);
-    c.x[3 * i + 2] = 0.004 * PetscSinReal(0.2 * i);
-  }
-  PetscCall(RunCreate(comm, &c, &r));
-  y = r.yls;
-  PetscCall(VKYLSSetUp(y));
+  PetscCall(BentYarn(comm, &c, &r));
+  y               = r.yls;
   n               = y->model.nv;
-  y->relaxing     = PETSC_TRUE;
   y->relax_flat   = 2;
   y->relax_flat_k = 1e8; /* stiff enough that its gradient shows in the remainder */
   y->flat_normal[0] = y->flat_normal[1] = 0;
@@ -298,8 +309,7 @@ static PetscErrorCode TestFlatBand(MPI_Comm comm)
   PetscCall(PetscArraycpy(y->xall, x0, 3 * n));
   PetscCall(VKYLSFindPairs(y, y->xall));
   PetscCall(VKYLSPotential(y, y->xall, y->theta, term, NULL, &E0));
-  for (PetscInt i = 0; i + 1 < n; i++) len += PetscSqrtReal(PetscSqr(x0[3 * i + 3] - x0[3 * i]) + PetscSqr(x0[3 * i + 4] - x0[3 * i + 1]) + PetscSqr(x0[3 * i + 5] - x0[3 * i + 2]));
-  want = 0.5 * y->relax_flat_k * len * d * d;
+  want = 0.5 * y->relax_flat_k * PolylineLength(n, x0) * d * d;
   PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(term[YLS_FLAT] / want - 1) <= 1e-9), NULL, "flat band, given heights %.1e m beyond the band: term %.6e J, k_f L d^2 / 2 = %.6e J", (double)d, (double)term[YLS_FLAT], (double)want));
 
   for (PetscInt i = 0; i < n; i++) { /* heights across the band, on both sides */
