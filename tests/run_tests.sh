@@ -25,6 +25,7 @@ rm -rf "$out"
 mkdir -p "$out"
 passed=0
 failed=0
+. tests/h5same.sh
 
 ok()     { passed=$((passed + 1)); }
 not_ok() { failed=$((failed + 1)); echo "not ok - $*"; }
@@ -143,7 +144,7 @@ for n in 1 2; do
      && grep -q '"relaxed": true' "$out/periodic_patch.n$n/yarn.json"; then ok
   else not_ok "volknit yarn -yarn_relax_periodic -yarn_relax -yls_relax_handles (-n $n): expected the tiled patch relaxed again with its ring held (see $log)"; fi
 done
-if h5diff -d 1e-6 "$out/periodic_patch.n1/yarn.h5" "$out/periodic_patch.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+if h5same -d 1e-6 "$out/periodic_patch.n1/yarn.h5" "$out/periodic_patch.n2/yarn.h5" /yarn/x; then ok
 else not_ok "the tiled patch relaxed as a patch differs between 1 and 2 ranks by more than 1e-3 r ($out/periodic_patch.n1/yarn.h5, $out/periodic_patch.n2/yarn.h5)"; fi
 
 # the tiled repeat keeping the cell's rest state (-yarn_relax_periodic_rest):
@@ -158,12 +159,12 @@ for n in 1 2; do
   if timeout 300 $MPIEXEC -n "$n" bin/volknit yarn -o "$d" -yarn_pattern stockinette -yarn_wales 4 -yarn_courses 4 -yarn_relax_periodic -yarn_relax_periodic_rest > "$log" 2>&1 \
      && grep -q "it keeps the cell's rest state" "$log" && grep -q '"rest_state": "cell' "$d/yarn.json" \
      && timeout 300 $MPIEXEC -n "$n" bin/volknit yls -o "$d/held" -yarn_h5 "$d/yarn.h5" -scene_gravity 0,0,0 -scene_duration 0.005 -scene_output_interval 0.005 $ring >> "$log" 2>&1 \
-     && h5diff -d 1e-9 "$d/held/yls.h5" "$d/held/yls.h5" /frames/000000/x /frames/000001/x > /dev/null 2>&1 \
+     && h5same -d 1e-9 "$d/held/yls.h5" "$d/held/yls.h5" /frames/000000/x /frames/000001/x \
      && timeout 300 $MPIEXEC -n "$n" bin/volknit yls -o "$d/free" -yarn_h5 "$d/yarn.h5" -scene_gravity 0,0,0 -scene_duration 0.002 -scene_output_interval 0.002 >> "$log" 2>&1 \
      && { h5diff -d 1e-6 "$d/free/yls.h5" "$d/free/yls.h5" /frames/000000/x /frames/000001/x > /dev/null 2>&1; [ $? -eq 1 ]; }; then ok
   else not_ok "volknit yarn -yarn_relax_periodic -yarn_relax_periodic_rest, then yls (-n $n): expected the ring-held patch static to 1e-6 r over 5 steps and the free one moving more than 1e-3 r in 2 (see $log)"; fi
 done
-if h5diff -d 1e-12 "$out/periodic_rest.n1/yarn.h5" "$out/periodic_rest.n2/yarn.h5" /yarn/rest_length > /dev/null 2>&1; then ok
+if h5same -d 1e-12 "$out/periodic_rest.n1/yarn.h5" "$out/periodic_rest.n2/yarn.h5" /yarn/rest_length; then ok
 else not_ok "the rest lengths of the patch keeping its cell's rest state differ between 1 and 2 ranks ($out/periodic_rest.n1/yarn.h5, $out/periodic_rest.n2/yarn.h5)"; fi
 # the same through a pyp cell at twice its file's size (-yarn_scale 2: the
 # cell relaxed at its size in metres, its rest lengths scaled with it)
@@ -173,7 +174,7 @@ log="$d.log"
 if timeout 300 bin/volknit yarn -o "$d" -yarn_pyp meshes/stockinette.pyp -yarn_scale 2 -yarn_tiles 4,4 -yarn_relax_periodic -yarn_relax_periodic_rest > "$log" 2>&1 < /dev/null \
    && grep -q "it keeps the cell's rest state" "$log" \
    && timeout 300 bin/volknit yls -o "$d/held" -yarn_h5 "$d/yarn.h5" -scene_gravity 0,0,0 -scene_duration 0.005 -scene_output_interval 0.005 $ring >> "$log" 2>&1 < /dev/null \
-   && h5diff -d 1e-9 "$d/held/yls.h5" "$d/held/yls.h5" /frames/000000/x /frames/000001/x > /dev/null 2>&1; then ok
+   && h5same -d 1e-9 "$d/held/yls.h5" "$d/held/yls.h5" /frames/000000/x /frames/000001/x; then ok
 else not_ok "volknit yarn -yarn_pyp meshes/stockinette.pyp -yarn_scale 2 -yarn_relax_periodic -yarn_relax_periodic_rest, then yls: expected the ring-held patch static to 5e-7 r over 5 steps (see $log)"; fi
 
 # a pyp patch whose loops overlap at its radius (the stockinette tile of
@@ -194,7 +195,7 @@ for n in 1 2; do
      && grep -q 'contact radius 0.0012 m (r = 0.0012 m)' "$log" && grep -q '"relaxed": true' "$out/overlap_plastic.n$n/yarn.json"; then ok
   else not_ok "volknit yarn $overlap -yls_relax_plastic (-n $n): expected the full contact radius 0.0012 m (see $log)"; fi
 done
-if h5diff -d 1e-6 "$out/overlap_plastic.n1/yarn.h5" "$out/overlap_plastic.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+if h5same -d 1e-6 "$out/overlap_plastic.n1/yarn.h5" "$out/overlap_plastic.n2/yarn.h5" /yarn/x; then ok
 else not_ok "the plastic relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_plastic.n1/yarn.h5, $out/overlap_plastic.n2/yarn.h5)"; fi
 # the plastic flow bows that patch (z extent 7.6 mm measured at
 # -yls_relax_radius_end 1.06); the anchored stage (-yls_relax_anchor) keeps
@@ -213,7 +214,7 @@ for n in 1 2; do
      && z=$(z_extent "$d") && awk -v z="$z" -v p="$zplain" 'BEGIN { exit !(z > 0 && p > 0 && z < 0.75 * p) }'; then ok
   else not_ok "volknit yarn $overlap -yls_relax_plastic -yls_relax_anchor 1e3 (-n $n): expected the full contact radius and a z extent under 0.75 x the plain plastic one's ${zplain:-?} mm, got ${z:-?} mm (see $log)"; fi
 done
-if h5diff -d 1e-6 "$out/overlap_anchor.n1/yarn.h5" "$out/overlap_anchor.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+if h5same -d 1e-6 "$out/overlap_anchor.n1/yarn.h5" "$out/overlap_anchor.n2/yarn.h5" /yarn/x; then ok
 else not_ok "the anchored relaxation differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_anchor.n1/yarn.h5, $out/overlap_anchor.n2/yarn.h5)"; fi
 # the band of -yls_relax_flat 1 keeps every vertex within 1 r of its given
 # height at the full radius (the plain plastic flow moves them by up to 2.5
@@ -229,7 +230,7 @@ for n in 1 2; do
      && dz=$(max_dz "$out/overlap_given" "$d") && awk -v z="$dz" -v p="$dzplain" 'BEGIN { exit !(z != "" && z <= 1.02 && p > 1.5) }'; then ok
   else not_ok "volknit yarn $overlap -yls_relax_plastic -yls_relax_flat 1 (-n $n): expected the full contact radius and every vertex within 1.02 r of its given height (the plain plastic flow: ${dzplain:-?} r, over 1.5), got ${dz:-?} r (see $d.log)"; fi
 done
-if h5diff -d 1e-6 "$out/overlap_flat.n1/yarn.h5" "$out/overlap_flat.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+if h5same -d 1e-6 "$out/overlap_flat.n1/yarn.h5" "$out/overlap_flat.n2/yarn.h5" /yarn/x; then ok
 else not_ok "the relaxation with -yls_relax_flat differs between 1 and 2 ranks by more than 1e-3 r ($out/overlap_flat.n1/yarn.h5, $out/overlap_flat.n2/yarn.h5)"; fi
 # and a BCC model that is not periodic, the rib of meshes/ at r = 1.2 mm:
 # the elastic relaxation ends under r (measured 0.9776 r), the plastic one at r
@@ -253,7 +254,7 @@ for n in 1 2; do
      && grep -q 'then the anchored stage), contact radius 0.0012 m (r = 0.0012 m)' "$d.log"; then ok
   else not_ok "a cropped BCC window relaxed by options/relax_model.opts (-n $n): expected the full contact radius (see $d.log)"; fi
 done
-if h5diff "$out/bcc_crop_relax.n1/yarn.h5" "$out/bcc_crop_relax.n2/yarn.h5" /yarn/x > /dev/null 2>&1; then ok
+if h5same "$out/bcc_crop_relax.n1/yarn.h5" "$out/bcc_crop_relax.n2/yarn.h5" /yarn/x; then ok
 else not_ok "the cropped window's relaxation by options/relax_model.opts differs between 1 and 2 ranks ($out/bcc_crop_relax.n1/yarn.h5, $out/bcc_crop_relax.n2/yarn.h5)"; fi
 
 # 3. the mesh command with 1 and 2 ranks gives the same mesh

@@ -11,6 +11,7 @@ out=tests/out/bench
 mkdir -p "$out"
 
 run() { echo "    $*" >> "$out/commands"; "$@"; }
+. tests/h5same.sh
 
 echo "## Yarn and mesh stages (issue 2 target: mesh stage < 10 s on one core for 1M yarn vertices)"
 echo
@@ -314,26 +315,21 @@ if [ -n "${BENCH_BCC:-}" ] && [ -r "$BENCH_BCC" ]; then
   echo
   echo "Rows produced by:"
   cat "$out/commands"
+  # one verdict on two relaxed yarns: message if the same, message: h5diff's last line if not; h5diff options last
+  same_yarn() {
+    local same="$1" differ="$2" a="$3" b="$4"
+    shift 4
+    if h5same "$@" "$a" "$b" /yarn/x; then echo "$same"; else echo "$differ: $h5same_said"; fi
+  }
   for w in middle cast_on_edge; do
     a="$out/model_${w}_relax_model_opts_1/yarn.h5"
-    if h5diff "$a" "$out/model_${w}_relax_model_opts_2/yarn.h5" /yarn/x > /dev/null 2>&1; then
-      echo "$w: relax_model.opts on 1 and 2 ranks gives the same relaxed yarn, bit for bit"
-    else
-      echo "$w: relax_model.opts on 1 and 2 ranks differs: $(h5diff "$a" "$out/model_${w}_relax_model_opts_2/yarn.h5" /yarn/x | tail -1)"
-    fi
-    a="$out/model_${w}_relax_model_opts__plastic_stages_in_a_band_of_2_r___yls_relax_anchor_0__yls_relax_flat_2__1/yarn.h5"
-    if h5diff "$a" "${a%1/yarn.h5}2/yarn.h5" /yarn/x > /dev/null 2>&1; then
-      echo "$w: the plastic stages in a band of 2 r on 1 and 2 ranks give the same relaxed yarn, bit for bit"
-    else
-      echo "$w: the plastic stages in a band of 2 r on 1 and 2 ranks differ: $(h5diff "$a" "${a%1/yarn.h5}2/yarn.h5" /yarn/x | tail -1)"
-    fi
-    a="$out/model_${w}_relax_model_opts_1/yarn.h5"
-    b="$out/model_${w}_relax_model_opts_in_parallel___yls_relax_serial_0__2/yarn.h5"
-    if h5diff -d 1e-6 "$a" "$b" /yarn/x > /dev/null 2>&1; then
-      echo "$w: relaxed in parallel on 2 ranks, the same yarn as on 1 to 1e-6 m"
-    else
-      echo "$w: relaxed in parallel on 2 ranks, it differs from 1 rank by more than 1e-6 m: $(h5diff -d 1e-6 "$a" "$b" /yarn/x | tail -1)"
-    fi
+    same_yarn "$w: relax_model.opts on 1 and 2 ranks gives the same relaxed yarn, bit for bit" "$w: relax_model.opts on 1 and 2 ranks differs" \
+      "$a" "$out/model_${w}_relax_model_opts_2/yarn.h5"
+    band="$out/model_${w}_relax_model_opts__plastic_stages_in_a_band_of_2_r___yls_relax_anchor_0__yls_relax_flat_2__"
+    same_yarn "$w: the plastic stages in a band of 2 r on 1 and 2 ranks give the same relaxed yarn, bit for bit" "$w: the plastic stages in a band of 2 r on 1 and 2 ranks differ" \
+      "${band}1/yarn.h5" "${band}2/yarn.h5"
+    same_yarn "$w: relaxed in parallel on 2 ranks, the same yarn as on 1 to 1e-6 m" "$w: relaxed in parallel on 2 ranks, it differs from 1 rank by more than 1e-6 m" \
+      "$a" "$out/model_${w}_relax_model_opts_in_parallel___yls_relax_serial_0__2/yarn.h5" -d 1e-6
   done
 else
   echo "(A published model's windows: skipped, BENCH_BCC does not name a readable openwork_trellis_pattern.bcc.)"
