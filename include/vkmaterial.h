@@ -16,6 +16,8 @@
 /* The largest g_s, g_v accepted (Pa): 24 orders above a knit's, far below
  * where PD's global matrix would overflow double precision. */
 #define VK_GAMMA_MAX 1e30
+/* The largest |nu| of the stretch-to-bending coupling accepted. */
+#define VK_COUPLING_NU_MAX 100
 
 /* ---- point kernels ------------------------------------------------------ */
 typedef struct {
@@ -79,6 +81,26 @@ PETSC_EXTERN void VKPsiGradient(const VKPsiState *, const PetscReal F[], PetscRe
  * energies; with psd the negative eigenvalues are clamped to zero. */
 PETSC_EXTERN void VKPsiHessian(const VKPsiState *, PetscReal gs, PetscReal gv, PetscBool psd, PetscReal H[]);
 
+/* The stretch-to-bending coupling (coupling.c; beyond the paper):
+ *   psi_c = min over R in SO(3), s of |F - R A(s)|^2,  A(s) = diag(1 + s, 1 - nu s, 1)
+ * in the rest axes (x along the courses, y along the wales, z through the
+ * thickness).  With nu different on a patch's two faces, stretch along
+ * the courses bends it. */
+typedef struct {
+  PetscReal R[9], s; /* the optimal rotation and course stretch */
+  PetscReal T[9];    /* R A(s), the closest target */
+  PetscReal psi;     /* |F - T|^2 */
+  PetscInt  its;     /* Newton steps on s */
+  PetscBool converged;
+} VKCouplingState;
+/* The optimum from the course stretch s0 (a warm start; 0 cold).  A
+ * non-finite F gives NaN throughout. */
+PETSC_EXTERN PetscErrorCode VKCouplingProject(const PetscReal F[], PetscReal nu, PetscReal s0, VKCouplingState *);
+/* d (g_c psi_c)/dF = 2 g_c (F - T) */
+PETSC_EXTERN void VKCouplingGradient(const VKCouplingState *, const PetscReal F[], PetscReal gc, PetscReal P[]);
+/* d2 (g_c psi_c)/dF2 (81), exact; with psd its negative eigenvalues clamped to zero. */
+PETSC_EXTERN PetscErrorCode VKCouplingHessian(const VKCouplingState *, const PetscReal F[], PetscReal nu, PetscReal gc, PetscBool psd, PetscReal H[]);
+
 /* ---- element kernels ---------------------------------------------------- */
 /* F = X G^T for the tet's node positions X (3 x 4, column a = node a). */
 PETSC_EXTERN void VKTetDeformation(const PetscReal G[], const PetscReal X[], PetscReal F[]);
@@ -95,6 +117,15 @@ PETSC_EXTERN PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, co
  * right singular rotation from the last call, the warm start of the SVD. */
 PETSC_EXTERN PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const VKStretchBand *, const PetscReal gamma[], PetscReal W[], PetscReal E[], PetscReal rhs[], PetscReal det[]);
 
+/* The coupling's element energy V g_c psi_c, gradient (12) and Hessian
+ * (144, optional; psd: projected), each optional, projected cold. */
+PETSC_EXTERN PetscErrorCode VKTetCouplingEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gc, PetscReal nu, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[]);
+/* The coupling's PD local step for one tet: its energy V g_c psi_c and
+ * its share rhs[3a + r] = 2 V g_c sum_c T_rc G_ca of the right-hand side
+ * (written, not added), from the course stretch *s of the last call
+ * (updated); converged is the projection's. */
+PETSC_EXTERN PetscErrorCode VKTetCouplingProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gc, PetscReal nu, PetscReal *s, PetscReal *E, PetscReal rhs[], PetscBool *converged);
+
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;
 
@@ -105,6 +136,12 @@ PETSC_EXTERN PetscErrorCode VKMaterialSetFile(VKMaterial, const char path[]);
 /* The stretch band, 0 < lo <= 1 <= hi (default [1, 1]: the paper's ARAP);
  * once set, VKMaterialLoadH5 refuses a file with another band. */
 PETSC_EXTERN PetscErrorCode VKMaterialSetStretchBand(VKMaterial, PetscReal lo, PetscReal hi);
+/* The stretch-to-bending coupling (coupling.c), uniform: g_c on every
+ * tet, nu_top on tets above the mesh's mid-plane z, nu_bottom below
+ * (-mat_coupling, -mat_coupling_nu; g_c = 0: none).  A material.h5 that
+ * stores a coupling is then refused.  After set-up it replaces the
+ * coupling and raises the material's state, like VKMaterialSetGamma. */
+PETSC_EXTERN PetscErrorCode VKMaterialSetCoupling(VKMaterial, PetscReal gc, PetscReal nu_top, PetscReal nu_bottom);
 PETSC_EXTERN PetscErrorCode VKMaterialSetFromOptions(VKMaterial);
 /* gamma of the owned tets to and from a Vec of 2 entries per owned tet (g_s,
  * g_v; VKMaterialCreateGammaVec).  SetGamma refuses negative or non-finite
@@ -122,6 +159,9 @@ PETSC_EXTERN PetscErrorCode VKMaterialGetMesh(VKMaterial, VKMesh *);
  * VKMaterialSetGamma: the solvers' inner loops read them in place. */
 PETSC_EXTERN PetscErrorCode VKMaterialGetGammaArrayRead(VKMaterial, const PetscReal **);
 PETSC_EXTERN PetscErrorCode VKMaterialGetStretchBand(VKMaterial, VKStretchBand *);
+/* g_c, nu of the owned tets (2 each), NULL when the material has no
+ * coupling; valid until the material is loaded again. */
+PETSC_EXTERN PetscErrorCode VKMaterialGetCouplingArrayRead(VKMaterial, const PetscReal **);
 /* The material.h5 the values came from or were last written to (""
  * for a uniform material). */
 PETSC_EXTERN PetscErrorCode VKMaterialGetFile(VKMaterial, const char **);
@@ -129,8 +169,9 @@ PETSC_EXTERN PetscErrorCode VKMaterialSetUp(VKMaterial);
 PETSC_EXTERN PetscErrorCode VKMaterialView(VKMaterial, PetscViewer);
 PETSC_EXTERN PetscErrorCode VKMaterialDestroy(VKMaterial *);
 /* material.h5: g_s, g_v per tet with the tet's voxel and Kuhn index, so a
- * file written for one partition reads into any other, and the stretch
- * band (files without one: [1, 1]).  After a write the material is that
+ * file written for one partition reads into any other, the stretch
+ * band (files without one: [1, 1]) and the coupling's g_c, nu per tet
+ * (files without: none).  After a write the material is that
  * file's (VKMaterialGetFile, VKMaterialView). */
 PETSC_EXTERN PetscErrorCode VKMaterialWriteH5(VKMaterial, const char path[]);
 PETSC_EXTERN PetscErrorCode VKMaterialLoadH5(VKMaterial, const char path[]);

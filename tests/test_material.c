@@ -13,7 +13,8 @@
  * band [1, 1] is the paper's material exactly, R = F and psi_s = 0 while
  * every singular value lies in the band, psi_s known for one outside it,
  * and the same Taylor, symmetry, PSD and batch checks with singular values
- * inside, above and below the band. */
+ * inside, above and below the band.  The stretch-to-bending coupling
+ * (TestCoupling). */
 #include <vkmaterial.h>
 #include "vktest.h"
 
@@ -202,25 +203,54 @@ static PetscErrorCode TestProjection(void)
 
 /* The stretch band of the derivative and batch checks (NULL: [1, 1]). */
 static const VKStretchBand *band;
+/* With coupling set, the derivative checks take g_s psi_c (coupling.c,
+ * with nu = *coupling) instead of the isotropic psi. */
+static const PetscReal *coupling;
 
 static PetscReal Psi(const PetscReal F[], PetscReal gs, PetscReal gv)
 {
-  VKPsiState st;
+  VKPsiState      st;
+  VKCouplingState cs;
+  if (coupling) {
+    VKCouplingProject(F, *coupling, 0, &cs);
+    return gs * cs.psi;
+  }
   VKPsiEvaluate(F, band, &st);
   return gs * st.psi_s + gv * st.psi_v;
 }
 
 static void Grad(const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[])
 {
-  VKPsiState st;
+  VKPsiState      st;
+  VKCouplingState cs;
+  if (coupling) {
+    VKCouplingProject(F, *coupling, 0, &cs);
+    VKCouplingGradient(&cs, F, gs, P);
+    return;
+  }
   VKPsiEvaluate(F, band, &st);
   VKPsiGradient(&st, F, gs, gv, P);
+}
+
+static PetscErrorCode Hess(const PetscReal F[], PetscReal gs, PetscReal gv, PetscBool psd, PetscReal H[])
+{
+  VKPsiState      st;
+  VKCouplingState cs;
+
+  PetscFunctionBegin;
+  if (coupling) {
+    PetscCall(VKCouplingProject(F, *coupling, 0, &cs));
+    PetscCall(VKCouplingHessian(&cs, F, *coupling, gs, psd, H));
+  } else {
+    PetscCall(VKPsiEvaluate(F, band, &st));
+    VKPsiHessian(&st, gs, gv, psd, H);
+  }
+  PetscFunctionReturn(0);
 }
 
 static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal h0)
 {
   PetscReal  dF[9], P[9], H[81], Hp[81], e[8], g[8], psi0 = Psi(F, gs, gv), dpsi = 0, asym = 0, hn = 0, Fn = 0;
-  VKPsiState st;
   int        pe, pg;
   PetscReal  oe, og;
 
@@ -229,9 +259,8 @@ static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal
     dF[i] = Rand();
     Fn    = PetscMax(Fn, PetscAbsReal(F[i]));
   }
-  PetscCall(VKPsiEvaluate(F, band, &st));
-  VKPsiGradient(&st, F, gs, gv, P);
-  VKPsiHessian(&st, gs, gv, PETSC_FALSE, H);
+  Grad(F, gs, gv, P);
+  PetscCall(Hess(F, gs, gv, PETSC_FALSE, H));
   for (int i = 0; i < 9; i++) dpsi += P[i] * dF[i];
   for (int k = 0; k < 8; k++) {
     PetscReal h = h0 * PetscPowReal(2, -k), Fh[9], Ph[9], r = 0;
@@ -254,7 +283,7 @@ static PetscErrorCode TaylorAt(const char name[], const PetscReal F[], PetscReal
   PetscCall(VKTestCheck((PetscBool)(pe >= 3 && oe > 1.8), NULL, "%s: Taylor psi -> P, remainder order %.2f (%d pairs)", name, (double)oe, pe));
   PetscCall(VKTestCheck((PetscBool)(pg >= 3 && og > 1.8), NULL, "%s: Taylor P -> H (exact Hessian), remainder order %.2f (%d pairs)", name, (double)og, pg));
   PetscCall(VKTestCheck((PetscBool)(asym <= 1e-12 * hn), NULL, "%s: H symmetric", name));
-  VKPsiHessian(&st, gs, gv, PETSC_TRUE, Hp);
+  PetscCall(Hess(F, gs, gv, PETSC_TRUE, Hp));
   { /* smallest eigenvalue of the projected Hessian by Rayleigh quotients over random directions */
     PetscReal worst = 0;
     for (int t = 0; t < 200; t++) {
@@ -446,6 +475,100 @@ static PetscErrorCode TestStretchBand(void)
   PetscFunctionReturn(0);
 }
 
+/* psi_c at a given s: |F - R A(s)|^2 with R the rotation of polar(F A(s)). */
+static PetscReal CouplingAt(const PetscReal F[], PetscReal nu, PetscReal s)
+{
+  PetscReal X[9], psi = 0;
+  VKSVD3    svd;
+  for (int r = 0; r < 3; r++) {
+    X[3 * r]     = F[3 * r] * (1 + s);
+    X[3 * r + 1] = F[3 * r + 1] * (1 - nu * s);
+    X[3 * r + 2] = F[3 * r + 2];
+  }
+  VKSVD3Compute(X, &svd);
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) {
+      PetscReal R = svd.U[3 * r] * svd.W[3 * c] + svd.U[3 * r + 1] * svd.W[3 * c + 1] + svd.U[3 * r + 2] * svd.W[3 * c + 2];
+      psi += PetscSqr(F[3 * r + c] - R * (c == 0 ? 1 + s : c == 1 ? 1 - nu * s : 1));
+    }
+  return psi;
+}
+
+/* The stretch-to-bending coupling (coupling.c): its projection against a
+ * scan over s and against shapes it must reproduce exactly, its warm
+ * start, a non-finite F, and Taylor, symmetry and PSD checks of its
+ * derivatives at rest, under course stretch, under bending-like and
+ * random F, inverted, and with nu = 0. */
+static PetscErrorCode TestCoupling(void)
+{
+  const PetscReal nus[3] = {1.5, 0, 0.5};
+  PetscReal       F[9], worst_scan = 0, exact = 0, warm = 0, fixed_psi = 0;
+  PetscInt        unconverged = 0, maxits = 0;
+
+  PetscFunctionBegin;
+  for (int t = 0; t < 60; t++) {
+    PetscReal       nu = nus[t % 3], best = PETSC_MAX_REAL, Q[9], s0 = 0.4 * Rand();
+    VKCouplingState cs, cw;
+    for (int i = 0; i < 9; i++) F[i] = (i % 4 == 0) + 0.35 * Rand();
+    PetscCall(VKCouplingProject(F, nu, 0, &cs));
+    unconverged += !cs.converged;
+    maxits = PetscMax(maxits, cs.its);
+    for (int k = -3000; k <= 3000; k++) best = PetscMin(best, CouplingAt(F, nu, k * 1e-3)); /* s in [-3, 3] */
+    worst_scan = PetscMax(worst_scan, cs.psi - best);
+    PetscCall(VKCouplingProject(F, nu, cs.s + 0.2, &cw));
+    warm = PetscMax(warm, PetscAbsReal(cw.psi - cs.psi) + PetscAbsReal(cw.s - cs.s));
+    /* F = Q A(s0) is reproduced exactly: psi = 0, s = s0 */
+    RandomRotation(Q);
+    for (int r = 0; r < 3; r++) {
+      F[3 * r]     = Q[3 * r] * (1 + s0);
+      F[3 * r + 1] = Q[3 * r + 1] * (1 - nu * s0);
+      F[3 * r + 2] = Q[3 * r + 2];
+    }
+    PetscCall(VKCouplingProject(F, nu, 0, &cs));
+    exact = PetscMax(exact, cs.psi + PetscAbsReal(cs.s - s0));
+    for (int i = 0; i < 9; i++) exact = PetscMax(exact, PetscAbsReal(cs.T[i] - F[i]));
+  }
+  PetscCall(VKTestCheck((PetscBool)(worst_scan <= 1e-12), NULL, "coupling: the projection is at or below the best of a scan over s in [-3, 3] (excess %.1e), 60 random F", (double)worst_scan));
+  PetscCall(VKTestCheck((PetscBool)(unconverged == 0 && maxits <= 20), NULL, "coupling: every projection converged (%d did not), at most %d Newton steps", (int)unconverged, (int)maxits));
+  PetscCall(VKTestClose(exact, 0, 1e-10, "coupling: F = Q A(s0) gives psi_c = 0, s = s0 and T = F"));
+  PetscCall(VKTestClose(warm, 0, 1e-10, "coupling: a warm start 0.2 off gives the same optimum"));
+  { /* F = diag(1.3, 0.8, 1.1) with nu = 1.5: s = ((1.3 - 1) + 1.5 (1 - 0.8))/(1 + 2.25), R = I */
+    VKCouplingState cs;
+    PetscReal       Fd[9] = {1.3, 0, 0, 0, 0.8, 0, 0, 0, 1.1}, s = 0.6 / 3.25;
+    PetscCall(VKCouplingProject(Fd, 1.5, 0, &cs));
+    fixed_psi = PetscSqr(0.3 - s) + PetscSqr(-0.2 + 1.5 * s) + 0.01;
+    PetscCall(VKTestClose(cs.s, s, 1e-12, "coupling at F = diag(1.3, 0.8, 1.1), nu = 1.5: s = 0.6 / 3.25"));
+    PetscCall(VKTestClose(cs.psi, fixed_psi, 1e-12, "coupling at F = diag(1.3, 0.8, 1.1), nu = 1.5: psi_c known"));
+  }
+  {
+    VKCouplingState cs;
+    for (int i = 0; i < 9; i++) F[i] = i % 4 == 0;
+    F[3] = (PetscReal)NAN;
+    PetscCall(VKCouplingProject(F, 1.5, 0, &cs));
+    PetscCall(VKTestCheck((PetscBool)(PetscIsNanReal(cs.psi) && PetscIsNanReal(cs.T[0]) && !cs.converged), NULL, "coupling: a non-finite F gives NaN, not converged"));
+  }
+  for (int k = 0; k < 3; k++) {
+    char name[64];
+    coupling = nus + k;
+    for (int i = 0; i < 9; i++) F[i] = i % 4 == 0;
+    PetscCall(PetscSNPrintf(name, sizeof(name), "coupling nu = %.1f: rest", (double)nus[k]));
+    PetscCall(TaylorAt(name, F, 1e3, 0, 1e-2));
+    F[0] = 1.4, F[4] = 0.85, F[8] = 1.0, F[6] = 0.2;
+    PetscCall(PetscSNPrintf(name, sizeof(name), "coupling nu = %.1f: course stretch, bent", (double)nus[k]));
+    PetscCall(TaylorAt(name, F, 1e3, 0, 1e-3));
+    for (int t = 0; t < 3; t++) {
+      for (int i = 0; i < 9; i++) F[i] = (i % 4 == 0) + 0.3 * Rand();
+      PetscCall(PetscSNPrintf(name, sizeof(name), "coupling nu = %.1f: random F", (double)nus[k]));
+      PetscCall(TaylorAt(name, F, 1e3, 0, 1e-3));
+    }
+    WithSingularValues(1.1, 0.9, -0.4, F);
+    PetscCall(PetscSNPrintf(name, sizeof(name), "coupling nu = %.1f: inverted F", (double)nus[k]));
+    PetscCall(TaylorAt(name, F, 1e3, 0, 1e-3));
+  }
+  coupling = NULL;
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
@@ -458,6 +581,7 @@ int main(int argc, char **argv)
   PetscCall(TestBatch());
   PetscCall(TestDerivatives());
   PetscCall(TestStretchBand());
+  PetscCall(TestCoupling());
   PetscCall(PetscRandomDestroy(&rnd));
   {
     int rc = VKTestFinish();

@@ -10,7 +10,9 @@
  * norm equal those of a one-rank, one-domain build; material.h5 written
  * from this partition reads back tet by tet into the one-rank mesh; with a
  * stretch band the same partition independence, exact J and a round trip
- * of the band through material.h5; VKMaterialSetGamma records which
+ * of the band through material.h5; the stretch-to-bending coupling: the
+ * same Taylor, rigid-motion, partition and round-trip checks, its nu by
+ * face, and a refusal beside -mat_coupling; VKMaterialSetGamma records which
  * domains changed and refuses negative values. */
 #include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/material/materialimpl.h" /* white-box: the material's values, states and band */
@@ -185,6 +187,49 @@ static PetscErrorCode MaterialCheckGammaJacobian(VKMaterial mat, Vec x, Vec g, M
   PetscFunctionReturn(0);
 }
 
+/* Taylor tests of the assembled E -> g and g -> H (exact) at x along dx;
+ * E and g at x out. */
+static PetscErrorCode AssembledTaylor(VKMaterial mat, Vec x, Vec dx, const char what[], PetscReal *E, Vec g)
+{
+  Vec       xt, gt, Hdx;
+  Mat       H;
+  VKMesh    m;
+  PetscReal Et, gdx, re[8], rg[8], order, gn;
+  int       pairs;
+
+  PetscFunctionBegin;
+  PetscCall(VKMaterialGetMesh(mat, &m));
+  PetscCall(VecDuplicate(x, &xt));
+  PetscCall(VecDuplicate(x, &gt));
+  PetscCall(VecDuplicate(x, &Hdx));
+  PetscCall(VKMeshCreateNodeMat(m, 3, &H));
+  PetscCall(VKMaterialEnergy(mat, x, E));
+  PetscCall(VKMaterialGradient(mat, x, g));
+  PetscCall(VKMaterialHessian(mat, x, PETSC_FALSE, H));
+  PetscCall(VecDot(g, dx, &gdx));
+  PetscCall(MatMult(H, dx, Hdx));
+  for (int k = 0; k < 8; k++) {
+    PetscReal t = 0.05 * PetscPowReal(2, -k);
+    PetscCall(VecWAXPY(xt, t, dx, x));
+    PetscCall(VKMaterialEnergy(mat, xt, &Et));
+    re[k] = PetscAbsReal(Et - *E - t * gdx);
+    PetscCall(VKMaterialGradient(mat, xt, gt));
+    PetscCall(VecAXPY(gt, -1, g));
+    PetscCall(VecAXPY(gt, -t, Hdx));
+    PetscCall(VecNorm(gt, NORM_INFINITY, &rg[k]));
+  }
+  PetscCall(VecNorm(g, NORM_INFINITY, &gn));
+  order = VKTestTaylorOrder(8, re, 1e-13 * PetscAbsReal(*E), &pairs);
+  PetscCall(VKTestCheck((PetscBool)(pairs >= 4 && order > 1.8), NULL, "assembled Taylor E -> g%s: remainder order %.2f (%d pairs)", what, (double)order, pairs));
+  order = VKTestTaylorOrder(8, rg, 1e-12 * gn, &pairs);
+  PetscCall(VKTestCheck((PetscBool)(pairs >= 4 && order > 1.8), NULL, "assembled Taylor g -> H (exact Hessian)%s: remainder order %.2f (%d pairs)", what, (double)order, pairs));
+  PetscCall(VecDestroy(&xt));
+  PetscCall(VecDestroy(&gt));
+  PetscCall(VecDestroy(&Hdx));
+  PetscCall(MatDestroy(&H));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   VKYarn      y, ys;
@@ -192,9 +237,8 @@ int main(int argc, char **argv)
   VKMaterial  mat, mats;
   Vec         x, dx, xt, g, gt, Hdx, xs, gs;
   Mat         H, J = NULL;
-  PetscReal   E, Et, gdx, re[8], rg[8], order, Es, gn, gsn, Escale;
+  PetscReal   E, Es, gn, gsn, Escale;
   PetscMPIInt size;
-  int         pairs;
   char        dir[PETSC_MAX_PATH_LEN] = "tests/out/material_mesh", path[PETSC_MAX_PATH_LEN];
 
   PetscCall(PetscInitialize(&argc, &argv, NULL, NULL));
@@ -213,28 +257,8 @@ int main(int argc, char **argv)
   PetscCall(Field(m, 1, dx));
   PetscCall(VKMeshCreateNodeMat(m, 3, &H));
 
-  /* Taylor: E -> g and g -> H */
-  PetscCall(VKMaterialEnergy(mat, x, &E));
-  PetscCall(VKMaterialGradient(mat, x, g));
-  PetscCall(VKMaterialHessian(mat, x, PETSC_FALSE, H));
-  PetscCall(VecDot(g, dx, &gdx));
-  PetscCall(MatMult(H, dx, Hdx));
-  for (int k = 0; k < 8; k++) {
-    PetscReal t = 0.05 * PetscPowReal(2, -k);
-    PetscCall(VecWAXPY(xt, t, dx, x));
-    PetscCall(VKMaterialEnergy(mat, xt, &Et));
-    re[k] = PetscAbsReal(Et - E - t * gdx);
-    PetscCall(VKMaterialGradient(mat, xt, gt));
-    PetscCall(VecAXPY(gt, -1, g));
-    PetscCall(VecAXPY(gt, -t, Hdx));
-    PetscCall(VecNorm(gt, NORM_INFINITY, &rg[k]));
-  }
+  PetscCall(AssembledTaylor(mat, x, dx, "", &E, g));
   PetscCall(VecNorm(g, NORM_INFINITY, &gn));
-  order = VKTestTaylorOrder(8, re, 1e-13 * PetscAbsReal(E), &pairs);
-  PetscCall(VKTestCheck((PetscBool)(pairs >= 4 && order > 1.8), NULL, "assembled Taylor E -> g: remainder order %.2f (%d pairs)", (double)order, pairs));
-  order = VKTestTaylorOrder(8, rg, 1e-12 * gn, &pairs);
-  PetscCall(VKTestCheck((PetscBool)(pairs >= 4 && order > 1.8), NULL, "assembled Taylor g -> H (exact Hessian): remainder order %.2f (%d pairs)", (double)order, pairs));
-
   PetscCall(MaterialCheckGammaJacobian(mat, x, g, &J));
   { /* internal forces sum to zero: no momentum from elasticity */
     const PetscScalar *a;
@@ -330,6 +354,60 @@ int main(int argc, char **argv)
       PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, "conflicts with the band")), spec, "a material.h5 fitted with one band is refused where -mat_band gives another"));
     }
     PetscCall(VKMaterialDestroy(&other));
+  }
+  { /* the stretch-to-bending coupling on top of the paper material: exact
+     * derivatives, no energy or force under a rigid motion, the same on one
+     * rank, and material.h5 carries it (with nu by face) into a material
+     * that has none, but not into one given its own */
+    PetscReal        Ec, Ecs, gc, gcs, Er, gr, face[2] = {0, 0}, facestar[2];
+    PetscInt         nface[2] = {0, 0}, nfaceall[2];
+    PetscErrorCode   ierr;
+    VKMaterial       other;
+    const PetscReal *cp;
+    PetscObjectState s0, s1;
+    PetscCall(VKMaterialSetStretchBand(mat, 1, 1));
+    PetscCall(VKMaterialGetState(mat, &s0));
+    PetscCall(VKMaterialSetCoupling(mat, 3e3, 1.5, 0));
+    PetscCall(VKMaterialGetState(mat, &s1));
+    PetscCall(AssembledTaylor(mat, x, dx, ", with the coupling", &Ec, g));
+    PetscCall(VecNorm(g, NORM_2, &gc));
+    PetscCall(VKMaterialGetCouplingArrayRead(mat, &cp));
+    for (PetscInt e = 0; e < VKMeshLayout(m)->eEnd - VKMeshLayout(m)->eStart; e++) {
+      int top = cp[2 * e + 1] == 1.5;
+      face[top] = PetscMax(face[top], PetscAbsReal(cp[2 * e] - 3e3) + (top ? 0 : PetscAbsReal(cp[2 * e + 1])));
+      nface[top]++;
+    }
+    PetscCallMPI(MPI_Allreduce(face, facestar, 2, MPIU_REAL, MPI_MAX, PETSC_COMM_WORLD));
+    PetscCallMPI(MPI_Allreduce(nface, nfaceall, 2, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+    PetscCall(VKTestCheck((PetscBool)(s1 > s0 && facestar[0] == 0 && facestar[1] == 0 && nfaceall[0] > 0 && nfaceall[1] > 0), NULL, "coupling: g_c on every tet, nu 1.5 above the mid-plane and 0 below (%d and %d tets), the material's state raised", (int)nfaceall[1], (int)nfaceall[0]));
+    PetscCall(Field(m, 2, xt));
+    PetscCall(VKMaterialEnergy(mat, xt, &Er));
+    PetscCall(VKMaterialGradient(mat, xt, gt));
+    PetscCall(VecNorm(gt, NORM_INFINITY, &gr));
+    PetscCall(VecNorm(g, NORM_INFINITY, &gn));
+    PetscCall(VKTestCheck((PetscBool)(Er <= 1e-24 * Ec + 1e-30 && gr <= 1e-12 * gn), NULL, "coupling: a rigid motion of the rest mesh gives zero energy (%.1e) and zero force (%.1e |g|)", (double)Er, (double)(gr / gn)));
+    PetscCall(VKPathJoin(dir, "material_coupling.h5", path, sizeof(path)));
+    PetscCall(VKMaterialWriteH5(mat, path));
+    PetscCall(VKMaterialLoadH5(mats, path));
+    PetscCall(VKMaterialEnergy(mats, xs, &Ecs));
+    PetscCall(VKMaterialGradient(mats, xs, gs));
+    PetscCall(VecNorm(gs, NORM_2, &gcs));
+    PetscCall(VKTestCheck((PetscBool)(Ec > 1.001 * Es && PetscAbsReal(Ec - Ecs) <= 1e-12 * Ecs && PetscAbsReal(gc - gcs) <= 1e-12 * gcs), NULL, "coupling: energy above the paper material's (%.6g of %.6g), energy and |g| equal one rank's after the material.h5 round trip", (double)Ec, (double)Es));
+    PetscCall(VKMaterialCreate(ms, &other));
+    PetscCall(VKMaterialSetCoupling(other, 10, 1, 1));
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = VKMaterialLoadH5(other, path);
+    PetscCall(PetscPopErrorHandler());
+    {
+      const char *text;
+      char       *spec = NULL;
+      if (ierr) PetscErrorMessage(ierr, &text, &spec);
+      PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, "conflicts with the coupling")), spec, "a material.h5 with a coupling is refused where -mat_coupling gives one"));
+    }
+    PetscCall(VKMaterialDestroy(&other));
+    PetscCall(VKMaterialSetCoupling(mat, 0, 1.5, 0));
+    PetscCall(VKMaterialEnergy(mat, x, &Er));
+    PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(Er - E) <= 1e-12 * E), NULL, "coupling: g_c = 0 removes it (energy back to the paper material's)"));
   }
   PetscCall(VecDestroy(&xs));
   PetscCall(VecDestroy(&gs));

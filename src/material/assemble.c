@@ -1,5 +1,6 @@
 /* assemble.c: the material over the distributed mesh (DESIGN §6): total
- * elastic energy E(x) = sum_e V_e psi_e(F_e(x)), its gradient (a node
+ * elastic energy E(x) = sum_e V_e psi_e(F_e(x)) (with the coupling's
+ * V_e g_c psi_c where the material has one), its gradient (a node
  * vector), its Hessian (a 3x3-block BAIJ matrix over the node layout) and
  * dg/dgamma (a sparse AIJ matrix, 3 n_V rows by 2 n_E columns).  Each rank
  * evaluates its own tets from the ghosted positions; contributions to
@@ -38,6 +39,24 @@ PetscErrorCode VKMeshRestoreLocalPositions(Vec x, Vec *local, const PetscScalar 
   PetscFunctionReturn(0);
 }
 
+/* Owned tet e's energy, gradient and Hessian (each optional): the
+ * paper's psi plus, where the material has one, the coupling. */
+static PetscErrorCode TetEvaluate(VKMaterial m, PetscInt e, const PetscReal X[], PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[])
+{
+  const VKLayout  *L   = VKMeshLayout(m->mesh);
+  const PetscReal *G   = VKMeshTetGradients(m->mesh) + 12 * (L->eStart + e), vol = VKMeshTetVolumes(m->mesh)[L->eStart + e];
+  PetscReal        Ec, gc[12], Hc[144];
+
+  PetscFunctionBegin;
+  PetscCall(VKTetEvaluate(G, vol, X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], psd, E, g, H, NULL));
+  if (!m->coupling || m->coupling[2 * e] == 0) PetscFunctionReturn(0);
+  PetscCall(VKTetCouplingEvaluate(G, vol, X, m->coupling[2 * e], m->coupling[2 * e + 1], psd, E ? &Ec : NULL, g ? gc : NULL, H ? Hc : NULL));
+  if (E) *E += Ec;
+  for (int i = 0; g && i < 12; i++) g[i] += gc[i];
+  for (int i = 0; H && i < 144; i++) H[i] += Hc[i];
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
 {
   VKMesh             mesh = m->mesh;
@@ -52,7 +71,7 @@ PetscErrorCode VKMaterialEnergy(VKMaterial m, Vec x, PetscReal *E)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], Ee;
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, &Ee, NULL, NULL, NULL));
+    PetscCall(TetEvaluate(m, e, X, PETSC_FALSE, &Ee, NULL, NULL));
     VKSumAdd(&sum, Ee);
   }
   PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
@@ -77,7 +96,7 @@ PetscErrorCode VKMaterialGradient(VKMaterial m, Vec x, Vec g)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], ge[12];
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, ge, NULL, NULL));
+    PetscCall(TetEvaluate(m, e, X, PETSC_FALSE, NULL, ge, NULL));
     VKLayoutAddTet(L, e, ge, ga);
   }
   PetscCall(VecRestoreArray(glocal, &ga));
@@ -101,7 +120,7 @@ PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
     PetscReal X[12], He[144];
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], psd, NULL, NULL, He, NULL));
+    PetscCall(TetEvaluate(m, e, X, psd, NULL, NULL, He));
     PetscCall(MatSetValuesBlockedLocal(H, 4, L->local_tet + 4 * e, 4, L->local_tet + 4 * e, He, ADD_VALUES));
   }
   PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));

@@ -5,6 +5,8 @@
  *   /material/voxel   n_E x 3   grid coordinates of the tet's voxel
  *   /material/kuhn    n_E x 1   Kuhn tet 0..5 inside the voxel
  *   /material/band    1 x 2     stretch band lo, hi (-mat_band; absent: 1, 1)
+ *   /material/coupling n_E x 2  g_c (Pa), nu of the stretch-to-bending
+ *                               coupling (coupling.c; absent: none)
  * Tets are matched through (voxel, Kuhn index), so a file written with one
  * partition reads into a mesh with any other. */
 #include "materialimpl.h"
@@ -13,6 +15,11 @@
 
 #define MATERIAL_FORMAT "volknit-material 1"
 #define NOMINAL_GAMMA   1.0e3 /* Pa: a soft knit, about 25 N/m areal stiffness at h = 3 mm */
+/* The coupling's contraction on the faces above and below the mesh's
+ * mid-plane: the values that took the 8 x 7 stockinette's stretch from
+ * REL 0.362 to 0.193 (docs/FIDELITY.md). */
+#define DEFAULT_NU_TOP    1.5
+#define DEFAULT_NU_BOTTOM 0.0
 
 PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
 {
@@ -25,6 +32,8 @@ PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
   m->gamma_s = NOMINAL_GAMMA;
   m->gamma_v = NOMINAL_GAMMA;
   m->band.lo = m->band.hi = 1;
+  m->coupling_nu[0] = DEFAULT_NU_TOP;
+  m->coupling_nu[1] = DEFAULT_NU_BOTTOM;
   *mat       = m;
   PetscFunctionReturn(0);
 }
@@ -51,6 +60,14 @@ PetscErrorCode VKMaterialGetGammaArrayRead(VKMaterial m, const PetscReal **gamma
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKMaterialGetCouplingArrayRead(VKMaterial m, const PetscReal **coupling)
+{
+  PetscFunctionBegin;
+  PetscCheck(m->setup, m->comm, PETSC_ERR_ORDER, "Call VKMaterialSetUp() before VKMaterialGetCouplingArrayRead()");
+  *coupling = m->coupling;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKMaterialGetStretchBand(VKMaterial m, VKStretchBand *band)
 {
   PetscFunctionBegin;
@@ -70,6 +87,7 @@ PetscErrorCode VKMaterialDestroy(VKMaterial *mat)
   PetscFunctionBegin;
   if (!*mat) PetscFunctionReturn(0);
   PetscCall(PetscFree((*mat)->gamma));
+  PetscCall(PetscFree((*mat)->coupling));
   PetscCall(PetscFree((*mat)->domain_state));
   PetscCall(PetscFree(*mat));
   PetscFunctionReturn(0);
@@ -103,11 +121,56 @@ PetscErrorCode VKMaterialSetStretchBand(VKMaterial m, PetscReal lo, PetscReal hi
   PetscFunctionReturn(0);
 }
 
+/* g_c on every tet, nu_top or nu_bottom by the side of the mesh's
+ * mid-plane z the tet's rest centroid lies on (the same on every
+ * partition: the rest positions are global). */
+static PetscErrorCode UniformCoupling(VKMaterial m)
+{
+  const VKLayout  *L = VKMeshLayout(m->mesh);
+  const PetscReal *x = VKMeshRestPositions(m->mesh);
+  const PetscInt  *tet = VKMeshTets(m->mesh);
+  PetscReal        zlo = PETSC_MAX_REAL, zhi = -PETSC_MAX_REAL, mid;
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < VKMeshNodeCount(m->mesh); i++) {
+    zlo = PetscMin(zlo, x[3 * i + 2]);
+    zhi = PetscMax(zhi, x[3 * i + 2]);
+  }
+  mid = 0.5 * (zlo + zhi);
+  PetscCall(PetscFree(m->coupling));
+  PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->coupling));
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
+    const PetscInt *t = tet + 4 * (L->eStart + e);
+    PetscReal       zc = 0.25 * (x[3 * t[0] + 2] + x[3 * t[1] + 2] + x[3 * t[2] + 2] + x[3 * t[3] + 2]);
+    m->coupling[2 * e]     = m->coupling_gc;
+    m->coupling[2 * e + 1] = zc >= mid ? m->coupling_nu[0] : m->coupling_nu[1];
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialSetCoupling(VKMaterial m, PetscReal gc, PetscReal nu_top, PetscReal nu_bottom)
+{
+  PetscFunctionBegin;
+  PetscCheck(gc >= 0 && gc <= VK_GAMMA_MAX, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_coupling %g: the coupling stiffness g_c must be finite and in [0, %g] Pa (0: no coupling)", (double)gc, (double)VK_GAMMA_MAX);
+  PetscCheck(PetscAbsReal(nu_top) <= VK_COUPLING_NU_MAX && PetscAbsReal(nu_bottom) <= VK_COUPLING_NU_MAX, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_coupling_nu %g,%g: each contraction ratio must be finite and in [-%g, %g]", (double)nu_top, (double)nu_bottom, (double)VK_COUPLING_NU_MAX, (double)VK_COUPLING_NU_MAX);
+  m->coupling_gc    = gc;
+  m->coupling_nu[0] = nu_top;
+  m->coupling_nu[1] = nu_bottom;
+  m->coupling_set   = PETSC_TRUE;
+  if (m->setup) { /* solvers built on the material rebuild (K gains g_c) */
+    if (gc > 0) PetscCall(UniformCoupling(m));
+    else PetscCall(PetscFree(m->coupling));
+    for (PetscInt d = 0; d < VKMeshDomainCount(m->mesh); d++) m->domain_state[d]++;
+    m->state++;
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
 {
-  PetscReal gs = m->gamma_s, gv = m->gamma_v, band[3] = {m->band.lo, m->band.hi, 0};
-  PetscInt  nband = 3; /* room for one too many, so a third value is caught */
-  PetscBool set;
+  PetscReal gs = m->gamma_s, gv = m->gamma_v, band[3] = {m->band.lo, m->band.hi, 0}, gc = m->coupling_gc, nu[3] = {m->coupling_nu[0], m->coupling_nu[1], 0};
+  PetscInt  nband = 3, nnu = 3; /* room for one too many, so a third value is caught */
+  PetscBool set, nuset;
 
   PetscFunctionBegin;
   PetscOptionsBegin(m->comm, NULL, "Material options (DESIGN section 6)", "VKMaterial");
@@ -119,6 +182,11 @@ PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
     PetscCheck(nband == 2, m->comm, PETSC_ERR_ARG_WRONG, "-mat_band takes two values lo,hi; got %d", (int)nband);
     PetscCall(VKMaterialSetStretchBand(m, band[0], band[1]));
   }
+  PetscCall(PetscOptionsReal("-mat_coupling", "Stiffness g_c of the stretch-to-bending coupling g_c min |F - R diag(1+s, 1-nu s, 1)|^2 (rest x along the courses, y along the wales), Pa; 0: none", "VKMaterialSetCoupling", gc, &gc, &set));
+  PetscCall(PetscOptionsRealArray("-mat_coupling_nu", "The coupling's contraction ratios nu on the faces above,below the mesh's mid-plane (z)", "VKMaterialSetCoupling", nu, &nnu, &nuset));
+  if (nuset) PetscCheck(nnu == 2, m->comm, PETSC_ERR_ARG_WRONG, "-mat_coupling_nu takes two values top,bottom; got %d", (int)nnu);
+  PetscCheck(set || !nuset, m->comm, PETSC_ERR_ARG_WRONG, "-mat_coupling_nu needs -mat_coupling g_c (the coupling's stiffness, Pa)");
+  if (set) PetscCall(VKMaterialSetCoupling(m, gc, nu[0], nu[1]));
   PetscCall(PetscOptionsString("-mat_file", "Per-element material (material.h5 of volknit fit)", "VKMaterialLoadH5", m->file, m->file, sizeof(m->file), &set));
   PetscOptionsEnd();
   PetscFunctionReturn(0);
@@ -138,6 +206,7 @@ PetscErrorCode VKMaterialSetUp(VKMaterial m)
       m->gamma[2 * e]     = m->gamma_s;
       m->gamma[2 * e + 1] = m->gamma_v;
     }
+  if (!m->coupling && m->coupling_gc > 0) PetscCall(UniformCoupling(m));
   if (!m->domain_state) PetscCall(PetscCalloc1(VKMeshDomainCount(m->mesh) + 1, &m->domain_state));
   m->state++;
   m->setup = PETSC_TRUE;
@@ -226,6 +295,19 @@ PetscErrorCode VKMaterialView(VKMaterial m, PetscViewer viewer)
   if (m->band.lo == 1 && m->band.hi == 1) PetscCall(PetscViewerASCIIPrintf(viewer, "  R = U W^T (stretch band [1, 1], the paper's ARAP)\n"));
   else PetscCall(PetscViewerASCIIPrintf(viewer, "  R = U diag(clamp(s, %g, %g)) W^T (stretch band)\n", (double)m->band.lo, (double)m->band.hi));
   PetscCall(PetscViewerASCIIPrintf(viewer, "  g_s in [%g, %g] Pa, g_v in [%g, %g] Pa\n", (double)glo[0], (double)ghi[0], (double)glo[1], (double)ghi[1]));
+  {
+    PetscInt  on = m->coupling ? 1 : 0, anyon;
+    PetscReal clo[2] = {PETSC_MAX_REAL, PETSC_MAX_REAL}, chi[2] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL}, gclo[2], gchi[2];
+    for (PetscInt e = 0; m->coupling && e < L->eEnd - L->eStart; e++)
+      for (int k = 0; k < 2; k++) {
+        clo[k] = PetscMin(clo[k], m->coupling[2 * e + k]);
+        chi[k] = PetscMax(chi[k], m->coupling[2 * e + k]);
+      }
+    PetscCallMPI(MPI_Allreduce(&on, &anyon, 1, MPIU_INT, MPI_MAX, m->comm));
+    PetscCallMPI(MPI_Allreduce(clo, gclo, 2, MPIU_REAL, MPI_MIN, m->comm));
+    PetscCallMPI(MPI_Allreduce(chi, gchi, 2, MPIU_REAL, MPI_MAX, m->comm));
+    if (anyon) PetscCall(PetscViewerASCIIPrintf(viewer, "  + g_c min |F - R diag(1+s, 1-nu s, 1)|^2 (stretch-to-bending coupling): g_c in [%g, %g] Pa, nu in [%g, %g]\n", (double)gclo[0], (double)gchi[0], (double)gclo[1], (double)gchi[1]));
+  }
   PetscFunctionReturn(0);
 }
 
@@ -243,7 +325,8 @@ static PetscErrorCode TetVoxels(VKMesh mesh, PetscInt voxel[], PetscInt kuhn[])
 
 typedef struct {
   VKMesh           mesh;
-  const PetscReal *gamma; /* all tets, rank 0 */
+  const PetscReal *gamma;    /* all tets, rank 0 */
+  const PetscReal *coupling; /* all tets, rank 0; NULL: none */
   VKStretchBand    band;
 } WriteCtx;
 
@@ -274,6 +357,7 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
     PetscReal band[2] = {w->band.lo, w->band.hi};
     ierr              = VKH5WriteReal(&h, "/material/band", 1, 2, band);
   }
+  if (!ierr && w->coupling) ierr = VKH5WriteReal(&h, "/material/coupling", VKMeshTetCount(w->mesh), 2, w->coupling);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "units", "Pa");
   if (!ierr) ierr = VKH5WriteAttrReal(&h, "/material", "h", VKMeshGrid(w->mesh)->h);
@@ -290,26 +374,28 @@ PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
 {
   VKMesh         mesh = m->mesh;
   PetscMPIInt    rank, size, *counts = NULL, *displs = NULL, n = (PetscMPIInt)(2 * (VKMeshLayout(mesh)->eEnd - VKMeshLayout(mesh)->eStart));
-  PetscReal     *all  = NULL;
+  PetscReal     *all  = NULL, *allc = NULL;
   PetscErrorCode ierr = 0;
 
   PetscFunctionBegin;
+  PetscCall(VKMaterialSetUp(m));
   PetscCallMPI(MPI_Comm_rank(m->comm, &rank));
   PetscCallMPI(MPI_Comm_size(m->comm, &size));
   if (rank == 0) {
     PetscCall(PetscMalloc2(size, &counts, size, &displs));
-    PetscCall(PetscMalloc1(2 * VKMeshTetCount(mesh) + 1, &all));
+    PetscCall(PetscMalloc2(2 * VKMeshTetCount(mesh) + 1, &all, 2 * VKMeshTetCount(mesh) + 1, &allc));
     for (PetscMPIInt r = 0; r < size; r++) {
       counts[r] = (PetscMPIInt)(2 * (VKMeshRankTetStart(mesh)[r + 1] - VKMeshRankTetStart(mesh)[r]));
       displs[r] = (PetscMPIInt)(2 * VKMeshRankTetStart(mesh)[r]);
     }
   }
   PetscCallMPI(MPI_Gatherv(m->gamma, n, MPIU_REAL, all, counts, displs, MPIU_REAL, 0, m->comm));
+  if (m->coupling) PetscCallMPI(MPI_Gatherv(m->coupling, n, MPIU_REAL, allc, counts, displs, MPIU_REAL, 0, m->comm));
   if (rank == 0) {
-    WriteCtx w = {mesh, all, m->band};
+    WriteCtx w = {mesh, all, m->coupling ? allc : NULL, m->band};
     ierr       = VKOutputWrite(path, PETSC_FALSE, WriteMaterial, &w);
     PetscCall(PetscFree2(counts, displs));
-    PetscCall(PetscFree(all));
+    PetscCall(PetscFree2(all, allc));
   }
   PetscCall(VKCollective(m->comm, ierr, path));
   PetscCall(PetscStrncpy(m->file, path, sizeof(m->file)));
@@ -321,9 +407,9 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   VKMesh     mesh = m->mesh;
   const VKLayout  *L    = VKMeshLayout(mesh);
   VKH5       h;
-  PetscInt   n, nv = 0, nk = 0, *voxel = NULL, *kuhn = NULL, *seen = NULL;
-  PetscReal *gamma = NULL, *band = NULL;
-  PetscBool  hasband = PETSC_FALSE;
+  PetscInt   n, nv = 0, nk = 0, nc = 0, *voxel = NULL, *kuhn = NULL, *seen = NULL;
+  PetscReal *gamma = NULL, *band = NULL, *coupling = NULL;
+  PetscBool  hasband = PETSC_FALSE, hascoupling = PETSC_FALSE;
   char       format[64];
   PetscErrorCode ierr;
 
@@ -340,7 +426,11 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
     ierr = VKH5ReadReal(&h, "/material/band", 2, &nb, &band);
     if (!ierr && !(nb == 1 && band[0] > 0 && band[0] <= 1 && band[1] >= 1 && isfinite(band[1]))) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/band must be one pair lo,hi with 0 < lo <= 1 <= hi, got %d rows starting %g,%g", path, (int)nb, nb > 0 ? (double)band[0] : 0.0, nb > 0 ? (double)band[1] : 0.0);
   }
+  if (!ierr) ierr = VKH5HasDataset(&h, "/material/coupling", &hascoupling);
+  if (!ierr && hascoupling) ierr = VKH5ReadReal(&h, "/material/coupling", 2, &nc, &coupling);
   VKH5Close(&h);
+  if (!ierr && hascoupling && m->coupling_set) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_coupling conflicts with the coupling stored in %s (the coupling the material was fitted with; leave -mat_coupling out)", path);
+  if (!ierr && hascoupling && nc != n) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/coupling has %d rows, /material/gamma %d", path, (int)nc, (int)n);
   if (!ierr) {
     PetscReal lo = band ? band[0] : 1, hi = band ? band[1] : 1;
     if (m->band_set && (lo != m->band.lo || hi != m->band.hi)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_band %g,%g conflicts with the band %g,%g of %s (the band the material was fitted with; leave -mat_band out)", (double)m->band.lo, (double)m->band.hi, (double)lo, (double)hi, path);
@@ -350,6 +440,8 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
     }
   }
   if (!ierr && !(n == VKMeshTetCount(mesh) && nv == n && nk == n)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s holds %d tets (voxels %d, Kuhn indices %d); the mesh has %d", path, (int)n, (int)nv, (int)nk, (int)VKMeshTetCount(mesh));
+  if (!ierr) ierr = PetscFree(m->coupling);
+  if (!ierr && coupling) ierr = PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->coupling);
   if (!ierr) ierr = PetscCalloc1(VKMeshTetCount(mesh), &seen);
   for (PetscInt i = 0; i < n && !ierr; i++) {
     PetscInt vi = VKMeshFindVoxel(mesh, voxel + 3 * i), e;
@@ -361,6 +453,10 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
       ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d has g_s = %g, g_v = %g; both must be finite and non-negative, at most %g Pa", path, (int)i, (double)gamma[2 * i], (double)gamma[2 * i + 1], (double)VK_GAMMA_MAX);
       break;
     }
+    if (coupling && !(coupling[2 * i] >= 0 && coupling[2 * i] <= VK_GAMMA_MAX && PetscAbsReal(coupling[2 * i + 1]) <= VK_COUPLING_NU_MAX)) {
+      ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d has coupling g_c = %g, nu = %g; g_c must be finite in [0, %g] Pa, nu finite in [-%g, %g]", path, (int)i, (double)coupling[2 * i], (double)coupling[2 * i + 1], (double)VK_GAMMA_MAX, (double)VK_COUPLING_NU_MAX, (double)VK_COUPLING_NU_MAX);
+      break;
+    }
     e = VKMeshTetOfKuhn(mesh)[6 * vi + kuhn[i]];
     if (seen[e]++) {
       ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d repeats a tet", path, (int)i);
@@ -369,11 +465,17 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
     if (e >= L->eStart && e < L->eEnd) {
       m->gamma[2 * (e - L->eStart)]     = gamma[2 * i];
       m->gamma[2 * (e - L->eStart) + 1] = gamma[2 * i + 1];
+      if (coupling) {
+        m->coupling[2 * (e - L->eStart)]     = coupling[2 * i];
+        m->coupling[2 * (e - L->eStart) + 1] = coupling[2 * i + 1];
+      }
     }
   }
+  if (!ierr && !coupling && m->coupling_gc > 0) ierr = UniformCoupling(m); /* -mat_coupling beside a file without one */
   PetscCall(PetscFree(seen));
   PetscCall(PetscFree(gamma));
   PetscCall(PetscFree(band));
+  PetscCall(PetscFree(coupling));
   PetscCall(PetscFree(voxel));
   PetscCall(PetscFree(kuhn));
   PetscCall(ierr);

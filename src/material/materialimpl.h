@@ -11,6 +11,9 @@ struct _n_VKMaterial {
   PetscBool     band_set;                /* set by VKMaterialSetStretchBand (-mat_band): a file's band must agree */
   char      file[PETSC_MAX_PATH_LEN];    /* per-element values (-mat_file) */
   PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v (change them by VKMaterialSetGamma) */
+  PetscReal coupling_gc, coupling_nu[2]; /* uniform coupling (-mat_coupling, -mat_coupling_nu top,bottom) */
+  PetscBool coupling_set;                /* -mat_coupling given: a file's coupling must not be there too */
+  PetscReal *coupling;                   /* 2 per owned tet: g_c, nu; NULL without the coupling term */
   PetscObjectState state;                /* raised by every change of gamma */
   PetscObjectState *domain_state;        /* per mesh domain: raised when one of its owned tets changes */
   PetscBool setup;

@@ -6,8 +6,11 @@
  *   d2E/dX_ar dX_bq = V sum_cd H_(rc)(qd) G_ca G_db,
  * and the columns of dg/dgamma (paper Eq. 15-16): the gradient with
  * P replaced by 2 (F - R) for g_s and by 2 (F - V) for g_v.  R is the
- * stretch band's target (psi.c). */
+ * stretch band's target (psi.c).  The coupling's kernels (coupling.c)
+ * map to the nodes the same way: E = V g_c psi_c, P = 2 g_c (F - T), and
+ * the PD local step's share 2 V g_c G^T T of the right-hand side. */
 #include <vkmaterial.h>
+#include <math.h>
 
 void VKTetDeformation(const PetscReal G[], const PetscReal X[], PetscReal F[])
 {
@@ -20,6 +23,18 @@ static void NodalForce(const PetscReal G[], PetscReal vol, const PetscReal P[], 
 {
   for (int a = 0; a < 4; a++)
     for (int r = 0; r < 3; r++) out[3 * a + r] = vol * (P[3 * r] * G[a] + P[3 * r + 1] * G[4 + a] + P[3 * r + 2] * G[8 + a]);
+}
+
+/* H[(a,r)][(b,q)] = V sum_cd Hf_(rc)(qd) G_ca G_db */
+static void NodalHessian(const PetscReal G[], PetscReal vol, const PetscReal Hf[], PetscReal H[])
+{
+  PetscReal GH[9 * 12];
+  for (int x = 0; x < 9; x++) /* GH[x][(b,q)] = sum_d Hf[x][(q,d)] G_db */
+    for (int b = 0; b < 4; b++)
+      for (int q = 0; q < 3; q++) GH[12 * x + 3 * b + q] = Hf[9 * x + 3 * q] * G[b] + Hf[9 * x + 3 * q + 1] * G[4 + b] + Hf[9 * x + 3 * q + 2] * G[8 + b];
+  for (int a = 0; a < 4; a++)
+    for (int r = 0; r < 3; r++)
+      for (int col = 0; col < 12; col++) H[12 * (3 * a + r) + col] = vol * (GH[12 * (3 * r) + col] * G[a] + GH[12 * (3 * r + 1) + col] * G[4 + a] + GH[12 * (3 * r + 2) + col] * G[8 + a]);
 }
 
 PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], const VKStretchBand *band, PetscReal gs, PetscReal gv, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[], PetscReal dgdg[])
@@ -37,14 +52,9 @@ PetscErrorCode VKTetEvaluate(const PetscReal G[], PetscReal vol, const PetscReal
     NodalForce(G, vol, P, g);
   }
   if (H) {
-    PetscReal Hf[81], GH[9 * 12];
+    PetscReal Hf[81];
     VKPsiHessian(&st, gs, gv, psd, Hf);
-    for (int x = 0; x < 9; x++) /* GH[x][(b,q)] = sum_d Hf[x][(q,d)] G_db */
-      for (int b = 0; b < 4; b++)
-        for (int q = 0; q < 3; q++) GH[12 * x + 3 * b + q] = Hf[9 * x + 3 * q] * G[b] + Hf[9 * x + 3 * q + 1] * G[4 + b] + Hf[9 * x + 3 * q + 2] * G[8 + b];
-    for (int a = 0; a < 4; a++)
-      for (int r = 0; r < 3; r++)
-        for (int col = 0; col < 12; col++) H[12 * (3 * a + r) + col] = vol * (GH[12 * (3 * r) + col] * G[a] + GH[12 * (3 * r + 1) + col] * G[4 + a] + GH[12 * (3 * r + 2) + col] * G[8 + a]);
+    NodalHessian(G, vol, Hf, H);
   }
   if (dgdg) {
     PetscReal Ps[9], Pv[9];
@@ -76,5 +86,42 @@ PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const PetscReal vol
     NodalForce(G + 12 * l, vol[l], P, rhs + 12 * l);
     det[l] = st[l].svd.s[0] * st[l].svd.s[1] * st[l].svd.s[2];
   }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKTetCouplingEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gc, PetscReal nu, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[])
+{
+  PetscReal       F[9], P[9];
+  VKCouplingState st;
+
+  PetscFunctionBegin;
+  VKTetDeformation(G, X, F);
+  PetscCall(VKCouplingProject(F, nu, 0, &st));
+  if (E) *E = vol * gc * st.psi;
+  if (g) {
+    VKCouplingGradient(&st, F, gc, P);
+    NodalForce(G, vol, P, g);
+  }
+  if (H) {
+    PetscReal Hf[81];
+    PetscCall(VKCouplingHessian(&st, F, nu, gc, psd, Hf));
+    NodalHessian(G, vol, Hf, H);
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKTetCouplingProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gc, PetscReal nu, PetscReal *s, PetscReal *E, PetscReal rhs[], PetscBool *converged)
+{
+  PetscReal       F[9], P[9];
+  VKCouplingState st;
+
+  PetscFunctionBegin;
+  VKTetDeformation(G, X, F);
+  PetscCall(VKCouplingProject(F, nu, *s, &st));
+  if (isfinite(st.s)) *s = st.s;
+  *E         = vol * gc * st.psi;
+  *converged = st.converged;
+  for (int i = 0; i < 9; i++) P[i] = 2 * gc * st.T[i];
+  NodalForce(G, vol, P, rhs);
   PetscFunctionReturn(0);
 }

@@ -80,6 +80,7 @@ PetscErrorCode VKPDDestroy(VKPD *p)
   PetscCall(PetscFree4(pd->handle_node, pd->handle_id, pd->handle_row, pd->node_handle));
   PetscCall(PetscFree4(pd->contact, pd->contact_w, pd->contact_k, pd->contact_want));
   PetscCall(PetscFree(pd->tetW));
+  PetscCall(PetscFree(pd->tetS));
   PetscCall(PetscFree2(pd->hist_phi, pd->hist_res));
   if (pd->lbfgs_s) PetscCall(VecDestroyVecs(pd->lbfgs_m, &pd->lbfgs_s));
   if (pd->lbfgs_y) PetscCall(VecDestroyVecs(pd->lbfgs_m, &pd->lbfgs_y));
@@ -583,7 +584,7 @@ static PetscErrorCode CreateK(VKPD pd)
   PetscFunctionReturn(0);
 }
 
-/* K = M/dt^2 + 2 sum_e V_e (g_s + g_v) G_e^T G_e (+ the collider weights
+/* K = M/dt^2 + 2 sum_e V_e (g_s + g_v + g_c) G_e^T G_e (+ the collider weights
  * w_i on the free nodes of contact_k when the scene has colliders), then
  * Kel. */
 static PetscErrorCode AssembleK(VKPD pd)
@@ -592,15 +593,16 @@ static PetscErrorCode AssembleK(VKPD pd)
   const VKLayout  *L    = VKMeshLayout(pd->mesh);
   PetscReal        dsum = 0, dt2 = pd->dt * pd->dt, kmean;
   PetscInt         N, ne = L->eEnd - L->eStart;
-  const PetscReal *gamma, *Gall = VKMeshTetGradients(mesh), *vol = VKMeshTetVolumes(mesh);
+  const PetscReal *gamma, *coupling, *Gall = VKMeshTetGradients(mesh), *vol = VKMeshTetVolumes(mesh);
 
   PetscFunctionBegin;
   PetscCall(VKMaterialGetGammaArrayRead(pd->mat, &gamma));
+  PetscCall(VKMaterialGetCouplingArrayRead(pd->mat, &coupling));
   PetscCall(PetscLogEventBegin(VK_EVENT_PDSetUp, 0, 0, 0, 0));
   if (!pd->K) PetscCall(CreateK(pd));
   for (PetscInt e = 0; e < ne; e++) {
     const PetscReal *G  = Gall + 12 * (L->eStart + e);
-    PetscReal        w  = 2 * vol[L->eStart + e] * (gamma[2 * e] + gamma[2 * e + 1]);
+    PetscReal        w  = 2 * vol[L->eStart + e] * (gamma[2 * e] + gamma[2 * e + 1] + (coupling ? coupling[2 * e] : 0));
     PetscScalar     *Ke = pd->kcoo + 16 * e;
     for (int a = 0; a < 4; a++)
       for (int b = 0; b < 4; b++) Ke[4 * a + b] = w * (G[a] * G[b] + G[4 + a] * G[4 + b] + G[8 + a] * G[8 + b]);
@@ -749,6 +751,7 @@ PetscErrorCode VKPDSetUp(VKPD pd)
     PetscInt ne = VKMeshLayout(pd->mesh)->eEnd - VKMeshLayout(pd->mesh)->eStart;
     PetscCall(PetscCalloc4(nown + 1, &pd->contact, nown + 1, &pd->contact_w, nown + 1, &pd->contact_k, nown + 1, &pd->contact_want));
     PetscCall(PetscCalloc1(9 * ne + 1, &pd->tetW));
+    PetscCall(PetscCalloc1(ne + 1, &pd->tetS));
     for (PetscInt e = 0; e < ne; e++) pd->tetW[9 * e] = pd->tetW[9 * e + 4] = pd->tetW[9 * e + 8] = 1;
     PetscCall(VKMeshCreateNodeVec(pd->mesh, 3, &pd->b));
     PetscCall(VecDuplicate(pd->b, &pd->My));

@@ -1,6 +1,8 @@
 /* pd_solve.c: one implicit step by projective dynamics (DESIGN §7, paper
  * §7.1).  Local step: R_e and V_e of every owned tet (VKTetProject) and
  * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e)
+ * (+ 2 V_e g_c G_e^T T_e, T_e the coupling's target, where the material
+ * has the coupling; VKTetCouplingProject, warm-started per tet)
  * (+ the constant force of VKPDSetConstantForce; no M y/dt^2 when static).
  * Colliders (DESIGN §7): a penalty w_i/2 d(x_i)^2 and lagged smoothed
  * Coulomb friction per node (pd_contact.c); their local step adds
@@ -45,14 +47,15 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
   const PetscScalar *a;
   PetscScalar       *ba;
   VKSum              sum  = {0, 0};
-  PetscInt           ninv = 0, mine[1];
+  PetscInt           ninv = 0, nproj = 0, mine[1];
   PetscReal          Emine;
-  const PetscReal   *gamma;
+  const PetscReal   *gamma, *coupling;
   VKStretchBand      band;
 
   PetscFunctionBegin;
   PetscCall(PetscLogEventBegin(VK_EVENT_PDLocal, 0, 0, 0, 0));
   PetscCall(VKMaterialGetGammaArrayRead(pd->mat, &gamma));
+  PetscCall(VKMaterialGetCouplingArrayRead(pd->mat, &coupling));
   PetscCall(VKMaterialGetStretchBand(pd->mat, &band));
   PetscCall(VKMeshGetLocalPositions(x, &xl, &a));
   PetscCall(VecGhostGetLocalForm(b, &bl));
@@ -68,7 +71,18 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
       if (!(det[l] > 0)) ninv++;
       VKLayoutAddTet(L, e0 + l, rhs + 12 * l, ba);
     }
+    for (PetscInt l = 0; coupling && l < n; l++) {
+      PetscInt  e = e0 + l;
+      PetscReal Ec;
+      PetscBool ok;
+      if (coupling[2 * e] == 0) continue;
+      PetscCall(VKTetCouplingProject(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X + 12 * l, coupling[2 * e], coupling[2 * e + 1], pd->tetS + e, &Ec, rhs + 12 * l, &ok));
+      VKSumAdd(&sum, Ec);
+      nproj += !ok;
+      VKLayoutAddTet(L, e, rhs + 12 * l, ba);
+    }
   }
+  if (nproj) PetscCall(PetscInfo(NULL, "%d coupling projections stopped short of round-off (the residual test of the step decides)\n", (int)nproj));
   PetscCall(VecRestoreArray(bl, &ba));
   PetscCall(VecGhostRestoreLocalForm(b, &bl));
   PetscCall(VKMeshRestoreLocalPositions(x, &xl, &a));

@@ -25,11 +25,12 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
   const PetscScalar *a;
   PetscScalar       *fa;
   Vec                loc;
-  const PetscReal   *gamma;
+  const PetscReal   *gamma, *coupling;
   VKStretchBand      band;
 
   PetscFunctionBegin;
   PetscCall(VKMaterialGetGammaArrayRead(sim->mat, &gamma));
+  PetscCall(VKMaterialGetCouplingArrayRead(sim->mat, &coupling));
   PetscCall(VKMaterialGetStretchBand(sim->mat, &band));
   PetscCall(VKMeshGetLocalPositions(x, &loc, &a));
   PetscCall(VecGetArray(f, &fa));
@@ -43,6 +44,11 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
     J                             = st.svd.s[0] * st.svd.s[1] * st.svd.s[2];
     fa[VK_SIM_TET_FIELDS * e + 0] = J;
     fa[VK_SIM_TET_FIELDS * e + 1] = gamma[2 * e] * st.psi_s + gamma[2 * e + 1] * st.psi_v;
+    if (coupling && coupling[2 * e] > 0) {
+      VKCouplingState cs;
+      PetscCall(VKCouplingProject(F, coupling[2 * e + 1], 0, &cs));
+      fa[VK_SIM_TET_FIELDS * e + 1] += coupling[2 * e] * cs.psi;
+    }
     fa[VK_SIM_TET_FIELDS * e + 2] = st.svd.s[0];
     fa[VK_SIM_TET_FIELDS * e + 3] = st.svd.s[2];
     fa[VK_SIM_TET_FIELDS * e + 4] = J <= 0;
