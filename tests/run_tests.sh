@@ -496,6 +496,23 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/band.conflict" -mat_file "$fd/band/material.h5" -mat_band 0.8,1.2 -scene_duration 0.02 > "$fd/band.conflict.log" 2>&1 \
      && grep -q 'conflicts with the band 0.9,1.1' "$fd/band.conflict.log" && [ "$(ls "$fd/band.conflict")" = "mesh.h5" ]; then ok
   else not_ok "volknit sim -mat_band 0.8,1.2 with a material fitted at 0.9,1.1: expected a refusal and no output (see $fd/band.conflict.log)"; fi
+  # the stretch-to-bending coupling (-mat_coupling): g_s, g_v fitted beside
+  # it the same on 1 and 2 ranks, carried by material.h5 into volknit sim,
+  # and refused there beside another -mat_coupling
+  for n in 1 2; do
+    fit_dir "coupling$n"
+    if fit_run "coupling$n" "$n" -mat_coupling 2000 && [ -s "$fd/coupling$n/material.h5" ]; then ok
+    else not_ok "volknit fit -n $n -mat_coupling 2000: failed or no material.h5 (see $fd/coupling$n.log)"; fi
+  done
+  compare_material "$fd/coupling1/material.h5" "$fd/coupling2/material.h5" 1e-5 "coupling, 1 vs 2 ranks"
+  if timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$fd/coupling2" -options_file options/hang.opts -mat_file "$fd/coupling2/material.h5" -scene_duration 0.02 -sim_view > "$fd/coupling.sim.log" 2>&1 \
+     && grep -qF 'stretch-to-bending coupling): g_c in [2000., 2000.] Pa, nu in [0., 1.5]' "$fd/coupling.sim.log" \
+     && grep -q 'converged in every step' "$fd/coupling.sim.log"; then ok
+  else not_ok "volknit sim -mat_file of a fit with -mat_coupling 2000: expected the coupling (nu 0 and 1.5 by face) in the sim's material and every step converged (see $fd/coupling.sim.log)"; fi
+  rm -rf "$fd/coupling.conflict"; mkdir -p "$fd/coupling.conflict"; cp "$fd/ref/mesh.h5" "$fd/coupling.conflict/"
+  if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling.conflict" -mat_file "$fd/coupling1/material.h5" -mat_coupling 10 -scene_duration 0.02 > "$fd/coupling.conflict.log" 2>&1 \
+     && grep -q 'conflicts with the coupling stored in' "$fd/coupling.conflict.log" && [ "$(ls "$fd/coupling.conflict")" = "mesh.h5" ]; then ok
+  else not_ok "volknit sim -mat_coupling 10 with a material fitted with a coupling: expected a refusal and no output (see $fd/coupling.conflict.log)"; fi
   # stopped, then restarted: with the same rank count, and with the other
   # (the restart re-converges its equilibria from the checkpoint, so even on
   # the same ranks it agrees to solver tolerance, not bit for bit: 1.4e-7
@@ -526,13 +543,14 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   if fit_run "$d" 1 -fit_restart; then compare_material "$fd/n1/material.h5" "$fd/$d/material.h5" 1e-5 "killed, restarted"
   else not_ok "fit -fit_restart after a kill failed (see $fd/$d.log)"; fi
   # broken checkpoints: refused with a message, no material.h5
-  for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint" "band:this one has 0.9,1.1 (give the same -mat_band)"; do
+  for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint" "band:this one has 0.9,1.1 (give the same -mat_band)" "coupling:another stretch-to-bending coupling"; do
     kind=${case%%:*}; expect=${case#*:}; extra=""
     d="broken.$kind"; fit_dir "$d"
     case "$kind" in
       truncated) head -c 3000 "$fd/checkpoint.stop.n1.n1.h5" > "$fd/$d/fit_checkpoint.h5" ;;
       other) cp "$fd/ref/yls.h5" "$fd/$d/fit_checkpoint.h5" ;;
       band) cp "$fd/checkpoint.stop.n1.n1.h5" "$fd/$d/fit_checkpoint.h5"; extra="-mat_band 0.9,1.1" ;; # written without a band
+      coupling) cp "$fd/checkpoint.stop.n1.n1.h5" "$fd/$d/fit_checkpoint.h5"; extra="-mat_coupling 2000" ;; # written without a coupling
     esac
     # shellcheck disable=SC2086
     fit_run "$d" 2 -fit_restart $extra

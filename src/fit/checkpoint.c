@@ -55,7 +55,30 @@ typedef struct {
   VKFit              fit;
   const VKFitState  *st;
   const PetscScalar *avg, *gamma, *x;
+  PetscReal          coupling[2];
 } WriteCtx;
+
+/* The material's stretch-to-bending coupling in two numbers, sum g_c and
+ * sum g_c nu over all tets (0, 0 without one): a restart must fit with
+ * the coupling the checkpoint was written with.  Collective. */
+static PetscErrorCode CouplingDigest(VKFit fit, PetscReal d[2])
+{
+  const PetscReal *c;
+  const VKLayout  *L    = VKMeshLayout(fit->mesh);
+  VKSum            s[2] = {{0, 0}, {0, 0}};
+  PetscReal        mine[2];
+
+  PetscFunctionBegin;
+  PetscCall(VKMaterialGetCouplingArrayRead(fit->mat, &c));
+  for (PetscInt e = 0; c && e < L->eEnd - L->eStart; e++) {
+    VKSumAdd(&s[0], c[2 * e]);
+    VKSumAdd(&s[1], c[2 * e] * c[2 * e + 1]);
+  }
+  mine[0] = VKSumValue(&s[0]);
+  mine[1] = VKSumValue(&s[1]);
+  PetscCallMPI(MPI_Allreduce(mine, d, 2, MPIU_REAL, MPIU_SUM, fit->comm));
+  PetscFunctionReturn(0);
+}
 
 /* The material's stretch band (its accessor cannot fail). */
 static VKStretchBand Band(VKFit fit)
@@ -99,6 +122,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", VKMeshTetCount(fit->mesh), 2, w->gamma);
   if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/x", VKMeshNodeCount(fit->mesh), 3, w->x);
   if (!ierr && fit->nhist) ierr = VKH5WriteReal(&h, "/checkpoint/history", fit->nhist, HIST_COLS, hist);
+  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/coupling", 1, 2, w->coupling);
   if (!ierr) ierr = VKH5WriteAttrString(&h, g, "format", CHECKPOINT_FORMAT);
   for (size_t i = 0; i < sizeof(reals) / sizeof(reals[0]) && !ierr; i++) ierr = VKH5WriteAttrReal(&h, g, reals[i].name, reals[i].v);
   for (size_t i = 0; i < sizeof(ints) / sizeof(ints[0]) && !ierr; i++) ierr = VKH5WriteAttrInt(&h, g, ints[i].name, ints[i].v);
@@ -113,13 +137,14 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
 
 PetscErrorCode VKFitCheckpointWrite(VKFit fit, const char path[], const VKFitState *st)
 {
-  WriteCtx       w = {fit, st, NULL, NULL, NULL};
+  WriteCtx       w = {fit, st, NULL, NULL, NULL, {0, 0}};
   Vec            sa = NULL, sg = NULL, sx = NULL;
   PetscMPIInt    rank;
   PetscErrorCode ierr = 0;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
+  PetscCall(CouplingDigest(fit, w.coupling));
   PetscCall(GatherToZero(st->avg, &sa, &w.avg));
   if (st->phase >= 0) {
     PetscCall(GatherToZero(st->gamma, &sg, &w.gamma));
@@ -157,7 +182,7 @@ static PetscErrorCode TakeOwned(const char path[], const char name[], const Pets
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *st)
+static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscReal coupling[], VKFitState *st)
 {
   VKMesh     m = fit->mesh;
   VKStretchBand band = Band(fit);
@@ -180,6 +205,18 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "band_lo", &blo);
   if (!ierr) ierr = VKH5ReadAttrReal(&h, g, "band_hi", &bhi);
   if (!ierr && !(blo == band.lo && bhi == band.hi)) ierr = BAD("%s was written by a fit with the stretch band %g,%g; this one has %g,%g (give the same -mat_band)", path, (double)blo, (double)bhi, (double)band.lo, (double)band.hi);
+  {
+    PetscBool has = PETSC_FALSE;
+    PetscInt  rows;
+    PetscReal *c = NULL, was[2] = {0, 0}; /* written before the coupling existed: none */
+    if (!ierr) ierr = VKH5HasDataset(&h, "/checkpoint/coupling", &has);
+    if (!ierr && has) ierr = VKH5ReadReal(&h, "/checkpoint/coupling", 2, &rows, &c);
+    if (!ierr && has && rows == 1) was[0] = c[0], was[1] = c[1];
+    if (!ierr && has && rows != 1) ierr = BAD("%s: /checkpoint/coupling has %d rows, expected 1", path, (int)rows);
+    if (!ierr && !(PetscAbsReal(was[0] - coupling[0]) <= 1e-12 * PetscAbsReal(coupling[0]) && PetscAbsReal(was[1] - coupling[1]) <= 1e-12 * PetscAbsReal(coupling[1])))
+      ierr = BAD("%s was written by a fit with another stretch-to-bending coupling (sum of g_c over the tets %g; this one %g): give the same -mat_coupling, -mat_coupling_nu", path, (double)was[0], (double)coupling[0]);
+    PetscCall(PetscFree(c));
+  }
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "sample", &st->sample);
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "stage", &st->stage);
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "phase", &st->phase);
@@ -242,7 +279,10 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], VKFitState *s
 
 PetscErrorCode VKFitCheckpointRead(VKFit fit, const char path[], VKFitState *st)
 {
+  PetscReal coupling[2];
+
   PetscFunctionBegin;
-  VKCallCollective(fit->comm, ReadCheckpoint(fit, path, st));
+  PetscCall(CouplingDigest(fit, coupling));
+  VKCallCollective(fit->comm, ReadCheckpoint(fit, path, coupling, st));
   PetscFunctionReturn(0);
 }

@@ -152,7 +152,7 @@ PetscErrorCode VKMaterialSetCoupling(VKMaterial m, PetscReal gc, PetscReal nu_to
 {
   PetscFunctionBegin;
   PetscCheck(gc >= 0 && gc <= VK_GAMMA_MAX, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_coupling %g: the coupling stiffness g_c must be finite and in [0, %g] Pa (0: no coupling)", (double)gc, (double)VK_GAMMA_MAX);
-  PetscCheck(PetscAbsReal(nu_top) <= VK_COUPLING_NU_MAX && PetscAbsReal(nu_bottom) <= VK_COUPLING_NU_MAX, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_coupling_nu %g,%g: each contraction ratio must be finite and in [-%g, %g]", (double)nu_top, (double)nu_bottom, (double)VK_COUPLING_NU_MAX, (double)VK_COUPLING_NU_MAX);
+  PetscCheck(PetscAbsReal(nu_top) <= VK_COUPLING_NU_MAX && PetscAbsReal(nu_bottom) <= VK_COUPLING_NU_MAX, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_coupling_nu %g,%g: each contraction ratio must be finite and in [-%d, %d]", (double)nu_top, (double)nu_bottom, (int)VK_COUPLING_NU_MAX, (int)VK_COUPLING_NU_MAX);
   m->coupling_gc    = gc;
   m->coupling_nu[0] = nu_top;
   m->coupling_nu[1] = nu_bottom;
