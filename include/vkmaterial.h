@@ -89,13 +89,17 @@ PETSC_EXTERN void VKPsiHessian(const VKPsiState *, PetscReal gs, PetscReal gv, P
 typedef struct {
   PetscReal R[9], s; /* the optimal rotation and course stretch */
   PetscReal T[9];    /* R A(s), the closest target */
+  PetscReal W[9];    /* right singular rotation of F A(s) (a warm start for the next call) */
   PetscReal psi;     /* |F - T|^2 */
   PetscInt  its;     /* Newton steps on s */
   PetscBool converged;
 } VKCouplingState;
-/* The optimum from the course stretch s0 (a warm start; 0 cold).  A
- * non-finite F gives NaN throughout. */
-PETSC_EXTERN PetscErrorCode VKCouplingProject(const PetscReal F[], PetscReal nu, PetscReal s0, VKCouplingState *);
+/* The optimum from the course stretch s0 and the SVD's rotation W0 of
+ * the last call (warm starts; 0 and NULL cold).  A non-finite F gives NaN
+ * throughout. */
+PETSC_EXTERN PetscErrorCode VKCouplingProject(const PetscReal F[], PetscReal nu, PetscReal s0, const PetscReal W0[], VKCouplingState *);
+/* n <= VK_SVD3_BATCH of them at once (F, W0: 9 n entries; s0, W0 may be NULL). */
+PETSC_EXTERN PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const PetscReal nu[], const PetscReal s0[], const PetscReal W0[], VKCouplingState[]);
 /* d (g_c psi_c)/dF = 2 g_c (F - T) */
 PETSC_EXTERN void VKCouplingGradient(const VKCouplingState *, const PetscReal F[], PetscReal gc, PetscReal P[]);
 /* d2 (g_c psi_c)/dF2 (81), exact; with psd its negative eigenvalues clamped to zero. */
@@ -120,11 +124,14 @@ PETSC_EXTERN PetscErrorCode VKTetProject(PetscInt n, const PetscReal G[], const 
 /* The coupling's element energy V g_c psi_c, gradient (12) and Hessian
  * (144, optional; psd: projected), each optional, projected cold. */
 PETSC_EXTERN PetscErrorCode VKTetCouplingEvaluate(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gc, PetscReal nu, PetscBool psd, PetscReal *E, PetscReal g[], PetscReal H[]);
-/* The coupling's PD local step for one tet: its energy V g_c psi_c and
- * its share rhs[3a + r] = 2 V g_c sum_c T_rc G_ca of the right-hand side
- * (written, not added), from the course stretch *s of the last call
- * (updated); converged is the projection's. */
-PETSC_EXTERN PetscErrorCode VKTetCouplingProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gc, PetscReal nu, PetscReal *s, PetscReal *E, PetscReal rhs[], PetscBool *converged);
+/* The coupling's PD local step for n <= VK_SVD3_BATCH consecutive tets
+ * (G, vol as stored per tet, X and rhs 12 per tet, coupling: g_c, nu per
+ * tet): each tet's energy V g_c psi_c and its share rhs[3a + r] =
+ * 2 V g_c sum_c T_rc G_ca of the right-hand side (written, not added),
+ * from the warm start sW of the last call (10 per tet: the course stretch
+ * s, then the SVD's W; updated).  unconverged: how many projections
+ * stopped short of their tolerance. */
+PETSC_EXTERN PetscErrorCode VKTetCouplingProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal coupling[], PetscReal sW[], PetscReal E[], PetscReal rhs[], PetscInt *unconverged);
 
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;

@@ -212,7 +212,7 @@ static PetscReal Psi(const PetscReal F[], PetscReal gs, PetscReal gv)
   VKPsiState      st;
   VKCouplingState cs;
   if (coupling) {
-    VKCouplingProject(F, *coupling, 0, &cs);
+    VKCouplingProject(F, *coupling, 0, NULL, &cs);
     return gs * cs.psi;
   }
   VKPsiEvaluate(F, band, &st);
@@ -224,7 +224,7 @@ static void Grad(const PetscReal F[], PetscReal gs, PetscReal gv, PetscReal P[])
   VKPsiState      st;
   VKCouplingState cs;
   if (coupling) {
-    VKCouplingProject(F, *coupling, 0, &cs);
+    VKCouplingProject(F, *coupling, 0, NULL, &cs);
     VKCouplingGradient(&cs, F, gs, P);
     return;
   }
@@ -239,7 +239,7 @@ static PetscErrorCode Hess(const PetscReal F[], PetscReal gs, PetscReal gv, Pets
 
   PetscFunctionBegin;
   if (coupling) {
-    PetscCall(VKCouplingProject(F, *coupling, 0, &cs));
+    PetscCall(VKCouplingProject(F, *coupling, 0, NULL, &cs));
     PetscCall(VKCouplingHessian(&cs, F, *coupling, gs, psd, H));
   } else {
     PetscCall(VKPsiEvaluate(F, band, &st));
@@ -510,12 +510,12 @@ static PetscErrorCode TestCoupling(void)
     PetscReal       nu = nus[t % 3], best = PETSC_MAX_REAL, Q[9], s0 = 0.4 * Rand();
     VKCouplingState cs, cw;
     for (int i = 0; i < 9; i++) F[i] = (i % 4 == 0) + 0.35 * Rand();
-    PetscCall(VKCouplingProject(F, nu, 0, &cs));
+    PetscCall(VKCouplingProject(F, nu, 0, NULL, &cs));
     unconverged += !cs.converged;
     maxits = PetscMax(maxits, cs.its);
     for (int k = -3000; k <= 3000; k++) best = PetscMin(best, CouplingAt(F, nu, k * 1e-3)); /* s in [-3, 3] */
     worst_scan = PetscMax(worst_scan, cs.psi - best);
-    PetscCall(VKCouplingProject(F, nu, cs.s + 0.2, &cw));
+    PetscCall(VKCouplingProject(F, nu, cs.s + 0.2, cs.W, &cw));
     warm = PetscMax(warm, PetscAbsReal(cw.psi - cs.psi) + PetscAbsReal(cw.s - cs.s));
     /* F = Q A(s0) is reproduced exactly: psi = 0, s = s0 */
     RandomRotation(Q);
@@ -524,7 +524,7 @@ static PetscErrorCode TestCoupling(void)
       F[3 * r + 1] = Q[3 * r + 1] * (1 - nu * s0);
       F[3 * r + 2] = Q[3 * r + 2];
     }
-    PetscCall(VKCouplingProject(F, nu, 0, &cs));
+    PetscCall(VKCouplingProject(F, nu, 0, NULL, &cs));
     exact = PetscMax(exact, cs.psi + PetscAbsReal(cs.s - s0));
     for (int i = 0; i < 9; i++) exact = PetscMax(exact, PetscAbsReal(cs.T[i] - F[i]));
   }
@@ -535,7 +535,7 @@ static PetscErrorCode TestCoupling(void)
   { /* F = diag(1.3, 0.8, 1.1) with nu = 1.5: s = ((1.3 - 1) + 1.5 (1 - 0.8))/(1 + 2.25), R = I */
     VKCouplingState cs;
     PetscReal       Fd[9] = {1.3, 0, 0, 0, 0.8, 0, 0, 0, 1.1}, s = 0.6 / 3.25;
-    PetscCall(VKCouplingProject(Fd, 1.5, 0, &cs));
+    PetscCall(VKCouplingProject(Fd, 1.5, 0, NULL, &cs));
     fixed_psi = PetscSqr(0.3 - s) + PetscSqr(-0.2 + 1.5 * s) + 0.01;
     PetscCall(VKTestClose(cs.s, s, 1e-12, "coupling at F = diag(1.3, 0.8, 1.1), nu = 1.5: s = 0.6 / 3.25"));
     PetscCall(VKTestClose(cs.psi, fixed_psi, 1e-12, "coupling at F = diag(1.3, 0.8, 1.1), nu = 1.5: psi_c known"));
@@ -544,8 +544,31 @@ static PetscErrorCode TestCoupling(void)
     VKCouplingState cs;
     for (int i = 0; i < 9; i++) F[i] = i % 4 == 0;
     F[3] = (PetscReal)NAN;
-    PetscCall(VKCouplingProject(F, 1.5, 0, &cs));
+    PetscCall(VKCouplingProject(F, 1.5, 0, NULL, &cs));
     PetscCall(VKTestCheck((PetscBool)(PetscIsNanReal(cs.psi) && PetscIsNanReal(cs.T[0]) && !cs.converged), NULL, "coupling: a non-finite F gives NaN, not converged"));
+  }
+  { /* the batched projection (the PD local step's) gives each lane the bits it gives alone, warm or cold */
+    PetscInt differs = 0, lanes = 0;
+    for (int t = 0; t < 200; t++) {
+      PetscInt        n = 1 + t % VK_SVD3_BATCH;
+      PetscReal       Fb[9 * VK_SVD3_BATCH], nub[VK_SVD3_BATCH], s0[VK_SVD3_BATCH], W0[9 * VK_SVD3_BATCH];
+      VKCouplingState sb[VK_SVD3_BATCH], one;
+      for (PetscInt l = 0; l < n; l++) {
+        for (int i = 0; i < 9; i++) Fb[9 * l + i] = (i % 4 == 0) + 0.4 * Rand();
+        if (t % 37 == 5 && l == 0) Fb[4] = (PetscReal)NAN;
+        nub[l] = nus[(t + l) % 3];
+        s0[l]  = 0.3 * Rand();
+        RandomRotation(W0 + 9 * l);
+      }
+      PetscCall(VKCouplingProjectBatch(n, Fb, nub, t % 2 ? s0 : NULL, t % 2 ? W0 : NULL, sb));
+      for (PetscInt l = 0; l < n; l++) {
+        PetscCall(VKCouplingProject(Fb + 9 * l, nub[l], t % 2 ? s0[l] : 0, t % 2 ? W0 + 9 * l : NULL, &one));
+        differs += !Same(one.s, sb[l].s) || !Same(one.psi, sb[l].psi) || one.its != sb[l].its || one.converged != sb[l].converged;
+        for (int i = 0; i < 9; i++) differs += !Same(one.T[i], sb[l].T[i]);
+        lanes++;
+      }
+    }
+    PetscCall(VKTestCheck((PetscBool)(differs == 0), NULL, "coupling: the batched projection gives each of %d lanes the bits it gives alone (%d values differ)", (int)lanes, (int)differs));
   }
   for (int k = 0; k < 3; k++) {
     char name[64];

@@ -18,7 +18,10 @@
  * dR = U Om W^T, Om_ij = (Y_ij - Y_ji)/(s_i + s_j), Y = U^T F D W.
  * Safeguarded Newton on s (the fixed-curvature step -f'/(2|D|^2), which is
  * one step of alternating R and s, where f'' is small or negative, and
- * halving until f does not rise), warm-started by the caller.
+ * halving until f does not rise), warm-started by the caller; it stops
+ * when the predicted Newton step is below 1e-12 (1 + |s|).  Up to
+ * VK_SVD3_BATCH tets iterate in lockstep, their SVDs in SIMD lanes
+ * (VKSVD3ComputeBatch), each lane stepping as it would alone.
  *
  * Derivatives, with T = R A(s) at the optimum:
  *   d psi_c / dF = 2 (F - T)                   (envelope theorem),
@@ -64,19 +67,16 @@ static void TimesA(const PetscReal F[], PetscReal nu, PetscReal s, PetscReal X[]
   }
 }
 
-/* f, f', f'' at s, and R there. */
-static void Objective(const PetscReal F[], PetscReal nu, PetscReal s, PetscReal *f, PetscReal *df, PetscReal *d2f, PetscReal R[])
+/* f, f', f'' at s and R there, from the SVD of F A(s). */
+static void Objective(const PetscReal F[], PetscReal nu, PetscReal s, const VKSVD3 *svd, PetscReal *f, PetscReal *df, PetscReal *d2f, PetscReal R[])
 {
-  PetscReal X[9], M[9], FD[9], Y[9], T[9], Om[9], dR[9], dM[9], dD = 1 + nu * nu, smax;
-  VKSVD3    svd;
+  PetscReal M[9], FD[9], Y[9], T[9], Om[9], dR[9], dM[9], dD = 1 + nu * nu, smax;
 
-  TimesA(F, nu, s, X);
-  VKSVD3Compute(X, &svd);
   for (int r = 0; r < 3; r++)
-    for (int c = 0; c < 3; c++) R[3 * r + c] = svd.U[3 * r] * svd.W[3 * c] + svd.U[3 * r + 1] * svd.W[3 * c + 1] + svd.U[3 * r + 2] * svd.W[3 * c + 2];
+    for (int c = 0; c < 3; c++) R[3 * r + c] = svd->U[3 * r] * svd->W[3 * c] + svd->U[3 * r + 1] * svd->W[3 * c + 1] + svd->U[3 * r + 2] * svd->W[3 * c + 2];
   *f = 0;
   for (int i = 0; i < 9; i++) *f += F[i] * F[i];
-  *f += PetscSqr(1 + s) + PetscSqr(1 - nu * s) + 1 - 2 * (svd.s[0] + svd.s[1] + svd.s[2]);
+  *f += PetscSqr(1 + s) + PetscSqr(1 - nu * s) + 1 - 2 * (svd->s[0] + svd->s[1] + svd->s[2]);
   MatTransposeMult3(R, F, M);
   *df = 2 * ((s - (M[0] - 1)) - nu * ((1 - nu * s) - M[4]));
   /* dR/ds: Y = U^T (F D) W, Om antisymmetric, dR = U Om W^T */
@@ -85,64 +85,123 @@ static void Objective(const PetscReal F[], PetscReal nu, PetscReal s, PetscReal 
     FD[3 * r + 1] = -nu * F[3 * r + 1];
     FD[3 * r + 2] = 0;
   }
-  MatTransposeMult3(svd.U, FD, T);
-  MatMult3(T, svd.W, Y);
-  smax = 1 + PetscAbsReal(svd.s[0]);
+  MatTransposeMult3(svd->U, FD, T);
+  MatMult3(T, svd->W, Y);
+  smax = 1 + PetscAbsReal(svd->s[0]);
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++) {
-      PetscReal den = PetscMax(svd.s[i] + svd.s[j], 1e-10 * smax);
+      PetscReal den = PetscMax(svd->s[i] + svd->s[j], 1e-10 * smax);
       Om[3 * i + j] = i == j ? 0 : (Y[3 * i + j] - Y[3 * j + i]) / den;
     }
-  MatMult3(svd.U, Om, T);
+  MatMult3(svd->U, Om, T);
   for (int r = 0; r < 3; r++)
-    for (int c = 0; c < 3; c++) dR[3 * r + c] = T[3 * r] * svd.W[3 * c] + T[3 * r + 1] * svd.W[3 * c + 1] + T[3 * r + 2] * svd.W[3 * c + 2];
+    for (int c = 0; c < 3; c++) dR[3 * r + c] = T[3 * r] * svd->W[3 * c] + T[3 * r + 1] * svd->W[3 * c + 1] + T[3 * r + 2] * svd->W[3 * c + 2];
   MatTransposeMult3(dR, F, dM);
   *d2f = 2 * dD - 2 * (dM[0] - nu * dM[4]);
 }
 
-PetscErrorCode VKCouplingProject(const PetscReal F[], PetscReal nu, PetscReal s0, VKCouplingState *st)
+/* One lane of the batched projection. */
+typedef struct {
+  PetscReal s, f, df, d2f, R[9], W[9]; /* the current point */
+  PetscReal step, curv, Fn;            /* the pending trial s + step */
+  PetscInt  halvings;
+  PetscBool done;
+} Lane;
+
+/* A new Newton step for lane c, or done when the predicted step is below
+ * the tolerance (Newton converges quadratically, so its effect on T is
+ * below it too). */
+static void NextStep(Lane *c, VKCouplingState *st)
 {
-  PetscReal s = isfinite(s0) ? s0 : 0, f, df, d2f, R[9], curv = 2 * (1 + nu * nu), Fn = 0;
+  c->step     = c->d2f > 0.01 * c->curv ? -c->df / c->d2f : -c->df / c->curv;
+  c->halvings = 0;
+  if (PetscAbsReal(c->step) <= 1e-12 * (1 + PetscAbsReal(c->s))) {
+    st->converged = PETSC_TRUE;
+    c->done       = PETSC_TRUE;
+  } else if (st->its >= COUPLING_MAX_IT) c->done = PETSC_TRUE;
+}
+
+PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const PetscReal nu[], const PetscReal s0[], const PetscReal W0[], VKCouplingState st[])
+{
+  Lane      lane[VK_SVD3_BATCH];
+  PetscInt  idx[VK_SVD3_BATCH], m;
+  PetscReal X[9 * VK_SVD3_BATCH] = {0}, Wb[9 * VK_SVD3_BATCH] = {0};
+  VKSVD3    svd[VK_SVD3_BATCH];
 
   PetscFunctionBegin;
-  for (int i = 0; i < 9; i++) Fn += F[i] * F[i];
-  st->converged = PETSC_FALSE;
-  if (!isfinite(Fn) || !isfinite(nu)) {
-    for (int i = 0; i < 9; i++) st->R[i] = st->T[i] = (PetscReal)NAN;
-    st->s = st->psi = (PetscReal)NAN;
-    st->its         = 0;
-    PetscFunctionReturn(0);
+  PetscCheck(n >= 0 && n <= VK_SVD3_BATCH, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "At most %d coupling projections at once, got %d", VK_SVD3_BATCH, (int)n);
+  m = 0;
+  for (PetscInt l = 0; l < n; l++) {
+    Lane *c = lane + l;
+    c->s    = s0 && isfinite(s0[l]) ? s0[l] : 0;
+    c->curv = 2 * (1 + nu[l] * nu[l]);
+    c->Fn   = 0;
+    for (int i = 0; i < 9; i++) c->Fn += F[9 * l + i] * F[9 * l + i];
+    st[l].converged = PETSC_FALSE;
+    st[l].its       = 0;
+    c->done         = (PetscBool)!(isfinite(c->Fn) && isfinite(nu[l]));
+    if (c->done) continue; /* a non-finite F: NaN below */
+    TimesA(F + 9 * l, nu[l], c->s, X + 9 * m);
+    for (int i = 0; i < 9; i++) Wb[9 * m + i] = W0 ? W0[9 * l + i] : (i % 4 == 0);
+    idx[m++] = l;
   }
-  Objective(F, nu, s, &f, &df, &d2f, R);
-  for (st->its = 0; st->its < COUPLING_MAX_IT; st->its++) {
-    PetscReal step = d2f > 0.01 * curv ? -df / d2f : -df / curv, ft, dft, d2ft, Rt[9], tol = 1e-13 * (1 + PetscAbsReal(s));
-    int       k;
-    if (PetscAbsReal(df) <= 1e-14 * curv * (1 + PetscSqrtReal(Fn) + PetscAbsReal(s))) {
-      st->converged = PETSC_TRUE;
-      break;
+  VKSVD3ComputeBatch(m, X, Wb, svd);
+  for (PetscInt k = 0; k < m; k++) {
+    Lane *c = lane + idx[k];
+    Objective(F + 9 * idx[k], nu[idx[k]], c->s, svd + k, &c->f, &c->df, &c->d2f, c->R);
+    for (int i = 0; i < 9; i++) c->W[i] = svd[k].W[i];
+    NextStep(c, st + idx[k]);
+  }
+  for (;;) { /* every lane with a pending trial evaluates it, in one batched SVD */
+    m = 0;
+    for (PetscInt l = 0; l < n; l++) {
+      if (lane[l].done) continue;
+      TimesA(F + 9 * l, nu[l], lane[l].s + lane[l].step, X + 9 * m);
+      for (int i = 0; i < 9; i++) Wb[9 * m + i] = lane[l].W[i];
+      idx[m++] = l;
     }
-    for (k = 0; k < 40; k++, step *= 0.5) {
-      Objective(F, nu, s + step, &ft, &dft, &d2ft, Rt);
-      if (ft <= f + 1e-15 * (1 + Fn)) break;
-    }
-    if (k == 40) break; /* no decrease along -f': s is a minimum to round-off */
-    s += step, f = ft, df = dft, d2f = d2ft;
-    for (int i = 0; i < 9; i++) R[i] = Rt[i];
-    if (PetscAbsReal(step) <= tol) {
-      st->converged = PETSC_TRUE;
-      break;
+    if (!m) break;
+    VKSVD3ComputeBatch(m, X, Wb, svd);
+    for (PetscInt k = 0; k < m; k++) {
+      PetscInt  l = idx[k];
+      Lane     *c = lane + l;
+      PetscReal ft, dft, d2ft, Rt[9];
+      Objective(F + 9 * l, nu[l], c->s + c->step, svd + k, &ft, &dft, &d2ft, Rt);
+      if (ft <= c->f + 1e-15 * (1 + c->Fn)) { /* accepted */
+        c->s += c->step, c->f = ft, c->df = dft, c->d2f = d2ft;
+        for (int i = 0; i < 9; i++) c->R[i] = Rt[i], c->W[i] = svd[k].W[i];
+        st[l].its++;
+        NextStep(c, st + l);
+      } else if (++c->halvings < 40) c->step *= 0.5;
+      else c->done = PETSC_TRUE; /* no decrease along -f': s is a minimum to round-off */
     }
   }
-  if (!st->converged && PetscAbsReal(df) <= 1e-10 * curv * (1 + PetscSqrtReal(Fn) + PetscAbsReal(s))) st->converged = PETSC_TRUE; /* stuck at round-off */
-  st->s = s;
-  for (int i = 0; i < 9; i++) st->R[i] = R[i];
-  for (int r = 0; r < 3; r++) {
-    st->T[3 * r]     = R[3 * r] * (1 + s);
-    st->T[3 * r + 1] = R[3 * r + 1] * (1 - nu * s);
-    st->T[3 * r + 2] = R[3 * r + 2];
+  for (PetscInt l = 0; l < n; l++) {
+    Lane            *c = lane + l;
+    VKCouplingState *o = st + l;
+    if (!(isfinite(c->Fn) && isfinite(nu[l]))) {
+      for (int i = 0; i < 9; i++) o->R[i] = o->T[i] = o->W[i] = (PetscReal)NAN;
+      o->s = o->psi = (PetscReal)NAN;
+      continue;
+    }
+    if (!o->converged && PetscAbsReal(c->df) <= 1e-10 * c->curv * (1 + PetscSqrtReal(c->Fn) + PetscAbsReal(c->s))) o->converged = PETSC_TRUE; /* stuck at round-off */
+    o->s = c->s;
+    for (int i = 0; i < 9; i++) o->R[i] = c->R[i], o->W[i] = c->W[i];
+    for (int r = 0; r < 3; r++) {
+      o->T[3 * r]     = c->R[3 * r] * (1 + c->s);
+      o->T[3 * r + 1] = c->R[3 * r + 1] * (1 - nu[l] * c->s);
+      o->T[3 * r + 2] = c->R[3 * r + 2];
+    }
+    o->psi = 0;
+    for (int i = 0; i < 9; i++) o->psi += PetscSqr(F[9 * l + i] - o->T[i]);
   }
-  st->psi = 0;
-  for (int i = 0; i < 9; i++) st->psi += PetscSqr(F[i] - st->T[i]);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKCouplingProject(const PetscReal F[], PetscReal nu, PetscReal s0, const PetscReal W0[], VKCouplingState *st)
+{
+  PetscFunctionBegin;
+  PetscCall(VKCouplingProjectBatch(1, F, &nu, &s0, W0, st));
   PetscFunctionReturn(0);
 }
 

@@ -96,7 +96,7 @@ PetscErrorCode VKTetCouplingEvaluate(const PetscReal G[], PetscReal vol, const P
 
   PetscFunctionBegin;
   VKTetDeformation(G, X, F);
-  PetscCall(VKCouplingProject(F, nu, 0, &st));
+  PetscCall(VKCouplingProject(F, nu, 0, NULL, &st));
   if (E) *E = vol * gc * st.psi;
   if (g) {
     VKCouplingGradient(&st, F, gc, P);
@@ -110,18 +110,31 @@ PetscErrorCode VKTetCouplingEvaluate(const PetscReal G[], PetscReal vol, const P
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKTetCouplingProject(const PetscReal G[], PetscReal vol, const PetscReal X[], PetscReal gc, PetscReal nu, PetscReal *s, PetscReal *E, PetscReal rhs[], PetscBool *converged)
+PetscErrorCode VKTetCouplingProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal coupling[], PetscReal sW[], PetscReal E[], PetscReal rhs[], PetscInt *unconverged)
 {
-  PetscReal       F[9], P[9];
-  VKCouplingState st;
+  PetscReal       F[9 * VK_SVD3_BATCH] = {0}, nu[VK_SVD3_BATCH] = {0}, s0[VK_SVD3_BATCH] = {0}, W0[9 * VK_SVD3_BATCH] = {0}, P[9];
+  VKCouplingState st[VK_SVD3_BATCH];
 
   PetscFunctionBegin;
-  VKTetDeformation(G, X, F);
-  PetscCall(VKCouplingProject(F, nu, *s, &st));
-  if (isfinite(st.s)) *s = st.s;
-  *E         = vol * gc * st.psi;
-  *converged = st.converged;
-  for (int i = 0; i < 9; i++) P[i] = 2 * gc * st.T[i];
-  NodalForce(G, vol, P, rhs);
+  PetscCheck(n >= 0 && n <= VK_SVD3_BATCH, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "At most %d tets at once, got %d", VK_SVD3_BATCH, (int)n);
+  for (PetscInt l = 0; l < n; l++) {
+    VKTetDeformation(G + 12 * l, X + 12 * l, F + 9 * l);
+    nu[l] = coupling[2 * l + 1];
+    s0[l] = sW[10 * l];
+    for (int i = 0; i < 9; i++) W0[9 * l + i] = sW[10 * l + 1 + i];
+  }
+  PetscCall(VKCouplingProjectBatch(n, F, nu, s0, W0, st));
+  *unconverged = 0;
+  for (PetscInt l = 0; l < n; l++) {
+    PetscReal gc = coupling[2 * l];
+    if (isfinite(st[l].s)) {
+      sW[10 * l] = st[l].s;
+      for (int i = 0; i < 9; i++) sW[10 * l + 1 + i] = st[l].W[i];
+    }
+    E[l] = vol[l] * gc * st[l].psi;
+    *unconverged += !st[l].converged;
+    for (int i = 0; i < 9; i++) P[i] = 2 * gc * st[l].T[i];
+    NodalForce(G + 12 * l, vol[l], P, rhs + 12 * l);
+  }
   PetscFunctionReturn(0);
 }

@@ -751,7 +751,8 @@ PetscErrorCode VKPDSetUp(VKPD pd)
     PetscInt ne = VKMeshLayout(pd->mesh)->eEnd - VKMeshLayout(pd->mesh)->eStart;
     PetscCall(PetscCalloc4(nown + 1, &pd->contact, nown + 1, &pd->contact_w, nown + 1, &pd->contact_k, nown + 1, &pd->contact_want));
     PetscCall(PetscCalloc1(9 * ne + 1, &pd->tetW));
-    PetscCall(PetscCalloc1(ne + 1, &pd->tetS));
+    PetscCall(PetscCalloc1(10 * ne + 1, &pd->tetS));
+    for (PetscInt e = 0; e < ne; e++) pd->tetS[10 * e + 1] = pd->tetS[10 * e + 5] = pd->tetS[10 * e + 9] = 1;
     for (PetscInt e = 0; e < ne; e++) pd->tetW[9 * e] = pd->tetW[9 * e + 4] = pd->tetW[9 * e + 8] = 1;
     PetscCall(VKMeshCreateNodeVec(pd->mesh, 3, &pd->b));
     PetscCall(VecDuplicate(pd->b, &pd->My));

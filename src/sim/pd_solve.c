@@ -71,15 +71,14 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
       if (!(det[l] > 0)) ninv++;
       VKLayoutAddTet(L, e0 + l, rhs + 12 * l, ba);
     }
-    for (PetscInt l = 0; coupling && l < n; l++) {
-      PetscInt  e = e0 + l;
-      PetscReal Ec;
-      PetscBool ok;
-      if (coupling[2 * e] == 0) continue;
-      PetscCall(VKTetCouplingProject(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X + 12 * l, coupling[2 * e], coupling[2 * e + 1], pd->tetS + e, &Ec, rhs + 12 * l, &ok));
-      VKSumAdd(&sum, Ec);
-      nproj += !ok;
-      VKLayoutAddTet(L, e, rhs + 12 * l, ba);
+    if (coupling) {
+      PetscInt short_of;
+      PetscCall(VKTetCouplingProject(n, VKMeshTetGradients(mesh) + 12 * (L->eStart + e0), VKMeshTetVolumes(mesh) + L->eStart + e0, X, coupling + 2 * e0, pd->tetS + 10 * e0, Ee, rhs, &short_of));
+      nproj += short_of;
+      for (PetscInt l = 0; l < n; l++) {
+        VKSumAdd(&sum, Ee[l]);
+        VKLayoutAddTet(L, e0 + l, rhs + 12 * l, ba);
+      }
     }
   }
   if (nproj) PetscCall(PetscInfo(NULL, "%d coupling projections stopped short of round-off (the residual test of the step decides)\n", (int)nproj));

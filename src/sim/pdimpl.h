@@ -70,7 +70,7 @@ struct _n_VKPD {
   PetscReal  t;    /* time of the current solve (handles, moving colliders) */
   Vec        prev; /* start of the step (friction reference), or NULL */
   PetscReal *tetW; /* per owned tet: W of its last SVD (warm start) */
-  PetscReal *tetS; /* per owned tet: the coupling's course stretch s of its last projection (warm start) */
+  PetscReal *tetS; /* per owned tet, 10: the coupling's s and SVD rotation W of its last projection (warm start) */
   /* global step */
   Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
   PetscScalar *kcoo; /* K's values in the order of its coordinate list (CreateK) */

@@ -46,7 +46,7 @@ PetscErrorCode VKSimTetFields(VKSim sim, Vec x, Vec f)
     fa[VK_SIM_TET_FIELDS * e + 1] = gamma[2 * e] * st.psi_s + gamma[2 * e + 1] * st.psi_v;
     if (coupling && coupling[2 * e] > 0) {
       VKCouplingState cs;
-      PetscCall(VKCouplingProject(F, coupling[2 * e + 1], 0, &cs));
+      PetscCall(VKCouplingProject(F, coupling[2 * e + 1], 0, NULL, &cs));
       fa[VK_SIM_TET_FIELDS * e + 1] += coupling[2 * e] * cs.psi;
     }
     fa[VK_SIM_TET_FIELDS * e + 2] = st.svd.s[0];
