@@ -183,6 +183,9 @@ int main(int argc, char **argv)
     {"material.h5", "/material/band",   NULL,       SET_REAL,    1,  0.5,        "must be one pair lo,hi"                },
     {"material.h5", "/material/band",   NULL,       SET_REAL,    0,  NAN,        "must be one pair lo,hi"                },
     {"material.h5", "/material/band",   NULL,       RESHAPE,     2,  0,          "got 4 rows"                            },
+    {"material.h5", "/material/coupling", NULL,     SET_REAL,    4,  -5,         "has coupling g_c = -5"                 },
+    {"material.h5", "/material/coupling", NULL,     SET_REAL,    1,  NAN,        "nu finite in"                          },
+    {"material.h5", "/material/coupling", NULL,     RESHAPE,     2,  0,          "/material/coupling has 4 rows"         },
     {"material.h5", "/material",        "format",   ATTR_STRING, 0,  0,          "expected 'volknit-material 1'"         }
   };
 
@@ -200,6 +203,7 @@ int main(int argc, char **argv)
   {
     VKMaterial mat;
     PetscCall(VKMaterialCreate(m, &mat));
+    PetscCall(VKMaterialSetCoupling(mat, 100, 1.5, 0)); /* so that its datasets can be broken too */
     PetscCall(VKMaterialSetUp(mat));
     PetscCall(VKPathJoin(dir, "material.h5", path, sizeof(path)));
     PetscCall(VKMaterialWriteH5(mat, path));

@@ -430,7 +430,6 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   if (!ierr && hascoupling) ierr = VKH5ReadReal(&h, "/material/coupling", 2, &nc, &coupling);
   VKH5Close(&h);
   if (!ierr && hascoupling && m->coupling_set) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_coupling conflicts with the coupling stored in %s (the coupling the material was fitted with; leave -mat_coupling out)", path);
-  if (!ierr && hascoupling && nc != n) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/coupling has %d rows, /material/gamma %d", path, (int)nc, (int)n);
   if (!ierr) {
     PetscReal lo = band ? band[0] : 1, hi = band ? band[1] : 1;
     if (m->band_set && (lo != m->band.lo || hi != m->band.hi)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_band %g,%g conflicts with the band %g,%g of %s (the band the material was fitted with; leave -mat_band out)", (double)m->band.lo, (double)m->band.hi, (double)lo, (double)hi, path);
@@ -440,6 +439,7 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
     }
   }
   if (!ierr && !(n == VKMeshTetCount(mesh) && nv == n && nk == n)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s holds %d tets (voxels %d, Kuhn indices %d); the mesh has %d", path, (int)n, (int)nv, (int)nk, (int)VKMeshTetCount(mesh));
+  if (!ierr && hascoupling && nc != n) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/coupling has %d rows, /material/gamma %d", path, (int)nc, (int)n);
   if (!ierr) ierr = PetscFree(m->coupling);
   if (!ierr && coupling) ierr = PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->coupling);
   if (!ierr) ierr = PetscCalloc1(VKMeshTetCount(mesh), &seen);
