@@ -146,7 +146,7 @@ PETSC_EXTERN PetscErrorCode VKMaterialSetStretchBand(VKMaterial, PetscReal lo, P
 /* The stretch-to-bending coupling (coupling.c), uniform: g_c on every
  * tet, nu_top on tets above the mesh's mid-plane z, nu_bottom below
  * (-mat_coupling, -mat_coupling_nu; g_c = 0: none).  A material.h5 that
- * stores a coupling is then refused.  After set-up it replaces the
+ * stores another coupling is then refused.  After set-up it replaces the
  * coupling and raises the material's state, like VKMaterialSetGamma. */
 PETSC_EXTERN PetscErrorCode VKMaterialSetCoupling(VKMaterial, PetscReal gc, PetscReal nu_top, PetscReal nu_bottom);
 PETSC_EXTERN PetscErrorCode VKMaterialSetFromOptions(VKMaterial);

@@ -509,6 +509,8 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
      && grep -qF 'stretch-to-bending coupling): g_c in [2000., 2000.] Pa, nu in [0., 1.5]' "$fd/coupling.sim.log" \
      && grep -q 'converged in every step' "$fd/coupling.sim.log"; then ok
   else not_ok "volknit sim -mat_file of a fit with -mat_coupling 2000: expected the coupling (nu 0 and 1.5 by face) in the sim's material and every step converged (see $fd/coupling.sim.log)"; fi
+  if timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling1" -mat_file "$fd/coupling1/material.h5" -mat_coupling 2000 -scene_duration 0.02 > "$fd/coupling.same.log" 2>&1; then ok
+  else not_ok "volknit sim -mat_coupling 2000 with a material fitted with that coupling: expected it accepted, as volknit run passes both (see $fd/coupling.same.log)"; fi
   rm -rf "$fd/coupling.conflict"; mkdir -p "$fd/coupling.conflict"; cp "$fd/ref/mesh.h5" "$fd/coupling.conflict/"
   if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling.conflict" -mat_file "$fd/coupling1/material.h5" -mat_coupling 10 -scene_duration 0.02 > "$fd/coupling.conflict.log" 2>&1 \
      && grep -q 'conflicts with the coupling stored in' "$fd/coupling.conflict.log" && [ "$(ls "$fd/coupling.conflict")" = "mesh.h5" ]; then ok

@@ -402,8 +402,15 @@ int main(int argc, char **argv)
       const char *text;
       char       *spec = NULL;
       if (ierr) PetscErrorMessage(ierr, &text, &spec);
-      PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, "conflicts with the coupling")), spec, "a material.h5 with a coupling is refused where -mat_coupling gives one"));
+      PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, "conflicts with the coupling")), spec, "a material.h5 with a coupling is refused where -mat_coupling gives another"));
     }
+    PetscCall(VKMaterialDestroy(&other));
+    PetscCall(VKMaterialCreate(ms, &other));
+    PetscCall(VKMaterialSetCoupling(other, 3e3, 1.5, 0));
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = VKMaterialLoadH5(other, path);
+    PetscCall(PetscPopErrorHandler());
+    PetscCall(VKTestCheck((PetscBool)!ierr, NULL, "a material.h5 with a coupling loads where -mat_coupling gives the same one (volknit run passes it to the fit and the sim)"));
     PetscCall(VKMaterialDestroy(&other));
     PetscCall(VKMaterialSetCoupling(mat, 0, 1.5, 0));
     PetscCall(VKMaterialEnergy(mat, x, &Er));

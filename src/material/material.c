@@ -121,29 +121,42 @@ PetscErrorCode VKMaterialSetStretchBand(VKMaterial m, PetscReal lo, PetscReal hi
   PetscFunctionReturn(0);
 }
 
-/* g_c on every tet, nu_top or nu_bottom by the side of the mesh's
- * mid-plane z the tet's rest centroid lies on (the same on every
- * partition: the rest positions are global). */
-static PetscErrorCode UniformCoupling(VKMaterial m)
+/* The mesh's rest mid-plane z (the rest positions are global, so every
+ * partition agrees). */
+static PetscReal MidPlane(VKMesh mesh)
 {
-  const VKLayout  *L = VKMeshLayout(m->mesh);
-  const PetscReal *x = VKMeshRestPositions(m->mesh);
-  const PetscInt  *tet = VKMeshTets(m->mesh);
-  PetscReal        zlo = PETSC_MAX_REAL, zhi = -PETSC_MAX_REAL, mid;
+  const PetscReal *x   = VKMeshRestPositions(mesh);
+  PetscReal        zlo = PETSC_MAX_REAL, zhi = -PETSC_MAX_REAL;
 
-  PetscFunctionBegin;
-  for (PetscInt i = 0; i < VKMeshNodeCount(m->mesh); i++) {
+  for (PetscInt i = 0; i < VKMeshNodeCount(mesh); i++) {
     zlo = PetscMin(zlo, x[3 * i + 2]);
     zhi = PetscMax(zhi, x[3 * i + 2]);
   }
-  mid = 0.5 * (zlo + zhi);
+  return 0.5 * (zlo + zhi);
+}
+
+/* The uniform coupling's nu of (global) tet e: nu_top if its rest
+ * centroid lies on or above the mid-plane, nu_bottom below. */
+static PetscReal FaceNu(VKMaterial m, PetscInt e, PetscReal mid)
+{
+  const PetscReal *x = VKMeshRestPositions(m->mesh);
+  const PetscInt  *t = VKMeshTets(m->mesh) + 4 * e;
+  PetscReal        zc = 0.25 * (x[3 * t[0] + 2] + x[3 * t[1] + 2] + x[3 * t[2] + 2] + x[3 * t[3] + 2]);
+  return zc >= mid ? m->coupling_nu[0] : m->coupling_nu[1];
+}
+
+/* g_c on every owned tet, nu by face (FaceNu). */
+static PetscErrorCode UniformCoupling(VKMaterial m)
+{
+  const VKLayout *L   = VKMeshLayout(m->mesh);
+  PetscReal       mid = MidPlane(m->mesh);
+
+  PetscFunctionBegin;
   PetscCall(PetscFree(m->coupling));
   PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &m->coupling));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    const PetscInt *t = tet + 4 * (L->eStart + e);
-    PetscReal       zc = 0.25 * (x[3 * t[0] + 2] + x[3 * t[1] + 2] + x[3 * t[2] + 2] + x[3 * t[3] + 2]);
     m->coupling[2 * e]     = m->coupling_gc;
-    m->coupling[2 * e + 1] = zc >= mid ? m->coupling_nu[0] : m->coupling_nu[1];
+    m->coupling[2 * e + 1] = FaceNu(m, L->eStart + e, mid);
   }
   PetscFunctionReturn(0);
 }
@@ -408,7 +421,7 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   const VKLayout  *L    = VKMeshLayout(mesh);
   VKH5       h;
   PetscInt   n, nv = 0, nk = 0, nc = 0, *voxel = NULL, *kuhn = NULL, *seen = NULL;
-  PetscReal *gamma = NULL, *band = NULL, *coupling = NULL;
+  PetscReal *gamma = NULL, *band = NULL, *coupling = NULL, mid = MidPlane(mesh);
   PetscBool  hasband = PETSC_FALSE, hascoupling = PETSC_FALSE;
   char       format[64];
   PetscErrorCode ierr;
@@ -429,7 +442,6 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   if (!ierr) ierr = VKH5HasDataset(&h, "/material/coupling", &hascoupling);
   if (!ierr && hascoupling) ierr = VKH5ReadReal(&h, "/material/coupling", 2, &nc, &coupling);
   VKH5Close(&h);
-  if (!ierr && hascoupling && m->coupling_set) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_coupling conflicts with the coupling stored in %s (the coupling the material was fitted with; leave -mat_coupling out)", path);
   if (!ierr) {
     PetscReal lo = band ? band[0] : 1, hi = band ? band[1] : 1;
     if (m->band_set && (lo != m->band.lo || hi != m->band.hi)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_band %g,%g conflicts with the band %g,%g of %s (the band the material was fitted with; leave -mat_band out)", (double)m->band.lo, (double)m->band.hi, (double)lo, (double)hi, path);
@@ -458,6 +470,10 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
       break;
     }
     e = VKMeshTetOfKuhn(mesh)[6 * vi + kuhn[i]];
+    if (coupling && m->coupling_set && !(coupling[2 * i] == m->coupling_gc && coupling[2 * i + 1] == FaceNu(m, e, mid))) { /* what -mat_coupling would have made */
+      ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_coupling %g -mat_coupling_nu %g,%g conflicts with the coupling stored in %s (row %d: g_c %g, nu %g; the coupling the material was fitted with: leave -mat_coupling out)", (double)m->coupling_gc, (double)m->coupling_nu[0], (double)m->coupling_nu[1], path, (int)i, (double)coupling[2 * i], (double)coupling[2 * i + 1]);
+      break;
+    }
     if (seen[e]++) {
       ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: row %d repeats a tet", path, (int)i);
       break;
