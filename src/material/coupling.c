@@ -32,6 +32,7 @@
  * 9 x 9 Hessian at zero (LAPACK). */
 #include <vkmaterial.h>
 #include <petscblaslapack.h>
+#include "smallsolve.h"
 #include <math.h>
 
 #define COUPLING_MAX_IT 60
@@ -210,31 +211,6 @@ void VKCouplingGradient(const VKCouplingState *st, const PetscReal F[], PetscRea
   for (int i = 0; i < 9; i++) P[i] = 2 * gc * (F[i] - st->T[i]);
 }
 
-/* Solves A x = b (4 x 4, b in column 4) by elimination with partial
- * pivoting; 0 if singular. */
-static int Solve4(PetscReal A[4][5])
-{
-  for (int c = 0; c < 4; c++) {
-    int p = c;
-    for (int r = c + 1; r < 4; r++)
-      if (PetscAbsReal(A[r][c]) > PetscAbsReal(A[p][c])) p = r;
-    if (A[p][c] == 0) return 0;
-    for (int k = 0; k < 5 && p != c; k++) {
-      PetscReal t = A[c][k];
-      A[c][k] = A[p][k], A[p][k] = t;
-    }
-    for (int r = c + 1; r < 4; r++) {
-      PetscReal q = A[r][c] / A[c][c];
-      for (int k = c; k < 5; k++) A[r][k] -= q * A[c][k];
-    }
-  }
-  for (int c = 3; c >= 0; c--) {
-    for (int k = c + 1; k < 4; k++) A[c][4] -= A[c][k] * A[k][4];
-    A[c][4] /= A[c][c];
-  }
-  return 1;
-}
-
 /* The linearized optimality conditions at (R, s) for a change (w, ds, dF):
  * the axial vector of the skew part of d(R^T F A) and d tr(D (R^T F - A)). */
 static void Linearized(const PetscReal F[], PetscReal nu, const VKCouplingState *st, const PetscReal w[], PetscReal ds, const PetscReal dF[], PetscReal out[])
@@ -272,7 +248,7 @@ PetscErrorCode VKCouplingHessian(const VKCouplingState *st, const PetscReal F[],
       for (int k = 0; k < 4; k++) A[r][k] = L[r][k];
       A[r][4] = -e[r];
     }
-    if (!Solve4(A)) /* a degenerate optimum (a tet turned flat): T taken as fixed */
+    if (!VKSmallSolve(4, A)) /* a degenerate optimum (a tet turned flat): T taken as fixed */
       for (int r = 0; r < 4; r++) A[r][4] = 0;
     {
       PetscReal w[3] = {A[0][4], A[1][4], A[2][4]}, ds = A[3][4];

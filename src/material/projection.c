@@ -21,33 +21,7 @@
  * of the KKT system of the chosen active set.  The common case takes a
  * few-flop fast path (FastPath). */
 #include <vkmaterial.h>
-
-/* Solves A x = b (n <= 4, b in column n) by Gaussian elimination with
- * partial pivoting; 0 if singular. */
-static int Solve(int n, PetscReal A[4][5])
-{
-  for (int c = 0; c < n; c++) {
-    int p = c;
-    for (int r = c + 1; r < n; r++)
-      if (PetscAbsReal(A[r][c]) > PetscAbsReal(A[p][c])) p = r;
-    if (A[p][c] == 0) return 0;
-    if (p != c)
-      for (int k = 0; k <= n; k++) {
-        PetscReal t = A[c][k];
-        A[c][k]     = A[p][k];
-        A[p][k]     = t;
-      }
-    for (int r = c + 1; r < n; r++) {
-      PetscReal f = A[r][c] / A[c][c];
-      for (int k = c; k <= n; k++) A[r][k] -= f * A[c][k];
-    }
-  }
-  for (int c = n - 1; c >= 0; c--) {
-    for (int k = c + 1; k < n; k++) A[c][n] -= A[c][k] * A[k][n];
-    A[c][n] /= A[c][c];
-  }
-  return 1;
-}
+#include "smallsolve.h"
 
 /* phi(lambda) = sum log shat_i(lambda) - log C on the all-plus branch and
  * its derivative; -inf if a component is zero. */
@@ -100,7 +74,7 @@ static PetscReal Polish(int k, const PetscReal s[], PetscReal C, PetscReal x[], 
     for (int i = 0; i < k; i++) prod *= x[i];
     for (int i = 0; i < k; i++) K[i][k + 1] = -(x[i] - s[i] + *lambda * K[i][k]);
     K[k][k + 1] = -(prod - C);
-    if (!Solve(k + 1, K)) return PETSC_NINFINITY;
+    if (!VKSmallSolve(k + 1, K)) return PETSC_NINFINITY;
     for (int i = 0; i < k; i++) x[i] += K[i][k + 1];
     *lambda += K[k][k + 1];
     for (int i = 0; i < k; i++)
@@ -468,7 +442,7 @@ PetscErrorCode VKProjectVolume(const PetscReal s[], VKVolumeProjection *proj)
     for (int c = 0; c < k; c++) {
       KKTMatrix(proj->shat, f, k, proj->lambda, K);
       for (int i = 0; i <= k; i++) K[i][k + 1] = (i == c) ? 1 : 0;
-      PetscCheck(Solve(k + 1, K), PETSC_COMM_SELF, PETSC_ERR_MAT_LU_ZRPVT, "Singular KKT matrix in the volume projection");
+      PetscCheck(VKSmallSolve(k + 1, K), PETSC_COMM_SELF, PETSC_ERR_MAT_LU_ZRPVT, "Singular KKT matrix in the volume projection");
       for (int i = 0; i < k; i++) proj->J[3 * f[i] + f[c]] = K[i][k + 1];
     }
   }
