@@ -32,7 +32,7 @@
 # for one scene, e.g. FID_DURATION_stretch=1 for options/stretch.opts's
 # full 50 %, in the directory <scene>_<duration>s), FID_UNIFORM (10 100 1000 10000 Pa), FID_FIT_OPTS,
 # FID_MAT_OPTS (material options of the uniform runs and the fits, e.g.
-# "-mat_band 0.7,1.5"), FID_JOINT and FID_JOINT_OPTS (step 4) and FID_TAG (a suffix of the homogenized runs'
+# "-mat_band 0.7,1.5" or "-mat_coupling 3e5 -mat_coupling_nu 1.5,0"), FID_JOINT and FID_JOINT_OPTS (step 4) and FID_TAG (a suffix of the homogenized runs'
 # directories, so runs with other material or fit options sit beside them:
 # a fit is redone only when its yarn-level data is newer than its material).
 # Outputs in out/fidelity (outside tests/out, which make check clears); the
