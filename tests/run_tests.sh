@@ -498,7 +498,7 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   else not_ok "volknit sim -mat_band 0.8,1.2 with a material fitted at 0.9,1.1: expected a refusal and no output (see $fd/band.conflict.log)"; fi
   # the stretch-to-bending coupling (-mat_coupling): g_s, g_v fitted beside
   # it the same on 1 and 2 ranks, carried by material.h5 into volknit sim,
-  # and refused there beside another -mat_coupling
+  # accepted there beside the same -mat_coupling, refused beside another
   for n in 1 2; do
     fit_dir "coupling$n"
     if fit_run "coupling$n" "$n" -mat_coupling 2000 && [ -s "$fd/coupling$n/material.h5" ]; then ok
