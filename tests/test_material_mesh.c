@@ -187,6 +187,25 @@ static PetscErrorCode MaterialCheckGammaJacobian(VKMaterial mat, Vec x, Vec g, M
   PetscFunctionReturn(0);
 }
 
+/* Loads path into other (then destroyed) and checks that it loads (expect
+ * NULL) or is refused with a message containing expect. */
+static PetscErrorCode CheckLoad(VKMaterial *other, const char path[], const char expect[], const char what[])
+{
+  PetscErrorCode ierr;
+  const char    *text;
+  char          *spec = NULL;
+
+  PetscFunctionBegin;
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+  ierr = VKMaterialLoadH5(*other, path);
+  PetscCall(PetscPopErrorHandler());
+  if (ierr) PetscErrorMessage(ierr, &text, &spec);
+  if (expect) PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, expect)), spec, "%s", what));
+  else PetscCall(VKTestCheck((PetscBool)!ierr, spec, "%s", what));
+  PetscCall(VKMaterialDestroy(other));
+  PetscFunctionReturn(0);
+}
+
 /* Taylor tests of the assembled E -> g and g -> H (exact) at x along dx;
  * E and g at x out. */
 static PetscErrorCode AssembledTaylor(VKMaterial mat, Vec x, Vec dx, const char what[], PetscReal *E, Vec g)
@@ -327,7 +346,6 @@ int main(int argc, char **argv)
      * carries the band into a material that has none, but not into one
      * given another band */
     PetscReal      Eb, Ebs, gb, gbs;
-    PetscErrorCode ierr;
     VKMaterial     other;
     PetscCall(VKMaterialSetStretchBand(mat, 0.95, 1.1));
     PetscCall(VKMaterialEnergy(mat, x, &Eb));
@@ -344,16 +362,7 @@ int main(int argc, char **argv)
     PetscCall(VKTestCheck((PetscBool)(Eb > 0.05 * E && Eb < 0.95 * E && PetscAbsReal(Eb - Ebs) <= 1e-12 * Ebs && PetscAbsReal(gb - gbs) <= 1e-12 * gbs), NULL, "stretch band: energy between 5 %% and 95 %% of the paper material's (%.6g of %.6g: the band is crossed), energy and |g| equal one rank's after the round trip", (double)Eb, (double)E));
     PetscCall(VKMaterialCreate(ms, &other));
     PetscCall(VKMaterialSetStretchBand(other, 0.9, 1.2));
-    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-    ierr = VKMaterialLoadH5(other, path);
-    PetscCall(PetscPopErrorHandler());
-    {
-      const char *text;
-      char       *spec = NULL;
-      if (ierr) PetscErrorMessage(ierr, &text, &spec);
-      PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, "conflicts with the band")), spec, "a material.h5 fitted with one band is refused where -mat_band gives another"));
-    }
-    PetscCall(VKMaterialDestroy(&other));
+    PetscCall(CheckLoad(&other, path, "conflicts with the band", "a material.h5 fitted with one band is refused where -mat_band gives another"));
   }
   { /* the stretch-to-bending coupling on top of the paper material: exact
      * derivatives, no energy or force under a rigid motion, the same on one
@@ -361,7 +370,6 @@ int main(int argc, char **argv)
      * that has none, but not into one given its own */
     PetscReal        Ec, Ecs, gc, gcs, Er, gr, face[2] = {0, 0}, facestar[2];
     PetscInt         nface[2] = {0, 0}, nfaceall[2];
-    PetscErrorCode   ierr;
     VKMaterial       other;
     const PetscReal *cp;
     PetscObjectState s0, s1;
@@ -395,23 +403,10 @@ int main(int argc, char **argv)
     PetscCall(VKTestCheck((PetscBool)(Ec > 1.001 * Es && PetscAbsReal(Ec - Ecs) <= 1e-12 * Ecs && PetscAbsReal(gc - gcs) <= 1e-12 * gcs), NULL, "coupling: energy above the paper material's (%.6g of %.6g), energy and |g| equal one rank's after the material.h5 round trip", (double)Ec, (double)Es));
     PetscCall(VKMaterialCreate(ms, &other));
     PetscCall(VKMaterialSetCoupling(other, 10, 1, 1));
-    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-    ierr = VKMaterialLoadH5(other, path);
-    PetscCall(PetscPopErrorHandler());
-    {
-      const char *text;
-      char       *spec = NULL;
-      if (ierr) PetscErrorMessage(ierr, &text, &spec);
-      PetscCall(VKTestCheck((PetscBool)(ierr && spec && strstr(spec, "conflicts with the coupling")), spec, "a material.h5 with a coupling is refused where -mat_coupling gives another"));
-    }
-    PetscCall(VKMaterialDestroy(&other));
+    PetscCall(CheckLoad(&other, path, "conflicts with the coupling", "a material.h5 with a coupling is refused where -mat_coupling gives another"));
     PetscCall(VKMaterialCreate(ms, &other));
     PetscCall(VKMaterialSetCoupling(other, 3e3, 1.5, 0));
-    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-    ierr = VKMaterialLoadH5(other, path);
-    PetscCall(PetscPopErrorHandler());
-    PetscCall(VKTestCheck((PetscBool)!ierr, NULL, "a material.h5 with a coupling loads where -mat_coupling gives the same one (volknit run passes it to the fit and the sim)"));
-    PetscCall(VKMaterialDestroy(&other));
+    PetscCall(CheckLoad(&other, path, NULL, "a material.h5 with a coupling loads where -mat_coupling gives the same one (volknit run passes it to the fit and the sim)"));
     PetscCall(VKMaterialSetCoupling(mat, 0, 1.5, 0));
     PetscCall(VKMaterialEnergy(mat, x, &Er));
     PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(Er - E) <= 1e-12 * E), NULL, "coupling: g_c = 0 removes it (energy back to the paper material's)"));
