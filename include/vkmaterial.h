@@ -18,6 +18,8 @@
 #define VK_GAMMA_MAX 1e30
 /* The largest |nu| of the stretch-to-bending coupling accepted. */
 #define VK_COUPLING_NU_MAX 100
+/* Newton steps of the coupling's projection (default of -mat_coupling_max_it). */
+#define VK_COUPLING_MAX_IT 60
 
 /* ---- point kernels ------------------------------------------------------ */
 typedef struct {
@@ -98,8 +100,10 @@ typedef struct {
  * the last call (warm starts; 0 and NULL cold).  A non-finite F gives NaN
  * throughout. */
 PETSC_EXTERN PetscErrorCode VKCouplingProject(const PetscReal F[], PetscReal nu, PetscReal s0, const PetscReal W0[], VKCouplingState *);
-/* n <= VK_SVD3_BATCH of them at once (F, W0: 9 n entries; s0, W0 may be NULL). */
-PETSC_EXTERN PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const PetscReal nu[], const PetscReal s0[], const PetscReal W0[], VKCouplingState[]);
+/* n <= VK_SVD3_BATCH of them at once (F, W0: 9 n entries; s0, W0 may be
+ * NULL), at most max_it Newton steps each (VKCouplingProject: VK_COUPLING_MAX_IT);
+ * a lane that stops short of its tolerance says so (converged). */
+PETSC_EXTERN PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const PetscReal nu[], const PetscReal s0[], const PetscReal W0[], PetscInt max_it, VKCouplingState[]);
 /* d (g_c psi_c)/dF = 2 g_c (F - T) */
 PETSC_EXTERN void VKCouplingGradient(const VKCouplingState *, const PetscReal F[], PetscReal gc, PetscReal P[]);
 /* d2 (g_c psi_c)/dF2 (81), exact; with psd its negative eigenvalues clamped to zero. */
@@ -129,9 +133,9 @@ PETSC_EXTERN PetscErrorCode VKTetCouplingEvaluate(const PetscReal G[], PetscReal
  * tet): each tet's energy V g_c psi_c and its share rhs[3a + r] =
  * 2 V g_c sum_c T_rc G_ca of the right-hand side (written, not added),
  * from the warm start sW of the last call (10 per tet: the course stretch
- * s, then the SVD's W; updated).  unconverged: how many projections
- * stopped short of their tolerance. */
-PETSC_EXTERN PetscErrorCode VKTetCouplingProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal coupling[], PetscReal sW[], PetscReal E[], PetscReal rhs[], PetscInt *unconverged);
+ * s, then the SVD's W; updated), at most max_it Newton steps each.
+ * unconverged: how many projections stopped short of their tolerance. */
+PETSC_EXTERN PetscErrorCode VKTetCouplingProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal coupling[], PetscReal sW[], PetscInt max_it, PetscReal E[], PetscReal rhs[], PetscInt *unconverged);
 
 /* ---- the material over a mesh ------------------------------------------ */
 typedef struct _n_VKMaterial *VKMaterial;
@@ -169,6 +173,9 @@ PETSC_EXTERN PetscErrorCode VKMaterialGetStretchBand(VKMaterial, VKStretchBand *
 /* g_c, nu of the owned tets (2 each), NULL when the material has no
  * coupling; valid until the material is loaded again. */
 PETSC_EXTERN PetscErrorCode VKMaterialGetCouplingArrayRead(VKMaterial, const PetscReal **);
+/* The Newton steps the PD local step allows each coupling projection
+ * (-mat_coupling_max_it, default VK_COUPLING_MAX_IT). */
+PETSC_EXTERN PetscErrorCode VKMaterialGetCouplingMaxIt(VKMaterial, PetscInt *);
 /* The material.h5 the values came from or were last written to (""
  * for a uniform material). */
 PETSC_EXTERN PetscErrorCode VKMaterialGetFile(VKMaterial, const char **);

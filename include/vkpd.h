@@ -108,7 +108,8 @@ typedef enum {
   VK_PD_CONVERGED_FTOL = 4,  /* |grad Phi| <= ftol f_scale */
   VK_PD_CONVERGED_ITS  = 5,  /* -pd_fixed_its: the iterations asked for, residual not measured */
   VK_PD_NEWTON_FAILED  = 6,  /* the Newton polish ended above its target (accepted, unconverged) */
-  VK_PD_STALLED        = 7   /* neither projected Newton's direction nor the PD step lowers Phi (its round-off), above the tolerance (accepted, unconverged) */
+  VK_PD_STALLED        = 7,  /* neither projected Newton's direction nor the PD step lowers Phi (its round-off), above the tolerance (accepted, unconverged) */
+  VK_PD_PROJECTION_SHORT = 8 /* met the tolerance, but coupling projections of the last evaluation stopped short of round-off (-mat_coupling_max_it), so its residual is not exact (accepted, unconverged) */
 } VKPDReason;
 PETSC_EXTERN const char *VKPDReasonName(VKPDReason);
 /* A reason that ends a solve with a result that met its tolerance. */
@@ -143,6 +144,7 @@ typedef struct {
   PetscReal      force_scale, tolerance; /* f_scale and the tolerance on |grad Phi| at the end (N) */
   PetscReal      requested;             /* the tolerance the options ask for, max(ftol f_scale, atol, rtol |grad Phi(x0)|): below tolerance where the round-off floor set it */
   PetscInt       line_search_restarts;  /* L-BFGS and projected Newton: directions rejected, PD step taken instead */
+  PetscInt       projections_short;     /* coupling projections of the last evaluation that stopped short of round-off */
   PetscInt       newton_reason;         /* SNESConvergedReason of the Newton polish (0: none) */
   PetscReal      phi, energy;         /* Phi and the elastic energy at the end */
   PetscInt       inverted, contacts;  /* tets with det F <= 0, nodes inside colliders */

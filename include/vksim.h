@@ -24,10 +24,11 @@ PETSC_EXTERN PetscErrorCode VKTSPDGetVelocity(TS, Vec *);
 /* Statistics of the last step and totals over all steps so far. */
 typedef struct {
   PetscInt       steps, iterations, iterations_max, newton_its, inverted_max, contacts_max, max_it_steps;
-  PetscInt       unconverged_steps, first_unconverged_step; /* steps that ended above their tolerance (MAX_IT, NEWTON_FAILED, STALLED, or at the round-off floor above the requested one) */
+  PetscInt       unconverged_steps, first_unconverged_step; /* steps that ended above their tolerance or not exactly (MAX_IT, NEWTON_FAILED, STALLED, PROJECTION_SHORT, or at the round-off floor above the requested one) */
   PetscInt       unmeasured_steps;                          /* -pd_fixed_its steps */
   PetscInt       roundoff_steps;                            /* of those, stopped at the round-off floor above the requested tolerance */
   PetscInt       stalled_steps;                             /* of those, STALLED: no decrease of Phi left to find */
+  PetscInt       projection_short_steps;                    /* of those, PROJECTION_SHORT: coupling projections stopped short */
   PetscInt       line_search_restarts;                      /* rejected L-BFGS or projected Newton directions, PD step taken instead */
   PetscReal      residual_rel_max, residual_rel_last, depth_max;
   PetscReal      residual_force_max;        /* max over steps of |grad Phi| / f_scale at the end of the step */

@@ -511,6 +511,16 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   else not_ok "volknit sim -mat_file of a fit with -mat_coupling 2000: expected the coupling (nu 0 and 1.5 by face) in the sim's material and every step converged (see $fd/coupling.sim.log)"; fi
   if timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling1" -mat_file "$fd/coupling1/material.h5" -mat_coupling 2000 -scene_duration 0.02 > "$fd/coupling.same.log" 2>&1; then ok
   else not_ok "volknit sim -mat_coupling 2000 with a material fitted with that coupling: expected it accepted, as volknit run passes both (see $fd/coupling.same.log)"; fi
+  # projections stopped short (no Newton step allowed): every such step is
+  # unconverged, warned about and counted in sim.json; an error with -sim_strict
+  rm -rf "$fd/coupling.short"; mkdir -p "$fd/coupling.short"; cp "$fd/ref/mesh.h5" "$fd/coupling.short/"
+  if timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling.short" -options_file options/stretch.opts -mat_coupling 2000 -mat_coupling_max_it 0 -scene_duration 0.05 > "$fd/coupling.short.log" 2>&1 \
+     && grep -q 'did not converge (PROJECTION_SHORT)' "$fd/coupling.short.log" && grep -q '"status": "unconverged"' "$fd/coupling.short/sim.json" \
+     && grep -Eq '"steps_projection_short": [1-9]' "$fd/coupling.short/sim.json"; then ok
+  else not_ok "volknit sim -mat_coupling_max_it 0: expected PROJECTION_SHORT warnings, status unconverged and steps_projection_short in sim.json (see $fd/coupling.short.log)"; fi
+  if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling.short" -options_file options/stretch.opts -mat_coupling 2000 -mat_coupling_max_it 0 -scene_duration 0.05 -sim_strict > "$fd/coupling.strict.log" 2>&1 \
+     && grep -q 'raise -mat_coupling_max_it' "$fd/coupling.strict.log"; then ok
+  else not_ok "volknit sim -mat_coupling_max_it 0 -sim_strict: expected an error naming -mat_coupling_max_it (see $fd/coupling.strict.log)"; fi
   rm -rf "$fd/coupling.conflict"; mkdir -p "$fd/coupling.conflict"; cp "$fd/ref/mesh.h5" "$fd/coupling.conflict/"
   if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling.conflict" -mat_file "$fd/coupling1/material.h5" -mat_coupling 10 -scene_duration 0.02 > "$fd/coupling.conflict.log" 2>&1 \
      && grep -q 'conflicts with the coupling stored in' "$fd/coupling.conflict.log" && [ "$(ls "$fd/coupling.conflict")" = "mesh.h5" ]; then ok

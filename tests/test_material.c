@@ -560,7 +560,7 @@ static PetscErrorCode TestCoupling(void)
         s0[l]  = 0.3 * Rand();
         RandomRotation(W0 + 9 * l);
       }
-      PetscCall(VKCouplingProjectBatch(n, Fb, nub, t % 2 ? s0 : NULL, t % 2 ? W0 : NULL, sb));
+      PetscCall(VKCouplingProjectBatch(n, Fb, nub, t % 2 ? s0 : NULL, t % 2 ? W0 : NULL, VK_COUPLING_MAX_IT, sb));
       for (PetscInt l = 0; l < n; l++) {
         PetscCall(VKCouplingProject(Fb + 9 * l, nub[l], t % 2 ? s0[l] : 0, t % 2 ? W0 + 9 * l : NULL, &one));
         differs += !Same(one.s, sb[l].s) || !Same(one.psi, sb[l].psi) || one.its != sb[l].its || one.converged != sb[l].converged;

@@ -115,7 +115,7 @@ static PetscErrorCode Reached(VKPD pd, const VKPDStats *st, PetscReal tol, Petsc
 
   PetscFunctionBegin;
   PetscCall(VKPDGetRoundoffFloor(pd, &floor));
-  *ok = (st->reason != VK_PD_DIVERGED_NAN && st->residual <= PetscMax(tol, floor)) ? PETSC_TRUE : PETSC_FALSE;
+  *ok = (st->reason != VK_PD_DIVERGED_NAN && !st->projections_short && st->residual <= PetscMax(tol, floor)) ? PETSC_TRUE : PETSC_FALSE;
   PetscFunctionReturn(0);
 }
 

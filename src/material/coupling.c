@@ -35,7 +35,6 @@
 #include "smallsolve.h"
 #include <math.h>
 
-#define COUPLING_MAX_IT 60
 
 /* [w]x v = w x v */
 static void Cross(const PetscReal w[], PetscReal C[])
@@ -112,17 +111,17 @@ typedef struct {
 /* A new Newton step for lane c, or done when the predicted step is below
  * the tolerance (Newton converges quadratically, so its effect on T is
  * below it too). */
-static void NextStep(Lane *c, VKCouplingState *st)
+static void NextStep(Lane *c, PetscInt max_it, VKCouplingState *st)
 {
   c->step     = c->d2f > 0.01 * c->curv ? -c->df / c->d2f : -c->df / c->curv;
   c->halvings = 0;
   if (PetscAbsReal(c->step) <= 1e-12 * (1 + PetscAbsReal(c->s))) {
     st->converged = PETSC_TRUE;
     c->done       = PETSC_TRUE;
-  } else if (st->its >= COUPLING_MAX_IT) c->done = PETSC_TRUE;
+  } else if (st->its >= max_it) c->done = PETSC_TRUE;
 }
 
-PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const PetscReal nu[], const PetscReal s0[], const PetscReal W0[], VKCouplingState st[])
+PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const PetscReal nu[], const PetscReal s0[], const PetscReal W0[], PetscInt max_it, VKCouplingState st[])
 {
   Lane      lane[VK_SVD3_BATCH];
   PetscInt  idx[VK_SVD3_BATCH], m;
@@ -151,7 +150,7 @@ PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const Pet
     Lane *c = lane + idx[k];
     Objective(F + 9 * idx[k], nu[idx[k]], c->s, svd + k, &c->f, &c->df, &c->d2f, c->R);
     for (int i = 0; i < 9; i++) c->W[i] = svd[k].W[i];
-    NextStep(c, st + idx[k]);
+    NextStep(c, max_it, st + idx[k]);
   }
   for (;;) { /* every lane with a pending trial evaluates it, in one batched SVD */
     m = 0;
@@ -172,7 +171,7 @@ PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const Pet
         c->s += c->step, c->f = ft, c->df = dft, c->d2f = d2ft;
         for (int i = 0; i < 9; i++) c->R[i] = Rt[i], c->W[i] = svd[k].W[i];
         st[l].its++;
-        NextStep(c, st + l);
+        NextStep(c, max_it, st + l);
       } else if (++c->halvings < 40) c->step *= 0.5;
       else c->done = PETSC_TRUE; /* no decrease along -f': s is a minimum to round-off */
     }
@@ -202,7 +201,7 @@ PetscErrorCode VKCouplingProjectBatch(PetscInt n, const PetscReal F[], const Pet
 PetscErrorCode VKCouplingProject(const PetscReal F[], PetscReal nu, PetscReal s0, const PetscReal W0[], VKCouplingState *st)
 {
   PetscFunctionBegin;
-  PetscCall(VKCouplingProjectBatch(1, F, &nu, &s0, W0, st));
+  PetscCall(VKCouplingProjectBatch(1, F, &nu, &s0, W0, VK_COUPLING_MAX_IT, st));
   PetscFunctionReturn(0);
 }
 

@@ -34,6 +34,7 @@ PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
   m->band.lo = m->band.hi = 1;
   m->coupling_nu[0] = DEFAULT_NU_TOP;
   m->coupling_nu[1] = DEFAULT_NU_BOTTOM;
+  m->coupling_max_it = VK_COUPLING_MAX_IT;
   *mat       = m;
   PetscFunctionReturn(0);
 }
@@ -65,6 +66,13 @@ PetscErrorCode VKMaterialGetCouplingArrayRead(VKMaterial m, const PetscReal **co
   PetscFunctionBegin;
   PetscCheck(m->setup, m->comm, PETSC_ERR_ORDER, "Call VKMaterialSetUp() before VKMaterialGetCouplingArrayRead()");
   *coupling = m->coupling;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetCouplingMaxIt(VKMaterial m, PetscInt *max_it)
+{
+  PetscFunctionBegin;
+  *max_it = m->coupling_max_it;
   PetscFunctionReturn(0);
 }
 
@@ -200,6 +208,8 @@ PetscErrorCode VKMaterialSetFromOptions(VKMaterial m)
   if (nuset) PetscCheck(nnu == 2, m->comm, PETSC_ERR_ARG_WRONG, "-mat_coupling_nu takes two values top,bottom; got %d", (int)nnu);
   PetscCheck(set || !nuset, m->comm, PETSC_ERR_ARG_WRONG, "-mat_coupling_nu needs -mat_coupling g_c (the coupling's stiffness, Pa)");
   if (set) PetscCall(VKMaterialSetCoupling(m, gc, nu[0], nu[1]));
+  PetscCall(PetscOptionsInt("-mat_coupling_max_it", "Newton steps of each coupling projection in the PD local step (a step whose last projections stop short of round-off is unconverged)", "VKMaterialGetCouplingMaxIt", m->coupling_max_it, &m->coupling_max_it, NULL));
+  PetscCheck(m->coupling_max_it >= 0, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "-mat_coupling_max_it %d must be >= 0", (int)m->coupling_max_it);
   PetscCall(PetscOptionsString("-mat_file", "Per-element material (material.h5 of volknit fit)", "VKMaterialLoadH5", m->file, m->file, sizeof(m->file), &set));
   PetscOptionsEnd();
   PetscFunctionReturn(0);

@@ -13,6 +13,7 @@ struct _n_VKMaterial {
   PetscReal *gamma;                      /* 2 per owned tet: g_s, g_v (change them by VKMaterialSetGamma) */
   PetscReal coupling_gc, coupling_nu[2]; /* uniform coupling (-mat_coupling, -mat_coupling_nu top,bottom) */
   PetscBool coupling_set;                /* -mat_coupling given: a file's coupling must not be there too */
+  PetscInt  coupling_max_it;             /* Newton steps of each projection in the PD local step (-mat_coupling_max_it) */
   PetscReal *coupling;                   /* 2 per owned tet: g_c, nu; NULL without the coupling term */
   PetscObjectState state;                /* raised by every change of gamma */
   PetscObjectState *domain_state;        /* per mesh domain: raised when one of its owned tets changes */

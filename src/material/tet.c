@@ -110,7 +110,7 @@ PetscErrorCode VKTetCouplingEvaluate(const PetscReal G[], PetscReal vol, const P
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKTetCouplingProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal coupling[], PetscReal sW[], PetscReal E[], PetscReal rhs[], PetscInt *unconverged)
+PetscErrorCode VKTetCouplingProject(PetscInt n, const PetscReal G[], const PetscReal vol[], const PetscReal X[], const PetscReal coupling[], PetscReal sW[], PetscInt max_it, PetscReal E[], PetscReal rhs[], PetscInt *unconverged)
 {
   PetscReal       F[9 * VK_SVD3_BATCH] = {0}, nu[VK_SVD3_BATCH] = {0}, s0[VK_SVD3_BATCH] = {0}, W0[9 * VK_SVD3_BATCH] = {0}, P[9];
   VKCouplingState st[VK_SVD3_BATCH];
@@ -123,7 +123,7 @@ PetscErrorCode VKTetCouplingProject(PetscInt n, const PetscReal G[], const Petsc
     s0[l] = sW[10 * l];
     for (int i = 0; i < 9; i++) W0[9 * l + i] = sW[10 * l + 1 + i];
   }
-  PetscCall(VKCouplingProjectBatch(n, F, nu, s0, W0, st));
+  PetscCall(VKCouplingProjectBatch(n, F, nu, s0, W0, max_it, st));
   *unconverged = 0;
   for (PetscInt l = 0; l < n; l++) {
     PetscReal gc = coupling[2 * l];

@@ -24,8 +24,8 @@
 
 const char *VKPDReasonName(VKPDReason r)
 {
-  static const char *const names[] = {"DIVERGED_GLOBAL", "DIVERGED_NAN", "ITERATING", "CONVERGED_RTOL", "CONVERGED_ATOL", "MAX_IT", "CONVERGED_FTOL", "CONVERGED_ITS", "NEWTON_FAILED", "STALLED"};
-  return r >= VK_PD_DIVERGED_GLOBAL && r <= VK_PD_STALLED ? names[r - VK_PD_DIVERGED_GLOBAL] : "UNKNOWN";
+  static const char *const names[] = {"DIVERGED_GLOBAL", "DIVERGED_NAN", "ITERATING", "CONVERGED_RTOL", "CONVERGED_ATOL", "MAX_IT", "CONVERGED_FTOL", "CONVERGED_ITS", "NEWTON_FAILED", "STALLED", "PROJECTION_SHORT"};
+  return r >= VK_PD_DIVERGED_GLOBAL && r <= VK_PD_PROJECTION_SHORT ? names[r - VK_PD_DIVERGED_GLOBAL] : "UNKNOWN";
 }
 
 const char *const VKPDTypes[] = {"pd", "lbfgs", "VKPDType", "VK_PD_TYPE_", NULL};

@@ -2,7 +2,9 @@
  * §7.1).  Local step: R_e and V_e of every owned tet (VKTetProject) and
  * the right-hand side b(x) = M y/dt^2 + 2 sum_e V_e G_e^T (g_s R_e + g_v V_e)
  * (+ 2 V_e g_c G_e^T T_e, T_e the coupling's target, where the material
- * has the coupling; VKTetCouplingProject, warm-started per tet)
+ * has the coupling; VKTetCouplingProject, warm-started per tet; a solve
+ * whose last evaluation had projections stop short of round-off ends
+ * PROJECTION_SHORT, unconverged)
  * (+ the constant force of VKPDSetConstantForce; no M y/dt^2 when static).
  * Colliders (DESIGN §7): a penalty w_i/2 d(x_i)^2 and lagged smoothed
  * Coulomb friction per node (pd_contact.c); their local step adds
@@ -47,7 +49,7 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
   const PetscScalar *a;
   PetscScalar       *ba;
   VKSum              sum  = {0, 0};
-  PetscInt           ninv = 0, nproj = 0, mine[1];
+  PetscInt           ninv = 0, nproj = 0, max_it, mine[2], all[2];
   PetscReal          Emine;
   const PetscReal   *gamma, *coupling;
   VKStretchBand      band;
@@ -56,6 +58,7 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
   PetscCall(PetscLogEventBegin(VK_EVENT_PDLocal, 0, 0, 0, 0));
   PetscCall(VKMaterialGetGammaArrayRead(pd->mat, &gamma));
   PetscCall(VKMaterialGetCouplingArrayRead(pd->mat, &coupling));
+  PetscCall(VKMaterialGetCouplingMaxIt(pd->mat, &max_it));
   PetscCall(VKMaterialGetStretchBand(pd->mat, &band));
   PetscCall(VKMeshGetLocalPositions(x, &xl, &a));
   PetscCall(VecGhostGetLocalForm(b, &bl));
@@ -73,7 +76,7 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
     }
     if (coupling) {
       PetscInt short_of;
-      PetscCall(VKTetCouplingProject(n, VKMeshTetGradients(mesh) + 12 * (L->eStart + e0), VKMeshTetVolumes(mesh) + L->eStart + e0, X, coupling + 2 * e0, pd->tetS + 10 * e0, Ee, rhs, &short_of));
+      PetscCall(VKTetCouplingProject(n, VKMeshTetGradients(mesh) + 12 * (L->eStart + e0), VKMeshTetVolumes(mesh) + L->eStart + e0, X, coupling + 2 * e0, pd->tetS + 10 * e0, max_it, Ee, rhs, &short_of));
       nproj += short_of;
       for (PetscInt l = 0; l < n; l++) {
         VKSumAdd(&sum, Ee[l]);
@@ -81,7 +84,6 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
       }
     }
   }
-  if (nproj) PetscCall(PetscInfo(NULL, "%d coupling projections stopped short of round-off (the residual test of the step decides)\n", (int)nproj));
   PetscCall(VecRestoreArray(bl, &ba));
   PetscCall(VecGhostRestoreLocalForm(b, &bl));
   PetscCall(VKMeshRestoreLocalPositions(x, &xl, &a));
@@ -89,8 +91,11 @@ PetscErrorCode VKPDLocalStep(VKPD pd, Vec x, Vec b, PetscReal *E, PetscInt *inve
   PetscCall(VecGhostUpdateEnd(b, ADD_VALUES, SCATTER_REVERSE));
   Emine   = VKSumValue(&sum);
   mine[0] = ninv;
+  mine[1] = nproj;
   PetscCallMPI(MPI_Allreduce(&Emine, E, 1, MPIU_REAL, MPIU_SUM, pd->comm));
-  if (inverted) PetscCallMPI(MPI_Allreduce(mine, inverted, 1, MPIU_INT, MPI_SUM, pd->comm));
+  PetscCallMPI(MPI_Allreduce(mine, all, 2, MPIU_INT, MPI_SUM, pd->comm));
+  if (inverted) *inverted = all[0];
+  pd->coupling_short = all[1];
   PetscCall(PetscLogEventEnd(VK_EVENT_PDLocal, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -625,6 +630,10 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
   /* learned from every step the run accepts as its answer: one that met
    * its tolerance, or one that ran the fixed count asked for (whose
    * accuracy the guess then decides; an unconverged step is not learned from) */
+  /* the residual of the last evaluation is only as good as its coupling
+   * projections: some stopped short, so the step did not converge */
+  st->projections_short = pd->coupling_short;
+  if (st->projections_short && (VKPDReasonConverged(st->reason) || st->reason == VK_PD_CONVERGED_ITS)) st->reason = VK_PD_PROJECTION_SHORT;
   if (extrap && (VKPDReasonConverged(st->reason) || st->reason == VK_PD_CONVERGED_ITS)) PetscCall(LearnExtrapolation(pd, x));
   st->time_other = VKWallTime() - t0 - st->time_local - st->time_global;
   PetscFunctionReturn(0);

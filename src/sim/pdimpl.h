@@ -71,6 +71,7 @@ struct _n_VKPD {
   Vec        prev; /* start of the step (friction reference), or NULL */
   PetscReal *tetW; /* per owned tet: W of its last SVD (warm start) */
   PetscReal *tetS; /* per owned tet, 10: the coupling's s and SVD rotation W of its last projection (warm start) */
+  PetscInt   coupling_short; /* coupling projections (all ranks) that stopped short of round-off in the last local step */
   /* global step */
   Mat       K, Kel; /* full scalar K (residuals, handle correction) and K with handles eliminated */
   PetscScalar *kcoo; /* K's values in the order of its coordinate list (CreateK) */

@@ -305,6 +305,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "iterations_max", st.iterations_max));
   PetscCall(VKJSONInt(&j, "steps_at_max_it", st.max_it_steps));
   PetscCall(VKJSONInt(&j, "steps_stalled", st.stalled_steps));
+  PetscCall(VKJSONInt(&j, "steps_projection_short", st.projection_short_steps));
   PetscCall(VKJSONInt(&j, "line_search_restarts", st.line_search_restarts));
   PetscCall(VKJSONInt(&j, "newton_iterations", st.newton_its));
   PetscCall(VKJSONReal(&j, "residual_rel_max", st.residual_rel_max));

@@ -79,18 +79,21 @@ static PetscErrorCode TSStep_PD(TS ts)
   /* stopped at the round-off floor above the requested tolerance: the
    * accuracy asked for was not reached, so the step is unconverged too */
   roundoff = (PetscBool)(VKPDReasonConverged(s->last.reason) && s->last.requested > 0 && s->last.residual > s->last.requested);
-  if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED || s->last.reason == VK_PD_STALLED || roundoff) {
+  if (s->last.reason == VK_PD_MAX_IT || s->last.reason == VK_PD_NEWTON_FAILED || s->last.reason == VK_PD_STALLED || s->last.reason == VK_PD_PROJECTION_SHORT || roundoff) {
     MPI_Comm comm = PetscObjectComm((PetscObject)ts);
     if (!s->unconverged_steps) s->first_unconverged_step = ts->steps + 1;
     s->unconverged_steps++;
     if (roundoff) s->roundoff_steps++;
     if (s->last.reason == VK_PD_STALLED) s->stalled_steps++;
+    if (s->last.reason == VK_PD_PROJECTION_SHORT) s->projection_short_steps++;
     if (p->strict) {
       PetscCall(VecCopy(p->xprev, x));
       ts->reason = TS_DIVERGED_NONLINEAR_SOLVE;
       PetscFunctionReturn(0);
     }
-    if (roundoff && s->unconverged_steps <= VK_TSPD_WARNINGS)
+    if (s->last.reason == VK_PD_PROJECTION_SHORT && s->unconverged_steps <= VK_TSPD_WARNINGS)
+      PetscCall(PetscFPrintf(comm, PETSC_STDERR, "volknit: warning: step %d (t = %g s) did not converge (%s): %d coupling projections of its last iterate stopped short of round-off after -mat_coupling_max_it Newton steps, so its residual %.3e N is not exact%s\n", (int)(ts->steps + 1), (double)t1, VKPDReasonName(s->last.reason), (int)s->last.projections_short, (double)s->last.residual, s->unconverged_steps == VK_TSPD_WARNINGS ? "; further unconverged steps are only counted" : ""));
+    else if (roundoff && s->unconverged_steps <= VK_TSPD_WARNINGS)
       PetscCall(PetscFPrintf(comm, PETSC_STDERR, "volknit: warning: step %d (t = %g s) stopped at the round-off floor of |grad Phi|, %.3e N, %.3g x the requested tolerance %.3e N%s\n", (int)(ts->steps + 1), (double)t1, (double)s->last.residual, (double)(s->last.residual / s->last.requested), (double)s->last.requested, s->unconverged_steps == VK_TSPD_WARNINGS ? "; further unconverged steps are only counted" : ""));
     else if (s->unconverged_steps <= VK_TSPD_WARNINGS)
       PetscCall(PetscFPrintf(comm, PETSC_STDERR, "volknit: warning: step %d (t = %g s) did not converge (%s): |grad Phi| = %.3e N, %.3g x the tolerance %.3e N, after %d iterations%s\n", (int)(ts->steps + 1), (double)t1, VKPDReasonName(s->last.reason), (double)s->last.residual, (double)(s->last.residual / s->last.tolerance), (double)s->last.tolerance, (int)s->last.iterations,
