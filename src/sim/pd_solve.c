@@ -627,13 +627,13 @@ PetscErrorCode VKPDSolve(VKPD pd, PetscReal t, Vec y, Vec prev, Vec x, VKPDStats
     pd->extrap_beta = 0;
     extrap          = PETSC_FALSE;
   }
-  /* learned from every step the run accepts as its answer: one that met
-   * its tolerance, or one that ran the fixed count asked for (whose
-   * accuracy the guess then decides; an unconverged step is not learned from) */
   /* the residual of the last evaluation is only as good as its coupling
    * projections: some stopped short, so the step did not converge */
   st->projections_short = pd->coupling_short;
   if (st->projections_short && (VKPDReasonConverged(st->reason) || st->reason == VK_PD_CONVERGED_ITS)) st->reason = VK_PD_PROJECTION_SHORT;
+  /* learned from every step the run accepts as its answer: one that met
+   * its tolerance, or one that ran the fixed count asked for (whose
+   * accuracy the guess then decides; an unconverged step is not learned from) */
   if (extrap && (VKPDReasonConverged(st->reason) || st->reason == VK_PD_CONVERGED_ITS)) PetscCall(LearnExtrapolation(pd, x));
   st->time_other = VKWallTime() - t0 - st->time_local - st->time_global;
   PetscFunctionReturn(0);
