@@ -157,9 +157,10 @@ PETSC_EXTERN PetscErrorCode VKFitHarmonicSetUp(VKFit, PetscInt r);
 /* The basis of one fit given to another on the same mesh (a joint fit's
  * scenes share one eigensolve). */
 PETSC_EXTERN PetscErrorCode VKFitHarmonicCopy(VKFit from, VKFit to);
-/* gamma += B dq and dq = B^T v for B = diag(H_r, H_r) in the interleaved
- * (g_s, g_v) per-tet layout; dq has 2r entries (r for g_s, then r for g_v),
- * replicated on every rank. */
+/* gamma += B dq and dq = B^T v for B = diag(H_r, ..., H_r) in the
+ * interleaved per-tet layout of k parameters (g_s, g_v, and g_c when the
+ * fit fits the coupling); dq has k r entries (r for g_s, then r for g_v,
+ * then r for g_c), replicated on every rank. */
 PETSC_EXTERN PetscErrorCode VKFitHarmonicApply(VKFit, PetscInt r, const PetscReal dq[], Vec gamma);
 PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v, PetscReal dq[]);
 
@@ -182,15 +183,16 @@ PETSC_EXTERN PetscErrorCode VKFitBestUniform(VKFit, PetscInt nf, VKFitFrame f[],
  * 1 % of an end (the loss may fall further outside it), else NULL. */
 PETSC_EXTERN const char *VKFitUniformRangeEnd(PetscReal lo, PetscReal hi, PetscReal g);
 PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma);
-/* The floor gamma_min = -fit_gamma_min (relative) x the mean of g_s and of
- * g_v in gamma, and the ceiling (VKFitSetGammaCeiling). */
+/* The floor gamma_min = -fit_gamma_min (relative) x the mean of each
+ * parameter kind in gamma (g_s, g_v, and g_c when the fit fits the
+ * coupling), and the ceiling (VKFitSetGammaCeiling). */
 PETSC_EXTERN PetscErrorCode VKFitSetGammaFloor(VKFit, Vec gamma);
-/* The ceiling gamma_max = -fit_gamma_max (relative) x the mean of g_s and
- * of g_v in gamma: no fitted parameter goes above it. */
+/* The ceiling gamma_max = -fit_gamma_max (relative) x the mean of each
+ * kind in gamma: no fitted parameter goes above it. */
 PETSC_EXTERN PetscErrorCode VKFitSetGammaCeiling(VKFit, Vec gamma);
-/* The fractions of the tets whose g_s and whose g_v sit on the floor, and
- * the largest g_s and g_v. */
-PETSC_EXTERN PetscErrorCode VKFitGammaAtFloor(VKFit, Vec gamma, PetscReal fraction[2], PetscReal largest[2]);
+/* The fractions of the tets whose g_s, g_v and g_c sit on the floor, and
+ * the largest g_s, g_v and g_c (g_c's 0 when it is not fitted). */
+PETSC_EXTERN PetscErrorCode VKFitGammaAtFloor(VKFit, Vec gamma, PetscReal fraction[3], PetscReal largest[3]);
 
 /* ---- yarn-level data (data.c) ------------------------------------------- */
 typedef enum { VK_FIT_SAMPLE_BY_ENERGY, VK_FIT_SAMPLE_BY_EVEN } VKFitSampleBy;
@@ -339,9 +341,10 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimizeFull(PetscInt nt, VKFitTrajec
  * nt > 1); with refine, then g_s and g_v apart by the stage r = 1 (the
  * constant harmonic; needs the basis and floor set up as for
  * VKFitTrajectoryOptimizeJoint, and records its iterations).  gamma (out)
- * is the material, g[2] its g_s and g_v, loss its loss, reason the
+ * is the material, g[3] its g_s, g_v and, with a fitted coupling, g_c
+ * (else 0), loss its loss, reason the
  * refinement's stop (converged without refine). */
-PETSC_EXTERN PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], PetscReal lo, PetscReal hi, PetscBool refine, Vec gamma, PetscReal g[2], PetscReal *loss, VKFitStageReason *);
+PETSC_EXTERN PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], PetscReal lo, PetscReal hi, PetscBool refine, Vec gamma, PetscReal g[3], PetscReal *loss, VKFitStageReason *);
 /* The trajectory of a yarn-level run: its frames after the rest frame,
  * their shape-fit targets, and eps of each (out, optional: nframes - 1). */
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryCreateFromData(VKFit, VKFitData, PetscReal eps[], VKFitTrajectory *);

@@ -153,12 +153,18 @@ PETSC_EXTERN PetscErrorCode VKMaterialSetStretchBand(VKMaterial, PetscReal lo, P
  * stores another coupling is then refused.  After set-up it replaces the
  * coupling and raises the material's state, like VKMaterialSetGamma. */
 PETSC_EXTERN PetscErrorCode VKMaterialSetCoupling(VKMaterial, PetscReal gc, PetscReal nu_top, PetscReal nu_bottom);
+/* The uniform coupling set by options or VKMaterialSetCoupling (gc 0: none). */
+PETSC_EXTERN PetscErrorCode VKMaterialGetCoupling(VKMaterial, PetscReal *gc, PetscReal nu[2]);
 PETSC_EXTERN PetscErrorCode VKMaterialSetFromOptions(VKMaterial);
-/* gamma of the owned tets to and from a Vec of 2 entries per owned tet (g_s,
- * g_v; VKMaterialCreateGammaVec).  SetGamma refuses negative or non-finite
- * values and records what changed: the material's state and that of each
- * domain with a changed tet, so that solvers built on the material (the PD
- * global matrix, later per-domain factors) rebuild what they must. */
+/* gamma of the owned tets to and from a Vec of k entries per owned tet
+ * (VKMaterialCreateGammaVec): g_s, g_v, and with k = 3 the coupling's g_c
+ * (VKMaterialSetGammaCount; default 2).  SetGamma refuses negative or
+ * non-finite values and records what changed: the material's state and
+ * that of each domain with a changed tet, so that solvers built on the
+ * material (the PD global matrix, later per-domain factors) rebuild what
+ * they must. */
+PETSC_EXTERN PetscErrorCode VKMaterialSetGammaCount(VKMaterial, PetscInt k);
+PETSC_EXTERN PetscErrorCode VKMaterialGetGammaCount(VKMaterial, PetscInt *k);
 PETSC_EXTERN PetscErrorCode VKMaterialCreateGammaVec(VKMaterial, Vec *);
 PETSC_EXTERN PetscErrorCode VKMaterialGetGamma(VKMaterial, Vec);
 PETSC_EXTERN PetscErrorCode VKMaterialSetGamma(VKMaterial, Vec);
@@ -185,7 +191,9 @@ PETSC_EXTERN PetscErrorCode VKMaterialDestroy(VKMaterial *);
 /* material.h5: g_s, g_v per tet with the tet's voxel and Kuhn index, so a
  * file written for one partition reads into any other, the stretch
  * band (files without one: [1, 1]) and the coupling's g_c, nu per tet
- * (files without: none).  After a write the material is that
+ * (files without: none) with the uniform coupling it started from: a
+ * file whose g_c was fitted is accepted beside the -mat_coupling it was
+ * fitted from, and refused beside any other.  After a write the material is that
  * file's (VKMaterialGetFile, VKMaterialView). */
 PETSC_EXTERN PetscErrorCode VKMaterialWriteH5(VKMaterial, const char path[]);
 PETSC_EXTERN PetscErrorCode VKMaterialLoadH5(VKMaterial, const char path[]);
@@ -197,8 +205,9 @@ PETSC_EXTERN PetscErrorCode VKMaterialEnergy(VKMaterial, Vec x, PetscReal *E);
 PETSC_EXTERN PetscErrorCode VKMaterialGradient(VKMaterial, Vec x, Vec g);
 /* H = d2E/dx2 into a BAIJ matrix from VKMeshCreateNodeMat(mesh, 3, &H). */
 PETSC_EXTERN PetscErrorCode VKMaterialHessian(VKMaterial, Vec x, PetscBool psd, Mat H);
-/* J = dg/dgamma: 3 n_V rows (node vector layout), 2 n_E columns (tet e:
- * columns 2e for g_s and 2e+1 for g_v, owned with the tet). */
+/* J = dg/dgamma: 3 n_V rows (node vector layout), k n_E columns (tet e:
+ * columns k e for g_s, k e + 1 for g_v and, with k = 3, k e + 2 for g_c,
+ * owned with the tet). */
 PETSC_EXTERN PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial, Mat *J);
 PETSC_EXTERN PetscErrorCode VKMaterialGammaJacobian(VKMaterial, Vec x, Mat J);
 /* A node vector of block size 3 with the rest positions. */

@@ -496,21 +496,31 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/band.conflict" -mat_file "$fd/band/material.h5" -mat_band 0.8,1.2 -scene_duration 0.02 > "$fd/band.conflict.log" 2>&1 \
      && grep -q 'conflicts with the band 0.9,1.1' "$fd/band.conflict.log" && [ "$(ls "$fd/band.conflict")" = "mesh.h5" ]; then ok
   else not_ok "volknit sim -mat_band 0.8,1.2 with a material fitted at 0.9,1.1: expected a refusal and no output (see $fd/band.conflict.log)"; fi
-  # the stretch-to-bending coupling (-mat_coupling): g_s, g_v fitted beside
-  # it the same on 1 and 2 ranks, carried by material.h5 into volknit sim,
-  # accepted there beside the same -mat_coupling, refused beside another
+  # the stretch-to-bending coupling (-mat_coupling): g_s, g_v and g_c per tet
+  # fitted the same on 1 and 2 ranks, carried by material.h5 into volknit
+  # sim, accepted there beside the same -mat_coupling, refused beside
+  # another; with -fit_coupling 0 g_c stays as given
   for n in 1 2; do
     fit_dir "coupling$n"
-    if fit_run "coupling$n" "$n" -mat_coupling 2000 && [ -s "$fd/coupling$n/material.h5" ]; then ok
-    else not_ok "volknit fit -n $n -mat_coupling 2000: failed or no material.h5 (see $fd/coupling$n.log)"; fi
+    if fit_run "coupling$n" "$n" -mat_coupling 2000 && [ -s "$fd/coupling$n/material.h5" ] && grep -q '"coupling_fitted": true' "$fd/coupling$n/fit.json"; then ok
+    else not_ok "volknit fit -n $n -mat_coupling 2000: failed, no material.h5 or g_c not fitted (see $fd/coupling$n.log)"; fi
   done
   compare_material "$fd/coupling1/material.h5" "$fd/coupling2/material.h5" 1e-5 "coupling, 1 vs 2 ranks"
   if timeout "$TIMEOUT" $MPIEXEC -n 2 bin/volknit sim -o "$fd/coupling2" -options_file options/hang.opts -mat_file "$fd/coupling2/material.h5" -scene_duration 0.02 -sim_view > "$fd/coupling.sim.log" 2>&1 \
-     && grep -qF 'stretch-to-bending coupling): g_c in [2000., 2000.] Pa, nu in [0., 1.5]' "$fd/coupling.sim.log" \
+     && range=$(sed -n 's/.*stretch-to-bending coupling): g_c in \[\([^,]*\), \([^]]*\)\] Pa, nu in \[0., 1.5\].*/\1 \2/p' "$fd/coupling.sim.log") \
+     && [ -n "$range" ] && awk -v r="$range" 'BEGIN { split(r, a, " "); exit !(a[1] > 0 && a[1] < a[2]) }' \
      && grep -q 'converged in every step' "$fd/coupling.sim.log"; then ok
-  else not_ok "volknit sim -mat_file of a fit with -mat_coupling 2000: expected the coupling (nu 0 and 1.5 by face) in the sim's material and every step converged (see $fd/coupling.sim.log)"; fi
+  else not_ok "volknit sim -mat_file of a fit with -mat_coupling 2000: expected a fitted g_c that varies over the tets (got '$range'), nu 0 and 1.5 by face, and every step converged (see $fd/coupling.sim.log)"; fi
   if timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling1" -mat_file "$fd/coupling1/material.h5" -mat_coupling 2000 -scene_duration 0.02 > "$fd/coupling.same.log" 2>&1; then ok
-  else not_ok "volknit sim -mat_coupling 2000 with a material fitted with that coupling: expected it accepted, as volknit run passes both (see $fd/coupling.same.log)"; fi
+  else not_ok "volknit sim -mat_coupling 2000 with a material fitted from that coupling: expected it accepted, as volknit run passes both (see $fd/coupling.same.log)"; fi
+  fit_dir "coupling.fixed"
+  if fit_run "coupling.fixed" 1 -mat_coupling 2000 -fit_coupling 0 && grep -q '"coupling_fitted": false' "$fd/coupling.fixed/fit.json" \
+     && timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling.fixed" -mat_file "$fd/coupling.fixed/material.h5" -scene_duration 0.02 -sim_view > "$fd/coupling.fixed.sim.log" 2>&1 \
+     && grep -qF 'stretch-to-bending coupling): g_c in [2000., 2000.] Pa' "$fd/coupling.fixed.sim.log"; then ok
+  else not_ok "volknit fit -mat_coupling 2000 -fit_coupling 0: expected g_c left at 2000 Pa on every tet (see $fd/coupling.fixed.log, $fd/coupling.fixed.sim.log)"; fi
+  d="coupling.stop"; fit_dir "$d" # a checkpoint of a fit with g_c held, for the broken-checkpoint cases below
+  fit_run "$d" 1 -mat_coupling 2000 -fit_coupling 0 -fit_max_iterations 3 -fit_checkpoint_every 2
+  cp "$fd/$d/fit_checkpoint.h5" "$fd/checkpoint.coupling.h5" 2> /dev/null
   # projections stopped short (no Newton step allowed): every such step is
   # unconverged, warned about and counted in sim.json; an error with -sim_strict
   rm -rf "$fd/coupling.short"; mkdir -p "$fd/coupling.short"; cp "$fd/ref/mesh.h5" "$fd/coupling.short/"
@@ -523,7 +533,7 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   else not_ok "volknit sim -mat_coupling_max_it 0 -sim_strict: expected an error naming -mat_coupling_max_it (see $fd/coupling.strict.log)"; fi
   rm -rf "$fd/coupling.conflict"; mkdir -p "$fd/coupling.conflict"; cp "$fd/ref/mesh.h5" "$fd/coupling.conflict/"
   if ! timeout "$TIMEOUT" bin/volknit sim -o "$fd/coupling.conflict" -mat_file "$fd/coupling1/material.h5" -mat_coupling 10 -scene_duration 0.02 > "$fd/coupling.conflict.log" 2>&1 \
-     && grep -q 'conflicts with the coupling stored in' "$fd/coupling.conflict.log" && [ "$(ls "$fd/coupling.conflict")" = "mesh.h5" ]; then ok
+     && grep -q 'conflicts with the coupling of' "$fd/coupling.conflict.log" && [ "$(ls "$fd/coupling.conflict")" = "mesh.h5" ]; then ok
   else not_ok "volknit sim -mat_coupling 10 with a material fitted with a coupling: expected a refusal and no output (see $fd/coupling.conflict.log)"; fi
   # stopped, then restarted: with the same rank count, and with the other
   # (the restart re-converges its equilibria from the checkpoint, so even on
@@ -555,7 +565,7 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
   if fit_run "$d" 1 -fit_restart; then compare_material "$fd/n1/material.h5" "$fd/$d/material.h5" 1e-5 "killed, restarted"
   else not_ok "fit -fit_restart after a kill failed (see $fd/$d.log)"; fi
   # broken checkpoints: refused with a message, no material.h5
-  for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint" "band:this one has 0.9,1.1 (give the same -mat_band)" "coupling:another stretch-to-bending coupling"; do
+  for case in "truncated:HDF5 file" "other:attribute format of /checkpoint is missing" "missing:no checkpoint" "band:this one has 0.9,1.1 (give the same -mat_band)" "coupling:another stretch-to-bending coupling" "gc:did not fit the coupling's g_c; this one fits it"; do
     kind=${case%%:*}; expect=${case#*:}; extra=""
     d="broken.$kind"; fit_dir "$d"
     case "$kind" in
@@ -563,6 +573,7 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
       other) cp "$fd/ref/yls.h5" "$fd/$d/fit_checkpoint.h5" ;;
       band) cp "$fd/checkpoint.stop.n1.n1.h5" "$fd/$d/fit_checkpoint.h5"; extra="-mat_band 0.9,1.1" ;; # written without a band
       coupling) cp "$fd/checkpoint.stop.n1.n1.h5" "$fd/$d/fit_checkpoint.h5"; extra="-mat_coupling 2000" ;; # written without a coupling
+      gc) cp "$fd/checkpoint.coupling.h5" "$fd/$d/fit_checkpoint.h5"; extra="-mat_coupling 2000" ;; # written by a fit with -fit_coupling 0
     esac
     # shellcheck disable=SC2086
     fit_run "$d" 2 -fit_restart $extra

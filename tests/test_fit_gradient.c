@@ -17,7 +17,9 @@
  * The target positions are manufactured (a smooth deformation of the rest
  * mesh), so the test needs no yarn-level run.  Everything is checked for
  * each -fit_inertia: implicit, data (the data acceleration as a force) and
- * none (static; H is the elastic Hessian alone).
+ * none (static; H is the elastic Hessian alone), and with implicit inertia
+ * again for a material with the stretch-to-bending coupling whose g_c is
+ * fitted per tet as a third parameter (directions in g_c alone as well).
  * ranks: 1 2
  */
 #include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
@@ -54,7 +56,7 @@ static PetscErrorCode Deformed(VKMesh m, PetscReal s, PetscReal sag, Vec x)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode SetUp(Setup *s, VKFitInertia inertia)
+static PetscErrorCode SetUp(Setup *s, VKFitInertia inertia, PetscReal gc)
 {
   PetscMPIInt size;
   Vec         xh[3];
@@ -63,15 +65,17 @@ static PetscErrorCode SetUp(Setup *s, VKFitInertia inertia)
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscCall(FitProblemCreate(PETSC_COMM_WORLD, size, &s->y, &s->m, &s->mat, &s->scene));
+  if (gc > 0) PetscCall(VKMaterialSetCoupling(s->mat, gc, 1.5, 0));
   /* heterogeneous: each parameter scaled by a factor in [0.5, 2] drawn from the global tet number */
   PetscCall(PetscRandomCreate(PETSC_COMM_SELF, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, 0.5, 2));
   for (PetscInt e = 0; e < s->m->ne; e++) {
-    PetscReal f[2];
-    PetscCall(PetscRandomGetValueReal(rnd, &f[0]));
-    PetscCall(PetscRandomGetValueReal(rnd, &f[1]));
-    if (e >= s->m->layout.eStart && e < s->m->layout.eEnd)
+    PetscReal f[3];
+    for (int k = 0; k < 3; k++) PetscCall(PetscRandomGetValueReal(rnd, &f[k]));
+    if (e >= s->m->layout.eStart && e < s->m->layout.eEnd) {
       for (int k = 0; k < 2; k++) s->mat->gamma[2 * (e - s->m->layout.eStart) + k] *= f[k];
+      if (gc > 0) s->mat->coupling[2 * (e - s->m->layout.eStart)] *= f[2];
+    }
   }
   PetscCall(PetscRandomDestroy(&rnd));
   PetscCall(VKFitCreate(s->mat, s->scene, &s->fit));
@@ -177,7 +181,7 @@ static PetscErrorCode TestGaussNewton(Setup *s, Vec grad)
   }
   { /* frozen parameters stay put, the direction still descends, both forms agree */
     const VKLayout    *L = &s->m->layout;
-    PetscInt           n = 2 * (L->eEnd - L->eStart), bad = 0;
+    PetscInt           n = s->fit->ngamma * (L->eEnd - L->eStart), bad = 0;
     PetscBool         *frozen;
     const PetscScalar *da;
     Vec                dfull;
@@ -252,17 +256,19 @@ static PetscErrorCode CheckEquation(Setup *s, const VKFitEqStats *st)
   PetscFunctionReturn(0);
 }
 
-static PetscErrorCode RunMode(VKFitInertia inertia)
+static PetscErrorCode RunMode(VKFitInertia inertia, PetscReal gc)
 {
   Setup        s;
   VKFitEqStats st;
   Vec          gamma0, grad, d, start;
   PetscReal    eps;
   PetscRandom  rnd;
+  PetscInt     K;
 
   PetscFunctionBegin;
-  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "# -fit_inertia %s\n", VKFitInertias[inertia]));
-  PetscCall(SetUp(&s, inertia));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "# -fit_inertia %s%s\n", VKFitInertias[inertia], gc > 0 ? ", coupling g_c fitted" : ""));
+  PetscCall(SetUp(&s, inertia, gc));
+  K = s.fit->ngamma;
   PetscCall(VKFitCreateGammaVec(s.fit, &gamma0));
   PetscCall(VecDuplicate(gamma0, &grad));
   PetscCall(VecDuplicate(gamma0, &d));
@@ -276,12 +282,14 @@ static PetscErrorCode RunMode(VKFitInertia inertia)
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1, 1));
   PetscCall(VKFitHarmonicSetUp(s.fit, 10));
-  for (int kind = 0; kind < 5; kind++) {
-    static const char *const name[] = {"random direction in g_s", "random direction in g_v", "random direction in both", "largest single component", "harmonic subspace r = 10 (grad_q = B^T grad)"};
+  PetscCall(VKTestCheck((PetscBool)(K == (gc > 0 ? 3 : 2)), NULL, "%d parameters per tet", (int)K));
+  for (int kind = 0; kind < 6; kind++) {
+    static const char *const name[] = {"random direction in g_s", "random direction in g_v", "random direction in all", "largest single component", "harmonic subspace r = 10 (grad_q = B^T grad)", "random direction in g_c"};
     PetscScalar *da;
     const PetscScalar *ga;
     PetscReal    dd, fd, ep, em, h = 1e-4, rel;
     PetscInt     n, imax;
+    if (kind == 5 && K == 2) break;
     PetscCall(VecSetRandom(d, rnd));
     PetscCall(VecGetLocalSize(d, &n));
     if (kind == 3) {
@@ -298,18 +306,18 @@ static PetscErrorCode RunMode(VKFitInertia inertia)
       PetscCall(VecAssemblyEnd(d));
     }
     if (kind == 4) { /* d = B dq, dq random (the same on every rank), scaled to the material */
-      PetscReal dq[20], gq[20];
-      for (int j = 0; j < 20; j++) dq[j] = (j < 10 ? 1e3 : 2e3) * PetscSinReal(1.7 * j + 0.3);
+      PetscReal dq[30], gq[30];
+      for (int j = 0; j < 10 * K; j++) dq[j] = (j < 10 ? 1e3 : j < 20 ? 2e3 : gc) * PetscSinReal(1.7 * j + 0.3);
       PetscCall(VecSet(d, 0));
       PetscCall(VKFitHarmonicApply(s.fit, 10, dq, d));
       PetscCall(VKFitHarmonicApplyTranspose(s.fit, 10, grad, gq));
       dd = 0;
-      for (int j = 0; j < 20; j++) dd += gq[j] * dq[j];
+      for (int j = 0; j < 10 * K; j++) dd += gq[j] * dq[j];
     } else {
     PetscCall(VecGetArray(d, &da));
     PetscCall(VecGetArrayRead(gamma0, &ga));
     for (PetscInt i = 0; i < n; i++) { /* relative to the parameter, masked by kind */
-      if ((kind == 0 && i % 2) || (kind == 1 && !(i % 2))) da[i] = 0;
+      if ((kind == 0 && i % K != 0) || (kind == 1 && i % K != 1) || (kind == 5 && i % K != 2)) da[i] = 0;
       da[i] *= ga[i];
     }
     PetscCall(VecRestoreArrayRead(gamma0, &ga));
@@ -340,7 +348,8 @@ int main(int argc, char **argv)
 {
   PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL));
   VKTestInit(PETSC_COMM_WORLD);
-  for (int k = VK_FIT_INERTIA_IMPLICIT; k <= VK_FIT_INERTIA_NONE; k++) PetscCall(RunMode((VKFitInertia)k));
+  for (int k = VK_FIT_INERTIA_IMPLICIT; k <= VK_FIT_INERTIA_NONE; k++) PetscCall(RunMode((VKFitInertia)k, 0));
+  PetscCall(RunMode(VK_FIT_INERTIA_IMPLICIT, 3e3));
   {
     int rc = VKTestFinish();
     PetscCall(SlepcFinalize());

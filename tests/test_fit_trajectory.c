@@ -313,7 +313,7 @@ static PetscErrorCode TestBestUniform(void)
 {
   Problem          p;
   Vec              gamma;
-  PetscReal        g[2], gscan[2], L, Lscan, err;
+  PetscReal        g[3], gscan[3], L, Lscan, err;
   VKFitStageReason why;
   char             d[256];
 

@@ -12,7 +12,10 @@
  * stretch band the same partition independence, exact J and a round trip
  * of the band through material.h5; the stretch-to-bending coupling: the
  * same Taylor, rigid-motion, partition and round-trip checks, its nu by
- * face, and a refusal beside -mat_coupling; VKMaterialSetGamma records which
+ * face, and a refusal beside -mat_coupling; with g_c as a third parameter
+ * per tet (the fit's) exact J, a fitted material.h5 that loads beside the
+ * -mat_coupling it started from and not beside another, and refusals
+ * without a coupling; VKMaterialSetGamma records which
  * domains changed and refuses negative values. */
 #include "../src/mesh/meshimpl.h" /* white-box: the mesh's arrays */
 #include "../src/material/materialimpl.h" /* white-box: the material's values, states and band */
@@ -149,41 +152,45 @@ static PetscErrorCode Build(MPI_Comm comm, PetscInt domains, VKYarn *y, VKMesh *
 }
 
 /* g(gamma + t dgamma) - g(gamma) = t J dgamma to round-off (g is linear in
- * gamma) for the gradient g at x; J is created if *J is NULL. */
+ * gamma, with g_c when it is the third parameter) for the gradient g at x;
+ * J is created if *J is NULL. */
 static PetscErrorCode MaterialCheckGammaJacobian(VKMaterial mat, Vec x, Vec g, Mat *J)
 {
-  Vec       dgam, Jd, gt;
-  PetscReal err, gn, *save;
-  VKLayout *L = &mat->mesh->layout;
+  Vec       dgam, Jd, gt, gam, save;
+  PetscReal err, gn;
+  PetscInt  lo, hi, k;
 
   PetscFunctionBegin;
   if (!*J) PetscCall(VKMaterialCreateGammaJacobian(mat, J));
+  PetscCall(VKMaterialGetGammaCount(mat, &k));
   PetscCall(VKMaterialGammaJacobian(mat, x, *J));
   PetscCall(MatCreateVecs(*J, &dgam, &Jd));
   PetscCall(VecDuplicate(g, &gt));
   PetscCall(VecNorm(g, NORM_2, &gn));
-  PetscCall(PetscMalloc1(2 * (L->eEnd - L->eStart) + 1, &save));
+  PetscCall(VecDuplicate(dgam, &gam));
+  PetscCall(VecDuplicate(dgam, &save));
+  PetscCall(VKMaterialGetGamma(mat, save));
+  PetscCall(VecGetOwnershipRange(dgam, &lo, &hi));
   {
     PetscScalar *d;
     PetscCall(VecGetArray(dgam, &d));
-    for (PetscInt e = 0; e < 2 * (L->eEnd - L->eStart); e++) {
-      d[e]    = 100 * PetscSinReal(0.37 * (PetscReal)(e + 2 * L->eStart));
-      save[e] = mat->gamma[e];
-      mat->gamma[e] += 3 * d[e];
-    }
+    for (PetscInt i = lo; i < hi; i++) d[i - lo] = 100 * PetscSinReal(0.37 * (PetscReal)i);
     PetscCall(VecRestoreArray(dgam, &d));
   }
+  PetscCall(VecWAXPY(gam, 3, dgam, save));
+  PetscCall(VKMaterialSetGamma(mat, gam));
   PetscCall(VKMaterialGradient(mat, x, gt));
-  PetscCall(PetscArraycpy(mat->gamma, save, 2 * (L->eEnd - L->eStart)));
+  PetscCall(VKMaterialSetGamma(mat, save));
   PetscCall(MatMult(*J, dgam, Jd));
   PetscCall(VecAXPY(gt, -1, g));
   PetscCall(VecAXPY(gt, -3, Jd));
   PetscCall(VecNorm(gt, NORM_INFINITY, &err));
-  PetscCall(VKTestCheck((PetscBool)(err <= 1e-12 * gn), NULL, "g(gamma + t dgamma) - g(gamma) = t (dg/dgamma) dgamma to round-off (%.1e |g|), stretch band [%g, %g]", (double)(err / gn), (double)mat->band.lo, (double)mat->band.hi));
-  PetscCall(PetscFree(save));
+  PetscCall(VKTestCheck((PetscBool)(err <= 1e-12 * gn), NULL, "g(gamma + t dgamma) - g(gamma) = t (dg/dgamma) dgamma to round-off (%.1e |g|), stretch band [%g, %g], %d parameters per tet", (double)(err / gn), (double)mat->band.lo, (double)mat->band.hi, (int)k));
   PetscCall(VecDestroy(&dgam));
   PetscCall(VecDestroy(&Jd));
   PetscCall(VecDestroy(&gt));
+  PetscCall(VecDestroy(&gam));
+  PetscCall(VecDestroy(&save));
   PetscFunctionReturn(0);
 }
 
@@ -407,6 +414,56 @@ int main(int argc, char **argv)
     PetscCall(VKMaterialCreate(ms, &other));
     PetscCall(VKMaterialSetCoupling(other, 3e3, 1.5, 0));
     PetscCall(CheckLoad(&other, path, NULL, "a material.h5 with a coupling loads where -mat_coupling gives the same one (volknit run passes it to the fit and the sim)"));
+    { /* g_c as the third parameter per tet, as the fit moves it */
+      Mat          J3 = NULL;
+      Vec          g3;
+      PetscScalar *a;
+      PetscInt     n, k;
+      PetscReal    E3, E3s;
+      PetscCall(VKMaterialSetGammaCount(mat, 3));
+      PetscCall(VKMaterialGetGammaCount(mat, &k));
+      PetscCall(MaterialCheckGammaJacobian(mat, x, g, &J3));
+      PetscCall(MatDestroy(&J3));
+      PetscCall(VKMaterialCreateGammaVec(mat, &g3));
+      PetscCall(VKMaterialGetGamma(mat, g3));
+      PetscCall(VecGetLocalSize(g3, &n));
+      PetscCall(VecGetArray(g3, &a));
+      for (PetscInt i = 2; i < n; i += 3) a[i] *= 1 + 0.5 * PetscSinReal(0.11 * (PetscReal)i); /* a fitted g_c */
+      PetscCall(VecRestoreArray(g3, &a));
+      PetscCall(VKMaterialGetState(mat, &s0));
+      PetscCall(VKMaterialSetGamma(mat, g3));
+      PetscCall(VKMaterialGetState(mat, &s1));
+      PetscCall(VKMaterialEnergy(mat, x, &E3));
+      PetscCall(VKTestCheck((PetscBool)(k == 3 && s1 > s0 && PetscAbsReal(E3 - Ec) > 1e-6 * Ec), NULL, "coupling: g_c per tet through VKMaterialSetGamma with 3 parameters per tet changes the energy (%.6g from %.6g) and raises the state", (double)E3, (double)Ec));
+      PetscCall(VKPathJoin(dir, "material_coupling_fitted.h5", path, sizeof(path)));
+      PetscCall(VKMaterialWriteH5(mat, path));
+      PetscCall(VKMaterialCreate(ms, &other));
+      PetscCall(VKMaterialSetCoupling(other, 3e3, 1.5, 0));
+      PetscCall(VKMaterialLoadH5(other, path));
+      PetscCall(VKMaterialEnergy(other, xs, &E3s));
+      PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(E3 - E3s) <= 1e-12 * E3), NULL, "coupling: a material.h5 with fitted g_c loads beside the -mat_coupling it was fitted from, energy %.6g equal to one rank's %.6g", (double)E3, (double)E3s));
+      PetscCall(VKMaterialDestroy(&other));
+      PetscCall(VKMaterialCreate(ms, &other));
+      PetscCall(VKMaterialSetCoupling(other, 3e3, 1, 0));
+      PetscCall(CheckLoad(&other, path, "made from g_c 3000", "a material.h5 with fitted g_c is refused beside another -mat_coupling_nu"));
+      PetscCall(VKMaterialCreate(ms, &other));
+      PetscCall(VKMaterialSetUp(other));
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+      {
+        PetscErrorCode ierr = VKMaterialSetGammaCount(other, 3);
+        PetscCall(PetscPopErrorHandler());
+        PetscCall(VKTestCheck((PetscBool)(ierr != 0), NULL, "g_c as a third parameter is refused on a material without the coupling"));
+      }
+      PetscCall(VKMaterialDestroy(&other));
+      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+      {
+        PetscErrorCode ierr = VKMaterialSetCoupling(mat, 0, 1.5, 0);
+        PetscCall(PetscPopErrorHandler());
+        PetscCall(VKTestCheck((PetscBool)(ierr != 0), NULL, "the coupling cannot be removed while g_c is a fitted parameter"));
+      }
+      PetscCall(VKMaterialSetGammaCount(mat, 2));
+      PetscCall(VecDestroy(&g3));
+    }
     PetscCall(VKMaterialSetCoupling(mat, 0, 1.5, 0));
     PetscCall(VKMaterialEnergy(mat, x, &Er));
     PetscCall(VKTestCheck((PetscBool)(PetscAbsReal(Er - E) <= 1e-12 * E), NULL, "coupling: g_c = 0 removes it (energy back to the paper material's)"));

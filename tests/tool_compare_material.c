@@ -2,14 +2,16 @@
  * (run by tests/run_tests.sh: 1 vs 2 ranks, and an interrupted run
  * restarted from its checkpoint vs an uninterrupted one): the same tets
  * (voxel and Kuhn index per row), and g_s, g_v equal to a relative
- * tolerance, max |a - b| / max |a| per column, which is printed.
+ * tolerance, max |a - b| / max |a| per column, which is printed; with a
+ * stretch-to-bending coupling in either file, both have it and its g_c
+ * (fitted or not) and nu agree the same way.
  * Usage: tool_compare_material A/material.h5 B/material.h5 [rtol (1e-6)] */
 #include <vkio.h>
 #include "vktest.h"
 
 typedef struct {
-  PetscInt   n, *voxel, *kuhn;
-  PetscReal *gamma;
+  PetscInt   n, nc, *voxel, *kuhn;
+  PetscReal *gamma, *coupling; /* coupling: NULL without one */
 } Material;
 
 static PetscErrorCode Load(const char path[], Material *m)
@@ -22,6 +24,13 @@ static PetscErrorCode Load(const char path[], Material *m)
   PetscCall(VKH5ReadReal(&h, "/material/gamma", 2, &m->n, &m->gamma));
   PetscCall(VKH5ReadInt(&h, "/material/voxel", 3, &nv, &m->voxel));
   PetscCall(VKH5ReadInt(&h, "/material/kuhn", 1, &nk, &m->kuhn));
+  {
+    PetscBool has;
+    PetscCall(VKH5HasDataset(&h, "/material/coupling", &has));
+    m->coupling = NULL;
+    m->nc       = 0;
+    if (has) PetscCall(VKH5ReadReal(&h, "/material/coupling", 2, &m->nc, &m->coupling));
+  }
   PetscCall(VKH5Close(&h));
   PetscCheck(nv == m->n && nk == m->n, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: %d rows of gamma, %d of voxel, %d of kuhn", path, (int)m->n, (int)nv, (int)nk);
   PetscFunctionReturn(0);
@@ -47,7 +56,20 @@ int main(int argc, char **argv)
       amax[i % 2] = PetscMax(amax[i % 2], PetscAbsReal(a.gamma[i]));
     }
     for (int c = 0; c < 2; c++) PetscCall(VKTestCheck((PetscBool)(amax[c] > 0 && diff[c] <= rtol * amax[c]), NULL, "%s equal: max |a - b| / max |a| = %.3e (<= %g)", c ? "g_v" : "g_s", (double)(amax[c] > 0 ? diff[c] / amax[c] : PETSC_INFINITY), (double)rtol));
+    if (a.coupling || b.coupling) {
+      PetscCall(VKTestCheck((PetscBool)(a.coupling && b.coupling && a.nc == a.n && b.nc == b.n), NULL, "both have the coupling (%s, %s)", a.coupling ? "yes" : "no", b.coupling ? "yes" : "no"));
+      if (a.coupling && b.coupling && a.nc == a.n && b.nc == b.n) {
+        diff[0] = diff[1] = amax[0] = amax[1] = 0;
+        for (PetscInt i = 0; i < 2 * a.n; i++) {
+          diff[i % 2] = PetscMax(diff[i % 2], PetscAbsReal(a.coupling[i] - b.coupling[i]));
+          amax[i % 2] = PetscMax(amax[i % 2], PetscAbsReal(a.coupling[i]));
+        }
+        PetscCall(VKTestCheck((PetscBool)(amax[0] > 0 && diff[0] <= rtol * amax[0] && diff[1] <= rtol * amax[1]), NULL, "coupling g_c equal: max |a - b| / max |a| = %.3e (<= %g), nu %.3e", (double)(amax[0] > 0 ? diff[0] / amax[0] : PETSC_INFINITY), (double)rtol, (double)(amax[1] > 0 ? diff[1] / amax[1] : diff[1])));
+      }
+    }
   }
+  PetscCall(PetscFree(a.coupling));
+  PetscCall(PetscFree(b.coupling));
   PetscCall(PetscFree(a.gamma));
   PetscCall(PetscFree(a.voxel));
   PetscCall(PetscFree(a.kuhn));

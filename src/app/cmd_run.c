@@ -68,7 +68,7 @@ typedef struct {
   VKFit      fit[MAX_LIST], bestfit[MAX_LIST]; /* the fit, and the best uniform search */
   PetscBool  has_best[MAX_LIST];
   VKFitStageReason best_why[MAX_LIST];
-  PetscReal  best[MAX_LIST][2], best_rel[MAX_LIST];
+  PetscReal  best[MAX_LIST][3], best_rel[MAX_LIST]; /* g_s, g_v, and g_c when the fit fits the coupling (else 0) */
   PetscInt   npoints;
   Point      pt[MAX_POINTS];
 } Run;
@@ -309,7 +309,9 @@ static PetscErrorCode BestUniform(Run *R, PetscInt i)
   R->best_rel[i] = rest > 0 ? PetscSqrtReal(loss / rest) : 0;
   R->has_best[i] = PETSC_TRUE;
   R->best_why[i] = why;
-  PetscCall(PetscPrintf(R->comm, "volknit run: best uniform material on %s/mesh.h5: g_s = %.4g Pa, g_v = %.4g Pa (trajectory loss %.4e, predicted REL %.3f; refinement %s) (%.1f s)\n", R->meshdir[i], (double)R->best[i][0], (double)R->best[i][1], (double)loss, (double)R->best_rel[i], VKFitStageReasons[why], VKWallTime() - t0));
+  PetscCall(PetscPrintf(R->comm, "volknit run: best uniform material on %s/mesh.h5: g_s = %.4g Pa, g_v = %.4g Pa", R->meshdir[i], (double)R->best[i][0], (double)R->best[i][1]));
+  if (R->best[i][2] > 0) PetscCall(PetscPrintf(R->comm, ", g_c = %.4g Pa", (double)R->best[i][2]));
+  PetscCall(PetscPrintf(R->comm, " (trajectory loss %.4e, predicted REL %.3f; refinement %s) (%.1f s)\n", (double)loss, (double)R->best_rel[i], VKFitStageReasons[why], VKWallTime() - t0));
   if (why != VK_FIT_STAGE_CONVERGED) PetscCall(PetscPrintf(R->comm, "volknit run: WARNING: the best uniform material's refinement did not converge (%s)\n", VKFitStageReasons[why]));
   PetscCall(VecDestroy(&gamma));
   PetscCall(VKFitTrajectoryDestroy(&T));
@@ -328,7 +330,14 @@ static PetscErrorCode RunPoint(Run *R, Point *pt)
   PetscFunctionBegin;
   PetscCall(PointOptionsPush(R, pt, saved, &ns));
   PetscCall(VKAppSimFromOptions(m, pt->dir, &p));
-  if (pt->material == RUN_MATERIAL_BEST_UNIFORM) PetscCall(VKMaterialSetUniform(p.mat, R->best[pt->mesh][0], R->best[pt->mesh][1]));
+  if (pt->material == RUN_MATERIAL_BEST_UNIFORM) {
+    PetscCall(VKMaterialSetUniform(p.mat, R->best[pt->mesh][0], R->best[pt->mesh][1]));
+    if (R->best[pt->mesh][2] > 0) { /* the refined coupling, on the faces' nu of -mat_coupling_nu */
+      PetscReal gc, nu[2];
+      PetscCall(VKMaterialGetCoupling(p.mat, &gc, nu));
+      PetscCall(VKMaterialSetCoupling(p.mat, R->best[pt->mesh][2], nu[0], nu[1]));
+    }
+  }
   if (pt->material == RUN_MATERIAL_FITTED) {
     char path[PETSC_MAX_PATH_LEN];
     PetscCall(VKPathJoin(R->meshdir[pt->mesh], "material.h5", path, sizeof(path)));
@@ -407,6 +416,7 @@ static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
     if (R->has_best[i]) {
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_s_Pa", R->best[i][0]));
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_v_Pa", R->best[i][1]));
+      if (R->best[i][2] > 0) PetscCall(VKJSONReal(&j, "best_uniform_coupling_Pa", R->best[i][2]));
       PetscCall(VKJSONReal(&j, "best_uniform_predicted_rel", R->best_rel[i]));
       PetscCall(VKJSONString(&j, "best_uniform_refinement", VKFitStageReasons[R->best_why[i]]));
     }

@@ -55,30 +55,7 @@ typedef struct {
   VKFit              fit;
   const VKFitState  *st;
   const PetscScalar *avg, *gamma, *x;
-  PetscReal          coupling[2];
 } WriteCtx;
-
-/* The material's stretch-to-bending coupling in two numbers, sum g_c and
- * sum g_c nu over all tets (0, 0 without one): a restart must fit with
- * the coupling the checkpoint was written with.  Collective. */
-static PetscErrorCode CouplingDigest(VKFit fit, PetscReal d[2])
-{
-  const PetscReal *c;
-  const VKLayout  *L    = VKMeshLayout(fit->mesh);
-  VKSum            s[2] = {{0, 0}, {0, 0}};
-  PetscReal        mine[2];
-
-  PetscFunctionBegin;
-  PetscCall(VKMaterialGetCouplingArrayRead(fit->mat, &c));
-  for (PetscInt e = 0; c && e < L->eEnd - L->eStart; e++) {
-    VKSumAdd(&s[0], c[2 * e]);
-    VKSumAdd(&s[1], c[2 * e] * c[2 * e + 1]);
-  }
-  mine[0] = VKSumValue(&s[0]);
-  mine[1] = VKSumValue(&s[1]);
-  PetscCallMPI(MPI_Allreduce(mine, d, 2, MPIU_REAL, MPIU_SUM, fit->comm));
-  PetscFunctionReturn(0);
-}
 
 /* The material's stretch band (its accessor cannot fail). */
 static VKStretchBand Band(VKFit fit)
@@ -118,11 +95,15 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   ierr = VKH5WriteInt(&h, "/checkpoint/samples", st->ns, 1, st->samples);
   if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/loss_floor", st->ns, 1, st->floor);
   if (!ierr) ierr = VKH5WriteInt(&h, "/checkpoint/stages", st->nstages, 1, st->stages);
-  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/average", VKMeshTetCount(fit->mesh), 2, w->avg);
-  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", VKMeshTetCount(fit->mesh), 2, w->gamma);
+  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/average", VKMeshTetCount(fit->mesh), fit->ngamma, w->avg);
+  if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", VKMeshTetCount(fit->mesh), fit->ngamma, w->gamma);
   if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/x", VKMeshNodeCount(fit->mesh), 3, w->x);
   if (!ierr && fit->nhist) ierr = VKH5WriteReal(&h, "/checkpoint/history", fit->nhist, HIST_COLS, hist);
-  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/coupling", 1, 2, w->coupling);
+  if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/coupling", 1, 2, fit->coupling_digest);
+  if (!ierr && fit->ngamma == 3) { /* the fitted g_c's floor and ceiling */
+    PetscReal b[2] = {fit->gamma_min[2], fit->gamma_max[2]};
+    ierr           = VKH5WriteReal(&h, "/checkpoint/coupling_bounds", 1, 2, b);
+  }
   if (!ierr) ierr = VKH5WriteAttrString(&h, g, "format", CHECKPOINT_FORMAT);
   for (size_t i = 0; i < sizeof(reals) / sizeof(reals[0]) && !ierr; i++) ierr = VKH5WriteAttrReal(&h, g, reals[i].name, reals[i].v);
   for (size_t i = 0; i < sizeof(ints) / sizeof(ints[0]) && !ierr; i++) ierr = VKH5WriteAttrInt(&h, g, ints[i].name, ints[i].v);
@@ -137,14 +118,13 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
 
 PetscErrorCode VKFitCheckpointWrite(VKFit fit, const char path[], const VKFitState *st)
 {
-  WriteCtx       w = {fit, st, NULL, NULL, NULL, {0, 0}};
+  WriteCtx       w = {fit, st, NULL, NULL, NULL};
   Vec            sa = NULL, sg = NULL, sx = NULL;
   PetscMPIInt    rank;
   PetscErrorCode ierr = 0;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_rank(fit->comm, &rank));
-  PetscCall(CouplingDigest(fit, w.coupling));
   PetscCall(GatherToZero(st->avg, &sa, &w.avg));
   if (st->phase >= 0) {
     PetscCall(GatherToZero(st->gamma, &sg, &w.gamma));
@@ -216,6 +196,17 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscRe
     if (!ierr && !(PetscAbsReal(was[0] - coupling[0]) <= 1e-12 * PetscAbsReal(coupling[0]) && PetscAbsReal(was[1] - coupling[1]) <= 1e-12 * PetscAbsReal(coupling[1])))
       ierr = BAD("%s was written by a fit with another stretch-to-bending coupling (sum of g_c over the tets %g; this one %g): give the same -mat_coupling, -mat_coupling_nu", path, (double)was[0], (double)coupling[0]);
     PetscCall(PetscFree(c));
+    c = NULL;
+    if (!ierr) ierr = VKH5HasDataset(&h, "/checkpoint/coupling_bounds", &has);
+    if (!ierr && has != (fit->ngamma == 3)) ierr = BAD("%s was written by a fit that %s the coupling's g_c; this one %s it (give the same -fit_coupling)", path, has ? "fitted" : "did not fit", fit->ngamma == 3 ? "fits" : "does not fit");
+    if (!ierr && has) ierr = VKH5ReadReal(&h, "/checkpoint/coupling_bounds", 2, &rows, &c);
+    if (!ierr && has && rows != 1) ierr = BAD("%s: /checkpoint/coupling_bounds has %d rows, expected 1", path, (int)rows);
+    if (!ierr && has) {
+      fit->gamma_min[2] = c[0];
+      fit->gamma_max[2] = c[1];
+      if (!(c[0] > 0 && c[1] > c[0])) ierr = BAD("%s: /checkpoint/coupling_bounds %g, %g is not a floor below a ceiling", path, (double)c[0], (double)c[1]);
+    }
+    PetscCall(PetscFree(c));
   }
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "sample", &st->sample);
   if (!ierr) ierr = VKH5ReadAttrInt(&h, g, "stage", &st->stage);
@@ -237,11 +228,11 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscRe
   if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/loss_floor", 1, &nfl, &fl);
   if (!ierr && nfl != st->ns) ierr = BAD("%s: /checkpoint/loss_floor has %d rows for %d samples", path, (int)nfl, (int)st->ns);
   if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/stages", 1, &st->nstages, &stages);
-  if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/average", 2, &rows, &avg);
+  if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/average", fit->ngamma, &rows, &avg);
   if (!ierr && rows != ne) ierr = BAD("%s: /checkpoint/average has %d rows for %d tets", path, (int)rows, (int)ne);
   if (!ierr && !(st->ns >= 1 && st->ns <= VK_FIT_MAX_SAMPLES && st->nstages >= 1 && st->nstages <= VK_FIT_MAX_STAGES && st->sample >= 0 && st->sample <= st->ns && st->stage >= 0 && st->stage < st->nstages && st->phase >= -1 && st->phase <= VK_FIT_PHASE_DONE && st->iteration >= 0 && fit->nits >= 0 && st->weight >= 0 && fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && fit->gamma_max[0] > fit->gamma_min[0] && fit->gamma_max[1] > fit->gamma_min[1] && st->wall >= 0 && fit->step_factor > 0 && fit->step_factor <= 1))
     ierr = BAD("%s: inconsistent position (sample %d of %d, stage %d of %d, phase %d, iteration %d) or totals", path, (int)st->sample, (int)st->ns, (int)st->stage, (int)st->nstages, (int)st->phase, (int)st->iteration);
-  if (!ierr && st->phase >= 0) ierr = VKH5ReadReal(&h, "/checkpoint/gamma", 2, &rows, &gamma);
+  if (!ierr && st->phase >= 0) ierr = VKH5ReadReal(&h, "/checkpoint/gamma", fit->ngamma, &rows, &gamma);
   if (!ierr && st->phase >= 0 && rows != ne) ierr = BAD("%s: /checkpoint/gamma has %d rows for %d tets", path, (int)rows, (int)ne);
   if (!ierr && st->phase >= 0) ierr = VKH5ReadReal(&h, "/checkpoint/x", 3, &rows, &x);
   if (!ierr && st->phase >= 0 && rows != nv) ierr = BAD("%s: /checkpoint/x has %d rows for %d nodes", path, (int)rows, (int)nv);
@@ -279,10 +270,8 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscRe
 
 PetscErrorCode VKFitCheckpointRead(VKFit fit, const char path[], VKFitState *st)
 {
-  PetscReal coupling[2];
-
   PetscFunctionBegin;
-  PetscCall(CouplingDigest(fit, coupling));
-  VKCallCollective(fit->comm, ReadCheckpoint(fit, path, coupling, st));
+  PetscCall(VKFitSetUp(fit));
+  VKCallCollective(fit->comm, ReadCheckpoint(fit, path, fit->coupling_digest, st));
   PetscFunctionReturn(0);
 }

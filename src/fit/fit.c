@@ -46,6 +46,8 @@ PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
   fit->kkt_reduced   = PETSC_TRUE;
   fit->gamma_min_rel = 1e-3;
   fit->gamma_max_rel = 1e3;
+  fit->fit_coupling  = PETSC_TRUE;
+  fit->ngamma        = 2;
   fit->nharm         = 3;
   fit->harm_r[0]     = 1;
   fit->harm_r[1]     = 10;
@@ -178,8 +180,9 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscCall(PetscOptionsBool("-fit_step_memory", "Begin each iteration's step halving at the step the last one accepted (twice it if that needed no halving and lowered the loss by 3/4 of the decrease its model predicts; at most the full step), not at the full step", "VKFitOptimize", fit->step_memory, &fit->step_memory, NULL));
   PetscCall(PetscOptionsBool("-fit_kkt_reduced", "Gauss-Newton KKT with d eliminated, [G -H; -H -J J^T/kappa] (needs kappa > 0); false: the three-block form of Eq. 21", "VKFitGaussNewtonDirection", fit->kkt_reduced, &fit->kkt_reduced, NULL));
   PetscCall(VKOptionsRangeInt("-fit_max_pivots", "Parameters pivoted out of one Gauss-Newton solve when the clamped direction does not descend", "VKFitOptimize", fit->max_pivots, &fit->max_pivots, NULL, 0, PETSC_MAX_INT));
-  PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s or g_v of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
-  PetscCall(PetscOptionsReal("-fit_gamma_max", "Ceiling of every parameter, relative to the mean g_s or g_v of the starting material (the best uniform one when searched)", "VKFitSetGammaCeiling", fit->gamma_max_rel, &fit->gamma_max_rel, NULL));
+  PetscCall(PetscOptionsBool("-fit_coupling", "Fit the stretch-to-bending coupling's g_c per tet too, when the material has one (-mat_coupling); false: fit g_s and g_v beside the coupling as given", "VKFitSetUp", fit->fit_coupling, &fit->fit_coupling, NULL));
+  PetscCall(PetscOptionsReal("-fit_gamma_min", "Floor of every parameter, relative to the mean g_s, g_v or g_c of the starting material", "VKFitSetGammaFloor", fit->gamma_min_rel, &fit->gamma_min_rel, NULL));
+  PetscCall(PetscOptionsReal("-fit_gamma_max", "Ceiling of every parameter, relative to the mean g_s, g_v or g_c of the starting material (the best uniform one when searched)", "VKFitSetGammaCeiling", fit->gamma_max_rel, &fit->gamma_max_rel, NULL));
   PetscCall(PetscOptionsIntArray("-fit_harmonic", "Harmonic stages: basis sizes r (increasing) fitted before the full gamma; 0 alone: none", "VKFitOptimize", fit->harm_r, &nharm, &set));
   PetscCall(VKOptionsRangeInt("-fit_checkpoint_every", "Write DIR/fit_checkpoint.h5 every this many iterations (0: only after each sample)", "VKFitRun", fit->checkpoint_every, &fit->checkpoint_every, NULL, 0, PETSC_MAX_INT));
   PetscCall(VKOptionsRangeInt("-fit_max_iterations", "Stop after this many iterations in all, with a checkpoint to go on from (0: no limit)", "VKFitRun", fit->max_iterations, &fit->max_iterations, NULL, 0, PETSC_MAX_INT));
@@ -257,6 +260,32 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   PetscFunctionReturn(0);
 }
 
+/* How many parameters per tet the fit moves: g_s, g_v, and the coupling's
+ * g_c when the material has one and -fit_coupling is on; and the starting
+ * coupling in two numbers, sum g_c and sum g_c nu over the tets (0, 0
+ * without one), so a checkpoint's restart fits from the same coupling. */
+static PetscErrorCode SetGammaCount(VKFit fit)
+{
+  const PetscReal *c;
+  const VKLayout  *L    = VKMeshLayout(fit->mesh);
+  VKSum            s[2] = {{0, 0}, {0, 0}};
+  PetscReal        mine[2];
+
+  PetscFunctionBegin;
+  PetscCall(VKMaterialSetUp(fit->mat));
+  PetscCall(VKMaterialGetCouplingArrayRead(fit->mat, &c));
+  fit->ngamma = fit->fit_coupling && c ? 3 : 2;
+  PetscCall(VKMaterialSetGammaCount(fit->mat, fit->ngamma));
+  for (PetscInt e = 0; c && e < L->eEnd - L->eStart; e++) {
+    VKSumAdd(&s[0], c[2 * e]);
+    VKSumAdd(&s[1], c[2 * e] * c[2 * e + 1]);
+  }
+  mine[0] = VKSumValue(&s[0]);
+  mine[1] = VKSumValue(&s[1]);
+  PetscCallMPI(MPI_Allreduce(mine, fit->coupling_digest, 2, MPIU_REAL, MPIU_SUM, fit->comm));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitSetUp(VKFit fit)
 {
   PetscBool scene_setup;
@@ -273,6 +302,8 @@ PetscErrorCode VKFitSetUp(VKFit fit)
   PetscCall(VKSceneGetGravity(fit->scene, fit->gravity));
   PetscCall(VKSceneGetHandles(fit->scene, &nhandles, NULL));
   PetscCheck(fit->inertia == VK_FIT_INERTIA_IMPLICIT || nhandles > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_inertia %s is a static equilibrium, which needs scene handles to hold the mesh (this scene has none); use -fit_inertia implicit", VKFitInertias[fit->inertia]);
+  if (!fit->gamma_count_set) PetscCall(SetGammaCount(fit));
+  fit->gamma_count_set = PETSC_TRUE;
   PetscCall(VKShapeFitSetUp(fit->sf));
   PetscCall(VKPDSetStatic(fit->pd, fit->inertia == VK_FIT_INERTIA_IMPLICIT ? PETSC_FALSE : PETSC_TRUE));
   PetscCall(VKPDSetUp(fit->pd));
@@ -310,6 +341,8 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
 PetscErrorCode VKFitCreateGammaVec(VKFit fit, Vec *g)
 {
   PetscFunctionBegin;
+  if (!fit->gamma_count_set) PetscCall(SetGammaCount(fit));
+  fit->gamma_count_set = PETSC_TRUE;
   PetscCall(VKMaterialCreateGammaVec(fit->mat, g));
   PetscFunctionReturn(0);
 }

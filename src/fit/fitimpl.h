@@ -65,7 +65,11 @@ struct _n_VKFit {
   char      kkt_workspace_option[256]; /* the option the fit set to raise it ("" if none) */
   /* schedule (schedule.c) */
   PetscInt  gd_its, gn_its, max_halvings, max_pivots;
-  PetscReal gd_step, gd_rtol, kappa, rtol, gamma_min_rel, gamma_min[2], gamma_max_rel, gamma_max[2];
+  PetscReal gd_step, gd_rtol, kappa, rtol, gamma_min_rel, gamma_min[3], gamma_max_rel, gamma_max[3]; /* per kind: g_s, g_v (, g_c) */
+  PetscBool fit_coupling; /* -fit_coupling: g_c is fitted too when the material has a coupling */
+  PetscInt  ngamma;       /* parameters per tet: 2, or 3 with g_c (set at VKFitSetUp) */
+  PetscBool gamma_count_set;
+  PetscReal coupling_digest[2]; /* the starting material's coupling: sum g_c, sum g_c nu (checkpoint.c) */
   PetscBool best_uniform;              /* start from the best uniform material (uniform.c) */
   PetscReal uniform_range[2];          /* its search interval, Pa */
   PetscReal uniform_g, uniform_loss;   /* its result (uniform_g 0: not searched in this run) */
@@ -127,6 +131,22 @@ struct _n_VKFitTrajectory {
   PetscInt  *frame_step;
 };
 
+/* The floor and ceiling of parameter i of a gamma Vec (kind i % k). */
+static inline PetscReal VKFitFloor(VKFit fit, PetscInt i)
+{
+  return fit->gamma_min[i % fit->ngamma];
+}
+static inline PetscReal VKFitCeiling(VKFit fit, PetscInt i)
+{
+  return fit->gamma_max[i % fit->ngamma];
+}
+/* Two fits with the same parameters, floors and ceilings (joint fits). */
+static inline PetscBool VKFitSameBounds(VKFit a, VKFit b)
+{
+  PetscBool same = (PetscBool)(a->ngamma == b->ngamma);
+  for (PetscInt k = 0; k < a->ngamma && same; k++) same = (PetscBool)(a->gamma_min[k] == b->gamma_min[k] && a->gamma_max[k] == b->gamma_max[k]);
+  return same;
+}
 #define VK_FIT_FLOOR_LIFT 1e-3 /* of the floor (ceiling), for a parameter that starts a stage on it */
 /* p = (gamma - g0)/(g1 - g0) in [0, 1]: where gamma sits between floor and ceiling */
 static inline PetscReal VKFitPlace(PetscReal g0, PetscReal g1, PetscReal gamma)
@@ -137,7 +157,7 @@ static inline PetscReal VKFitPlace(PetscReal g0, PetscReal g1, PetscReal gamma)
  * floor lift inside either bound */
 static inline PetscReal VKFitLogit(VKFit fit, PetscInt i, PetscReal gamma)
 {
-  PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], lift = VK_FIT_FLOOR_LIFT * g0 / (g1 - g0);
+  PetscReal g0 = VKFitFloor(fit, i), g1 = VKFitCeiling(fit, i), lift = VK_FIT_FLOOR_LIFT * g0 / (g1 - g0);
   PetscReal p = PetscMin(PetscMax(VKFitPlace(g0, g1, gamma), lift), 1 - lift);
 
   return PetscLogReal(p) - log1p(-p);

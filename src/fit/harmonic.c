@@ -1,5 +1,5 @@
 /* harmonic.c: the harmonic bases of the fitting's initialization (DESIGN
- * §8, paper Eq. 23-24): gamma = gamma0 + diag(H_r, H_r) q, H_r the r
+ * §8, paper Eq. 23-24): gamma = gamma0 + diag(H_r, H_r[, H_r]) q, H_r the r
  * eigenvectors of the tet dual-graph Laplacian (L_ee = number of face
  * neighbours, L_ef = -1 for tets sharing a face) with the smallest
  * eigenvalues.  The first is the constant (a uniform material), the next
@@ -121,7 +121,7 @@ PetscErrorCode VKFitHarmonicSetUp(VKFit fit, PetscInt r)
 
 PetscErrorCode VKFitHarmonicApply(VKFit fit, PetscInt r, const PetscReal dq[], Vec gamma)
 {
-  PetscInt     n = VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart;
+  PetscInt     n = VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart, k = fit->ngamma;
   PetscScalar *g;
 
   PetscFunctionBegin;
@@ -129,10 +129,8 @@ PetscErrorCode VKFitHarmonicApply(VKFit fit, PetscInt r, const PetscReal dq[], V
   PetscCall(VecGetArray(gamma, &g));
   for (PetscInt j = 0; j < r; j++) {
     const PetscReal *h = fit->basis + j * n;
-    for (PetscInt e = 0; e < n; e++) {
-      g[2 * e] += h[e] * dq[j];
-      g[2 * e + 1] += h[e] * dq[r + j];
-    }
+    for (PetscInt e = 0; e < n; e++)
+      for (PetscInt c = 0; c < k; c++) g[k * e + c] += h[e] * dq[c * r + j];
   }
   PetscCall(VecRestoreArray(gamma, &g));
   PetscFunctionReturn(0);
@@ -140,23 +138,21 @@ PetscErrorCode VKFitHarmonicApply(VKFit fit, PetscInt r, const PetscReal dq[], V
 
 PetscErrorCode VKFitHarmonicApplyTranspose(VKFit fit, PetscInt r, Vec v, PetscReal dq[])
 {
-  PetscInt           n = VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart;
+  PetscInt           n = VKMeshLayout(fit->mesh)->eEnd - VKMeshLayout(fit->mesh)->eStart, k = fit->ngamma;
   const PetscScalar *a;
   PetscReal         *mine;
 
   PetscFunctionBegin;
   PetscCheck(r <= fit->rbasis, fit->comm, PETSC_ERR_ORDER, "Harmonic basis of size %d used before VKFitHarmonicSetUp", (int)r);
-  PetscCall(PetscCalloc1(2 * r, &mine));
+  PetscCall(PetscCalloc1(k * r, &mine));
   PetscCall(VecGetArrayRead(v, &a));
   for (PetscInt j = 0; j < r; j++) {
     const PetscReal *h = fit->basis + j * n;
-    for (PetscInt e = 0; e < n; e++) {
-      mine[j] += h[e] * a[2 * e];
-      mine[r + j] += h[e] * a[2 * e + 1];
-    }
+    for (PetscInt e = 0; e < n; e++)
+      for (PetscInt c = 0; c < k; c++) mine[c * r + j] += h[e] * a[k * e + c];
   }
   PetscCall(VecRestoreArrayRead(v, &a));
-  PetscCallMPI(MPI_Allreduce(mine, dq, (PetscMPIInt)(2 * r), MPIU_REAL, MPIU_SUM, fit->comm));
+  PetscCallMPI(MPI_Allreduce(mine, dq, (PetscMPIInt)(k * r), MPIU_REAL, MPIU_SUM, fit->comm));
   PetscCall(PetscFree(mine));
   PetscFunctionReturn(0);
 }

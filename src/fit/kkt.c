@@ -61,7 +61,7 @@ static PetscInt KKTColumn(const KKTLayout *K, int b, PetscInt c)
 static PetscErrorCode KKTLayoutCreate(VKFit fit, PetscBool reduced, KKTLayout *K)
 {
   const VKLayout *L = VKMeshLayout(fit->mesh);
-  PetscInt        mine[3] = {3 * (L->nEnd - L->nStart), 3 * (L->nEnd - L->nStart), reduced ? 0 : 2 * (L->eEnd - L->eStart)}, *all;
+  PetscInt        mine[3] = {3 * (L->nEnd - L->nStart), 3 * (L->nEnd - L->nStart), reduced ? 0 : fit->ngamma * (L->eEnd - L->eStart)}, *all;
 
   PetscFunctionBegin;
   PetscCallMPI(MPI_Comm_size(fit->comm, &K->size));
@@ -220,7 +220,7 @@ static PetscErrorCode RenewKKTSolver(VKFit fit)
 static PetscErrorCode KKTBlocks(VKFit fit, VKFitFrame *f, const PetscBool frozen[], PetscBool reduced)
 {
   const VKLayout *L  = VKMeshLayout(fit->mesh);
-  PetscInt        ng = 2 * (L->eEnd - L->eStart);
+  PetscInt        ng = fit->ngamma * (L->eEnd - L->eStart);
 
   PetscFunctionBegin;
   PetscCall(VKPDHessian(fit->pd, f->x, fit->H));
@@ -255,7 +255,7 @@ static PetscErrorCode KKTBlocks(VKFit fit, VKFitFrame *f, const PetscBool frozen
 static PetscErrorCode KKTAssemble(VKFit fit, KKTLayout *K, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], PetscBool *fresh)
 {
   const VKLayout *L  = VKMeshLayout(fit->mesh);
-  PetscInt        nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart), nloc, *d_nnz, *o_nnz;
+  PetscInt        nn = 3 * (L->nEnd - L->nStart), ng = fit->ngamma * (L->eEnd - L->eStart), nloc, *d_nnz, *o_nnz;
   PetscReal      *kdiag;
   PetscMPIInt     rank;
   Mat             kkt;
@@ -307,7 +307,7 @@ static PetscErrorCode KKTAssemble(VKFit fit, KKTLayout *K, PetscBool reduced, Pe
 static PetscErrorCode KKTRightHandSide(VKFit fit, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec rhs)
 {
   const VKLayout    *L  = VKMeshLayout(fit->mesh);
-  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart);
+  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = fit->ngamma * (L->eEnd - L->eStart);
   PetscScalar       *ra;
   const PetscScalar *ga;
 
@@ -366,7 +366,7 @@ static PetscErrorCode KKTSolve(VKFit fit, PetscBool fresh, Vec rhs, Vec sol, KSP
 static PetscErrorCode KKTDirection(VKFit fit, Vec sol, PetscBool reduced, PetscReal kappa, const PetscBool frozen[], Vec grad, Vec d)
 {
   const VKLayout    *L  = VKMeshLayout(fit->mesh);
-  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = 2 * (L->eEnd - L->eStart);
+  PetscInt           nn = 3 * (L->nEnd - L->nStart), ng = fit->ngamma * (L->eEnd - L->eStart);
   PetscScalar       *ra;
   const PetscScalar *ga, *sa;
 

@@ -71,7 +71,7 @@ typedef struct {
   VKFit              fit;
   VKFitData          data;
   const VKFitResult *res;
-  PetscReal          at_floor[2], largest[2]; /* of the final material */
+  PetscReal          at_floor[3], largest[3]; /* of the final material */
 } Summary;
 
 static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
@@ -96,7 +96,8 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONInt(&j, "ranks", size));
   PetscCall(VKJSONInt(&j, "nodes", VKMeshNodeCount(fit->mesh)));
   PetscCall(VKJSONInt(&j, "tets", VKMeshTetCount(fit->mesh)));
-  PetscCall(VKJSONInt(&j, "parameters", 2 * VKMeshTetCount(fit->mesh)));
+  PetscCall(VKJSONInt(&j, "parameters", fit->ngamma * VKMeshTetCount(fit->mesh)));
+  PetscCall(VKJSONBool(&j, "coupling_fitted", (PetscBool)(fit->ngamma == 3)));
   PetscCall(VKJSONInt(&j, "yarn_vertices", VKMeshYarnVertexCount(fit->mesh)));
   PetscCall(VKJSONReal(&j, "frame_interval", fit->dt));
   PetscCall(VKJSONInt(&j, "equilibrium_fallbacks", fit->eq_fallbacks));
@@ -117,12 +118,20 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   PetscCall(VKJSONReal(&j, "g_v_Pa", fit->gamma_min[1]));
   PetscCall(VKJSONReal(&j, "fraction_of_g_s_on_it", c->at_floor[0]));
   PetscCall(VKJSONReal(&j, "fraction_of_g_v_on_it", c->at_floor[1]));
+  if (fit->ngamma == 3) {
+    PetscCall(VKJSONReal(&j, "g_c_Pa", fit->gamma_min[2]));
+    PetscCall(VKJSONReal(&j, "fraction_of_g_c_on_it", c->at_floor[2]));
+  }
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONObjectBegin(&j, "parameter_ceiling"));
   PetscCall(VKJSONReal(&j, "g_s_Pa", fit->gamma_max[0]));
   PetscCall(VKJSONReal(&j, "g_v_Pa", fit->gamma_max[1]));
   PetscCall(VKJSONReal(&j, "largest_g_s_Pa", c->largest[0]));
   PetscCall(VKJSONReal(&j, "largest_g_v_Pa", c->largest[1]));
+  if (fit->ngamma == 3) {
+    PetscCall(VKJSONReal(&j, "g_c_Pa", fit->gamma_max[2]));
+    PetscCall(VKJSONReal(&j, "largest_g_c_Pa", c->largest[2]));
+  }
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONString(&j, "loss", VKFitLosses[fit->loss]));
   if (res->trajectory) {
@@ -393,7 +402,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
   if (st->sample < st->ns) PetscCall(PetscPrintf(fit->comm, "volknit fit: %d sample frame%s of %s (frame interval %g s), %d parameters\n", (int)st->ns, st->ns > 1 ? "s" : "", data->path, (double)dt, (int)(2 * VKMeshTetCount(fit->mesh))));
   for (; st->sample < st->ns && !fit->stopped; st->sample++) {
     PetscInt   frame = st->samples[st->sample], its;
-    PetscReal  l0, l1, w = st->weight, atfloor[2], largest[2];
+    PetscReal  l0, l1, w = st->weight, atfloor[3], largest[3];
     VKFitFrame f;
     fit->sample = frame;
     PetscCall(SampleFrame(fit, data, frame, &f));
@@ -416,7 +425,9 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
       st->weight = PetscMax(w, f.weight);
       SampleLosses(fit, frame, &l0, &l1, &its);
       PetscCall(VKFitGammaAtFloor(fit, st->gamma, atfloor, largest));
-      PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e (of its excess over the floor eps(xhat) = %.4e, %.1f%% remains) in %d iterations (%.1f s); on the parameter floor: %.0f%% of g_s, %.0f%% of g_v\n", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (double)f.eps_hat, l0 > f.eps_hat ? 100 * (double)((l1 - f.eps_hat) / (l0 - f.eps_hat)) : 0.0, (int)its, VKWallTime() - fit->wall0, 100 * (double)atfloor[0], 100 * (double)atfloor[1]));
+      PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e (of its excess over the floor eps(xhat) = %.4e, %.1f%% remains) in %d iterations (%.1f s); on the parameter floor: %.0f%% of g_s, %.0f%% of g_v", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (double)f.eps_hat, l0 > f.eps_hat ? 100 * (double)((l1 - f.eps_hat) / (l0 - f.eps_hat)) : 0.0, (int)its, VKWallTime() - fit->wall0, 100 * (double)atfloor[0], 100 * (double)atfloor[1]));
+      if (fit->ngamma == 3) PetscCall(PetscPrintf(fit->comm, ", %.0f%% of g_c", 100 * (double)atfloor[2]));
+      PetscCall(PetscPrintf(fit->comm, "\n"));
       PetscCall(Checkpoint(fit, -1, 0, &c)); /* the next sample from its start */
     }
     PetscCall(VKFitFrameDestroy(&f));

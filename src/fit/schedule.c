@@ -61,22 +61,24 @@ typedef struct {
   PetscReal   loss, gnorm, eq_residual;
 } Opt;
 
-/* bound[k] = rel x the mean of g_s (k = 0) or g_v (k = 1) in gamma */
-static PetscErrorCode RelativeToMean(VKFit fit, Vec gamma, PetscReal rel, PetscReal bound[2])
+/* bound[k] = rel x the mean of parameter kind k (g_s, g_v, g_c) in gamma */
+static PetscErrorCode RelativeToMean(VKFit fit, Vec gamma, PetscReal rel, PetscReal bound[])
 {
-  const PetscScalar *g;
-  PetscInt           n;
-  PetscReal          s[2] = {0, 0}, all[2];
+  static const char *const names[] = {"g_s", "g_v", "g_c"};
+  const char *const        hint[]  = {"-mat_gamma_s", "-mat_gamma_v", "-mat_coupling"};
+  const PetscScalar       *g;
+  PetscInt                 n, k = fit->ngamma;
+  PetscReal                s[3] = {0, 0, 0}, all[3];
 
   PetscFunctionBegin;
   PetscCall(VecGetLocalSize(gamma, &n));
   PetscCall(VecGetArrayRead(gamma, &g));
-  for (PetscInt i = 0; i < n; i++) s[i % 2] += g[i];
+  for (PetscInt i = 0; i < n; i++) s[i % k] += g[i];
   PetscCall(VecRestoreArrayRead(gamma, &g));
-  PetscCallMPI(MPI_Allreduce(s, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
-  for (int k = 0; k < 2; k++) {
-    PetscCheck(all[k] > 0, fit->comm, PETSC_ERR_ARG_WRONG, "The starting material has no %s anywhere; give a positive uniform start (-mat_gamma_s, -mat_gamma_v)", k ? "g_v" : "g_s");
-    bound[k] = rel * all[k] / VKMeshTetCount(fit->mesh);
+  PetscCallMPI(MPI_Allreduce(s, all, (PetscMPIInt)k, MPIU_REAL, MPIU_SUM, fit->comm));
+  for (PetscInt j = 0; j < k; j++) {
+    PetscCheck(all[j] > 0, fit->comm, PETSC_ERR_ARG_WRONG, "The starting material has no %s anywhere; give a positive uniform start (%s)", names[j], hint[j]);
+    bound[j] = rel * all[j] / VKMeshTetCount(fit->mesh);
   }
   PetscFunctionReturn(0);
 }
@@ -96,23 +98,23 @@ PetscErrorCode VKFitSetGammaCeiling(VKFit fit, Vec gamma)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitGammaAtFloor(VKFit fit, Vec gamma, PetscReal fraction[2], PetscReal largest[2])
+PetscErrorCode VKFitGammaAtFloor(VKFit fit, Vec gamma, PetscReal fraction[3], PetscReal largest[3])
 {
   const PetscScalar *g;
-  PetscInt           n;
-  PetscReal          c[2] = {0, 0}, all[2], mx[2] = {0, 0};
+  PetscInt           n, k = fit->ngamma;
+  PetscReal          c[3] = {0, 0, 0}, all[3] = {0, 0, 0}, mx[3] = {0, 0, 0};
 
   PetscFunctionBegin;
   PetscCall(VecGetLocalSize(gamma, &n));
   PetscCall(VecGetArrayRead(gamma, &g));
   for (PetscInt i = 0; i < n; i++) {
-    c[i % 2] += g[i] <= fit->gamma_min[i % 2] * (1 + 1e-9);
-    mx[i % 2] = PetscMax(mx[i % 2], PetscRealPart(g[i]));
+    c[i % k] += g[i] <= VKFitFloor(fit, i) * (1 + 1e-9);
+    mx[i % k] = PetscMax(mx[i % k], PetscRealPart(g[i]));
   }
   PetscCall(VecRestoreArrayRead(gamma, &g));
-  PetscCallMPI(MPI_Allreduce(mx, largest, 2, MPIU_REAL, MPIU_MAX, fit->comm));
-  PetscCallMPI(MPI_Allreduce(c, all, 2, MPIU_REAL, MPIU_SUM, fit->comm));
-  for (int k = 0; k < 2; k++) fraction[k] = all[k] / VKMeshTetCount(fit->mesh);
+  PetscCallMPI(MPI_Allreduce(mx, largest, 3, MPIU_REAL, MPIU_MAX, fit->comm));
+  PetscCallMPI(MPI_Allreduce(c, all, 3, MPIU_REAL, MPIU_SUM, fit->comm));
+  for (int j = 0; j < 3; j++) fraction[j] = all[j] / VKMeshTetCount(fit->mesh);
   PetscFunctionReturn(0);
 }
 
@@ -148,16 +150,6 @@ static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal 
   PetscFunctionReturn(0);
 }
 
-static PetscReal Floor(VKFit fit, PetscInt i)
-{
-  return fit->gamma_min[i % 2];
-}
-
-static PetscReal Ceiling(VKFit fit, PetscInt i)
-{
-  return fit->gamma_max[i % 2];
-}
-
 /* v_i = 0 for the frozen parameters. */
 static PetscErrorCode MaskFrozen(Opt *o, Vec v)
 {
@@ -188,7 +180,7 @@ static PetscErrorCode Gradient(Opt *o)
   PetscCall(VecGetArrayRead(o->gamma, &g));
   PetscCall(VecGetArrayRead(o->grad, &gr));
   for (PetscInt i = 0; i < o->nloc; i++) {
-    o->frozen[i] = (g[i] <= Floor(fit, i) * (1 + 1e-12) && gr[i] > 0) ? PETSC_TRUE : PETSC_FALSE;
+    o->frozen[i] = (g[i] <= VKFitFloor(fit, i) * (1 + 1e-12) && gr[i] > 0) ? PETSC_TRUE : PETSC_FALSE;
     if (!o->frozen[i]) s += PetscSqr(gr[i]);
   }
   PetscCall(VecRestoreArrayRead(o->grad, &gr));
@@ -198,7 +190,7 @@ static PetscErrorCode Gradient(Opt *o)
     PetscCall(MaskFrozen(o, o->step));
     PetscCall(VKFitHarmonicApplyTranspose(fit, o->r, o->step, o->gq));
     o->gnorm = 0;
-    for (PetscInt j = 0; j < 2 * o->r; j++) o->gnorm += PetscSqr(o->gq[j]);
+    for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) o->gnorm += PetscSqr(o->gq[j]);
     o->gnorm = PetscSqrtReal(o->gnorm);
   } else {
     PetscCallMPI(MPI_Allreduce(&s, &o->gnorm, 1, MPIU_REAL, MPIU_SUM, fit->comm));
@@ -217,8 +209,8 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
   PetscCall(VecCopy(o->gamma, o->trial));
   if (o->r) {
     PetscReal *sdq;
-    PetscCall(PetscMalloc1(2 * o->r, &sdq));
-    for (PetscInt j = 0; j < 2 * o->r; j++) sdq[j] = s * o->dq[j];
+    PetscCall(PetscMalloc1(o->fit->ngamma * o->r, &sdq));
+    for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) sdq[j] = s * o->dq[j];
     PetscCall(VecSet(o->step, 0));
     PetscCall(VKFitHarmonicApply(fit, o->r, sdq, o->step));
     PetscCall(MaskFrozen(o, o->step));
@@ -226,7 +218,7 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
     PetscCall(PetscFree(sdq));
   } else PetscCall(VecAXPY(o->trial, s, o->d));
   PetscCall(VecGetArray(o->trial, &t));
-  for (PetscInt i = 0; i < o->nloc; i++) t[i] = PetscMin(PetscMax(t[i], Floor(fit, i)), Ceiling(fit, i));
+  for (PetscInt i = 0; i < o->nloc; i++) t[i] = PetscMin(PetscMax(t[i], VKFitFloor(fit, i)), VKFitCeiling(fit, i));
   PetscCall(VecRestoreArray(o->trial, &t));
   PetscFunctionReturn(0);
 }
@@ -237,7 +229,7 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
 static PetscErrorCode HarmonicGaussNewton(Opt *o, PetscReal kappa)
 {
   VKFit      fit = o->fit;
-  PetscInt   n   = 2 * o->r;
+  PetscInt   n   = o->fit->ngamma * o->r;
   PetscReal *P, *l, *Q, *e;
 
   PetscFunctionBegin;
@@ -289,7 +281,7 @@ static PetscErrorCode FullGaussNewton(Opt *o, PetscReal kappa)
     PetscCall(VecGetArrayRead(o->d, &d));
     PetscCall(VecGetArrayRead(o->grad, &gr));
     for (PetscInt i = 0; i < o->nloc; i++) {
-      PetscReal to = g[i] + d[i], fl = Floor(fit, i);
+      PetscReal to = g[i] + d[i], fl = VKFitFloor(fit, i);
       slope += gr[i] * (PetscMax(to, fl) - g[i]);
       if (!o->frozen[i]) worst = PetscMin(worst, (to - fl) / fl);
     }
@@ -298,7 +290,7 @@ static PetscErrorCode FullGaussNewton(Opt *o, PetscReal kappa)
     cut = gworst / PetscPowReal(4.0, (PetscReal)piv);
     if (!(all < 0 || piv == fit->max_pivots || gworst >= 0))
       for (PetscInt i = 0; i < o->nloc; i++)
-        if (!o->frozen[i] && (g[i] + d[i] - Floor(fit, i)) / Floor(fit, i) <= cut) {
+        if (!o->frozen[i] && (g[i] + d[i] - VKFitFloor(fit, i)) / VKFitFloor(fit, i) <= cut) {
           o->frozen[i] = PETSC_TRUE;
           n++;
         }
@@ -345,9 +337,9 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
     if (o->gnorm == 0) break;
     if (o->r) {
       if (method == VK_FIT_GD)
-        for (PetscInt j = 0; j < 2 * o->r; j++) o->dq[j] = -o->gq[j];
+        for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) o->dq[j] = -o->gq[j];
       else PetscCall(HarmonicGaussNewton(o, fit->kappa * o->gnorm / gnorm_gamma));
-      for (PetscInt j = 0; j < 2 * o->r; j++) {
+      for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) {
         dn += PetscSqr(o->dq[j]);
         slope += o->gq[j] * o->dq[j];
       }
@@ -410,7 +402,7 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
 
   PetscFunctionBegin;
   PetscCall(VKFitSetUp(fit));
-  PetscCheck(fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0, fit->comm, PETSC_ERR_ORDER, "Call VKFitSetGammaFloor before VKFitOptimize");
+  PetscCheck(fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && (fit->ngamma == 2 || fit->gamma_min[2] > 0), fit->comm, PETSC_ERR_ORDER, "Call VKFitSetGammaFloor before VKFitOptimize");
   o.fit   = fit;
   o.f     = f;
   o.r     = r;
@@ -419,9 +411,9 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
   PetscCall(PetscMalloc1(o.nloc + 1, &o.frozen));
   if (r) {
     PetscCall(VKFitHarmonicSetUp(fit, r));
-    PetscCall(PetscMalloc3(2 * r, &o.gq, 2 * r, &o.dq, 4 * r * r, &o.work));
-    PetscCall(VecDuplicateVecs(fit->rhs, 2 * r, &o.Z));
-    PetscCall(VecDuplicateVecs(fit->rhs, 2 * r, &o.AZ));
+    PetscCall(PetscMalloc3(fit->ngamma * r, &o.gq, fit->ngamma * r, &o.dq, PetscSqr(fit->ngamma * r), &o.work));
+    PetscCall(VecDuplicateVecs(fit->rhs, fit->ngamma * r, &o.Z));
+    PetscCall(VecDuplicateVecs(fit->rhs, fit->ngamma * r, &o.AZ));
     PetscCall(VecDuplicate(gamma, &o.step));
   } else PetscCall(VecDuplicate(gamma, &o.d));
   PetscCall(VecDuplicate(gamma, &o.grad));
@@ -443,8 +435,8 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
   if (phase != VK_FIT_PHASE_DONE) PetscCall(Phase(&o, VK_FIT_GN, first, fit->gn_its));
   if (r) {
     PetscCall(PetscFree3(o.gq, o.dq, o.work));
-    PetscCall(VecDestroyVecs(2 * r, &o.Z));
-    PetscCall(VecDestroyVecs(2 * r, &o.AZ));
+    PetscCall(VecDestroyVecs(fit->ngamma * r, &o.Z));
+    PetscCall(VecDestroyVecs(fit->ngamma * r, &o.AZ));
     PetscCall(VecDestroy(&o.step));
   } else PetscCall(VecDestroy(&o.d));
   PetscCall(PetscFree(o.frozen));

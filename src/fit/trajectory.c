@@ -161,8 +161,8 @@ static PetscErrorCode FreeSensitivities(VKFitTrajectory T)
 {
   PetscFunctionBegin;
   if (!T->rmax) PetscFunctionReturn(0);
-  for (int g = 0; g < 3; g++) PetscCall(VecDestroyVecs(2 * T->rmax, &T->S[g]));
-  PetscCall(VecDestroyVecs(2 * T->rmax, &T->Gb));
+  for (int g = 0; g < 3; g++) PetscCall(VecDestroyVecs(T->fit->ngamma * T->rmax, &T->S[g]));
+  PetscCall(VecDestroyVecs(T->fit->ngamma * T->rmax, &T->Gb));
   T->rmax = 0;
   PetscFunctionReturn(0);
 }
@@ -243,7 +243,7 @@ PetscErrorCode VKFitGammaFactor_Private(VKFit fit, Vec gamma, Vec excess)
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArray(excess, &e));
   for (PetscInt i = 0; i < n; i++) {
-    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = VKFitPlace(g0, g1, g[i]);
+    PetscReal g0 = VKFitFloor(fit, i), g1 = VKFitCeiling(fit, i), p = VKFitPlace(g0, g1, g[i]);
     e[i] = (g1 - g0) * p * (1 - p);
   }
   PetscCall(VecRestoreArrayRead(gamma, &g));
@@ -263,7 +263,7 @@ PetscErrorCode VKFitTrajectoryMove(VKFit fit, PetscInt r, Vec gamma, const Petsc
   PetscCall(VecGetLocalSize(out, &n));
   PetscCall(VecGetArray(out, &a));
   PetscCall(VecGetArrayRead(gamma, &g));
-  for (PetscInt i = 0; i < n; i++) a[i] = Moved(fit->gamma_min[i % 2], fit->gamma_max[i % 2], g[i], a[i]);
+  for (PetscInt i = 0; i < n; i++) a[i] = Moved(VKFitFloor(fit, i), VKFitCeiling(fit, i), g[i], a[i]);
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArray(out, &a));
   PetscFunctionReturn(0);
@@ -288,7 +288,7 @@ static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, 
   PetscCall(VKPDHessian(fit->pd, T->f.x, fit->H));
   PetscCall(KSPSetOperators(fit->kadj, fit->H, fit->H));
   PetscCall(VKMaterialGammaJacobian(fit->mat, T->f.x, fit->J));
-  for (PetscInt j = 0; j < 2 * r; j++) {
+  for (PetscInt j = 0; j < fit->ngamma * r; j++) {
     const PetscScalar *sn, *sp;
     PetscScalar       *b;
     PetscCall(MatMult(fit->J, T->Gb[j], fit->rhs));
@@ -317,7 +317,7 @@ static PetscErrorCode Sensitivities(VKFitTrajectory T, PetscInt r, PetscReal h, 
 static PetscErrorCode AddFrame(VKFitTrajectory T, PetscInt k, PetscInt r, PetscReal *loss, PetscReal grad[], PetscReal P[])
 {
   VKFit      fit = T->fit;
-  PetscInt   n   = 2 * r;
+  PetscInt   n   = fit->ngamma * r;
   PetscReal *row;
 
   PetscFunctionBegin;
@@ -348,8 +348,8 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
   PetscCall(VKFitSetGamma(fit, gamma));
   if (r > T->rmax) {
     PetscCall(FreeSensitivities(T));
-    for (int s = 0; s < 3; s++) PetscCall(VecDuplicateVecs(T->xcur, 2 * r, &T->S[s]));
-    PetscCall(VecDuplicateVecs(gamma, 2 * r, &T->Gb));
+    for (int s = 0; s < 3; s++) PetscCall(VecDuplicateVecs(T->xcur, fit->ngamma * r, &T->S[s]));
+    PetscCall(VecDuplicateVecs(gamma, fit->ngamma * r, &T->Gb));
     T->rmax = r;
   }
   if (r) { /* dgamma/dq_j = e o b_j (VKFitGammaFactor_Private); S = 0 at rest */
@@ -357,8 +357,8 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
     Vec        excess;
     PetscCall(VecDuplicate(gamma, &excess));
     PetscCall(VKFitGammaFactor_Private(fit, gamma, excess));
-    PetscCall(PetscCalloc1(2 * r, &e));
-    for (PetscInt j = 0; j < 2 * r; j++) {
+    PetscCall(PetscCalloc1(fit->ngamma * r, &e));
+    for (PetscInt j = 0; j < fit->ngamma * r; j++) {
       e[j] = 1;
       PetscCall(VecSet(T->Gb[j], 0));
       PetscCall(VKFitHarmonicApply(fit, r, e, T->Gb[j]));
@@ -368,8 +368,8 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
     }
     PetscCall(PetscFree(e));
     PetscCall(VecDestroy(&excess));
-    for (PetscInt j = 0; j < 4 * r * r; j++) P[j] = 0;
-    for (PetscInt j = 0; j < 2 * r; j++) grad[j] = 0;
+    for (PetscInt j = 0; j < PetscSqr(fit->ngamma * r); j++) P[j] = 0;
+    for (PetscInt j = 0; j < fit->ngamma * r; j++) grad[j] = 0;
   }
   *loss = 0;
   *ok   = PETSC_TRUE;
@@ -447,12 +447,12 @@ static PetscErrorCode CapScale(VKFit fit, PetscInt r, Vec gamma, const PetscReal
   PetscCall(VecGetArrayRead(gamma, &g));
   PetscCall(VecGetArrayRead(work, &w));
   for (PetscInt i = 0; i < m; i++) { /* sigma(u + s w) reaches the bound's place q at s = (logit q - u)/w */
-    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2], p = VKFitPlace(g0, g1, g[i]), to = g[i] * PetscExpReal(w[i] > 0 ? cap : -cap), q = VKFitPlace(g0, g1, to), bound = PETSC_INFINITY;
+    PetscReal g0 = VKFitFloor(fit, i), g1 = VKFitCeiling(fit, i), p = VKFitPlace(g0, g1, g[i]), to = g[i] * PetscExpReal(w[i] > 0 ? cap : -cap), q = VKFitPlace(g0, g1, to), bound = PETSC_INFINITY;
     if (p > 0 && p < 1 && q > 0 && q < 1 && w[i] != 0) bound = (PetscLogReal(q / (1 - q)) - PetscLogReal(p / (1 - p))) / w[i];
     s = PetscMin(s, bound);
   }
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &s, 1, MPIU_REAL, MPIU_MIN, fit->comm));
-  for (PetscInt i = 0; i < m; i++) big = PetscMax(big, PetscAbsReal(PetscLogReal(Moved(fit->gamma_min[i % 2], fit->gamma_max[i % 2], g[i], s * w[i]) / g[i])));
+  for (PetscInt i = 0; i < m; i++) big = PetscMax(big, PetscAbsReal(PetscLogReal(Moved(VKFitFloor(fit, i), VKFitCeiling(fit, i), g[i], s * w[i]) / g[i])));
   PetscCall(VecRestoreArrayRead(gamma, &g));
   PetscCall(VecRestoreArrayRead(work, &w));
   PetscCallMPI(MPI_Allreduce(&big, change, 1, MPIU_REAL, MPIU_MAX, fit->comm));
@@ -468,7 +468,7 @@ static PetscErrorCode CapScale(VKFit fit, PetscInt r, Vec gamma, const PetscReal
  * used and the largest |log(gamma'/gamma)| of the step. */
 static PetscErrorCode LMStep(VKFit fit, PetscInt r, Vec gamma, const PetscReal Q[], const PetscReal l[], const PetscReal grad[], PetscReal *lambda, PetscReal cap, PetscReal dq[], Vec work, PetscReal *change)
 {
-  PetscInt  n = 2 * r;
+  PetscInt  n = fit->ngamma * r;
   PetscReal s = 0, lmax = 0;
 
   PetscFunctionBegin;
@@ -506,7 +506,7 @@ PetscErrorCode VKFitTrajectorySetPriorReference(VKFitTrajectory T, Vec gamma, Pe
 PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory T, PetscInt r, Vec gamma, PetscReal *obj, PetscReal grad[], PetscReal P[])
 {
   VKFit              fit = T->fit;
-  PetscInt           m, n = 2 * r;
+  PetscInt           m, n = fit->ngamma * r;
   PetscReal          c, dd;
   const PetscScalar *g, *gr;
   PetscScalar       *d;
@@ -545,7 +545,7 @@ PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory T, PetscInt r, Vec gamma,
  * with large motion does not drown one with small. */
 static PetscErrorCode EvaluateAll(PetscInt nt, VKFitTrajectory T[], Vec gamma, PetscInt r, PetscReal *loss, PetscReal grad[], PetscReal P[], PetscReal scratch[], PetscInt *bad, PetscBool *ok)
 {
-  PetscInt n = 2 * r;
+  PetscInt n = T[0]->fit->ngamma * r;
 
   PetscFunctionBegin;
   *loss = 0;
@@ -579,7 +579,7 @@ PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory T, PetscInt r, Vec gamma,
 PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], PetscInt r, Vec gamma, PetscReal *lossf[], VKFitStageReason *reason)
 {
   VKFit      fit = T[0]->fit;
-  PetscInt   n   = 2 * r, it, bad;
+  PetscInt   n   = fit->ngamma * r, it, bad;
   PetscReal *grad, *P, *gt, *Pt, *l, *Q, *dq, *work, *scratch, loss, loss0, lt, obj, ot, lambda = -1, cap = PetscLogReal(fit->traj_max_factor), gnorm = 0;
   Vec        trial, work_v;
   PetscBool  ok;
@@ -587,7 +587,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
 
   PetscFunctionBegin;
   PetscCheck(r >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The trajectory fit moves in a harmonic basis of size r >= 1, got %d", (int)r);
-  for (PetscInt i = 1; i < nt; i++) PetscCheck(T[i]->fit->mat == fit->mat && T[i]->fit->rbasis >= r && T[i]->fit->gamma_min[0] == fit->gamma_min[0] && T[i]->fit->gamma_min[1] == fit->gamma_min[1] && T[i]->fit->gamma_max[0] == fit->gamma_max[0] && T[i]->fit->gamma_max[1] == fit->gamma_max[1], fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: trajectory %d is not fitted on the same material, basis, floor and ceiling as trajectory 0", (int)i);
+  for (PetscInt i = 1; i < nt; i++) PetscCheck(T[i]->fit->mat == fit->mat && T[i]->fit->rbasis >= r && VKFitSameBounds(T[i]->fit, fit), fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: trajectory %d is not fitted on the same material, basis, floor and ceiling as trajectory 0", (int)i);
   PetscCall(PetscMalloc4(n, &grad, n * n, &P, n, &gt, n * n, &Pt));
   PetscCall(PetscMalloc5(n, &l, n * n, &Q, n, &dq, n * n, &work, n + n * n, &scratch));
   PetscCall(VecDuplicate(gamma, &trial));
@@ -597,7 +597,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
     PetscInt     m;
     PetscCall(VecGetLocalSize(gamma, &m));
     PetscCall(VecGetArray(gamma, &g));
-    for (PetscInt i = 0; i < m; i++) g[i] = PetscMin(PetscMax(g[i], (1 + VK_FIT_FLOOR_LIFT) * fit->gamma_min[i % 2]), (1 - VK_FIT_FLOOR_LIFT) * fit->gamma_max[i % 2]);
+    for (PetscInt i = 0; i < m; i++) g[i] = PetscMin(PetscMax(g[i], (1 + VK_FIT_FLOOR_LIFT) * VKFitFloor(fit, i)), (1 - VK_FIT_FLOOR_LIFT) * VKFitCeiling(fit, i));
     PetscCall(VecRestoreArray(gamma, &g));
   }
   PetscCall(EvaluateAll(nt, T, gamma, r, &loss, grad, P, scratch, &bad, &ok));
@@ -746,7 +746,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     off += n;
   }
   if (fit->best_uniform) { /* the baseline, and the start */
-    PetscReal g[2];
+    PetscReal g[3];
     PetscCall(VKFitTrajectoryBestUniform(nt, T, fit->uniform_range[0], fit->uniform_range[1], PETSC_FALSE, gamma, g, &fit->uniform_loss, NULL));
     fit->uniform_g = g[0];
     PetscCall(PetscPrintf(fit->comm, "volknit fit: best uniform material g_s = g_v = %.4g Pa (trajectory loss %.4e); the fit starts from it\n", (double)g[0], (double)fit->uniform_loss));
@@ -760,7 +760,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   }
   PetscCall(PetscPrintf(fit->comm, "volknit fit: the trajectory of %s", data[0]->path));
   for (PetscInt i = 1; i < nt; i++) PetscCall(PetscPrintf(fit->comm, "%s%s", i == nt - 1 ? " and " : ", ", data[i]->path));
-  PetscCall(PetscPrintf(fit->comm, ", %d frames, rolled out at dt %g s; %d parameters in harmonic stages r =", (int)nf, (double)VKFitTrajectoryStep(fit), (int)(2 * VKMeshTetCount(fit->mesh))));
+  PetscCall(PetscPrintf(fit->comm, ", %d frames, rolled out at dt %g s; %d parameters in harmonic stages r =", (int)nf, (double)VKFitTrajectoryStep(fit), (int)(fit->ngamma * VKMeshTetCount(fit->mesh))));
   for (PetscInt s = 0; s < nst; s++) PetscCall(PetscPrintf(fit->comm, " %d", (int)stages[s]));
   PetscCall(PetscPrintf(fit->comm, "%s\n", fit->traj_full_its > 0 ? ", then all of them" : ""));
   for (PetscInt s = 0; s < nst; s++) {
@@ -778,7 +778,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     stages[s] = 0;
     PetscCall(VKFitTrajectoryOptimizeFull(nt, T, gamma, lossf, &why[s]));
     stage_its[s] = fit->nits - its0;
-    PetscCall(PetscPrintf(fit->comm, "volknit fit: full stage (%d parameters, L-BFGS by adjoint gradients): trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)(2 * VKMeshTetCount(fit->mesh)), (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: full stage (%d parameters, L-BFGS by adjoint gradients): trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)(fit->ngamma * VKMeshTetCount(fit->mesh)), (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
     if (why[s] == VK_FIT_STAGE_ITERATION_LIMIT) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: the full stage stopped at -fit_trajectory_full_its %d with the loss still falling by more than -fit_rtol %g: not converged\n", (int)fit->traj_full_its, (double)fit->rtol));
     if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: the full stage stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n"));
   }

@@ -122,7 +122,7 @@ static PetscErrorCode FromLogits(VKFit fit, Vec u, Vec gamma, Vec e)
   PetscCall(VecGetArrayRead(u, &ua));
   PetscCall(VecGetArray(gamma, &g));
   for (PetscInt i = 0; i < n; i++) {
-    PetscReal g0 = fit->gamma_min[i % 2], g1 = fit->gamma_max[i % 2];
+    PetscReal g0 = VKFitFloor(fit, i), g1 = VKFitCeiling(fit, i);
     g[i] = g0 + (g1 - g0) / (1 + PetscExpReal(-PetscMax(PetscMin(ua[i], 700), -700)));
   }
   PetscCall(VecRestoreArrayRead(u, &ua));
@@ -217,7 +217,7 @@ PetscErrorCode VKFitTrajectoryOptimizeFull(PetscInt nt, VKFitTrajectory T[], Vec
 
   PetscFunctionBegin;
   PetscCheck(fit->traj_full_its >= 1, fit->comm, PETSC_ERR_ARG_OUTOFRANGE, "The full trajectory stage needs -fit_trajectory_full_its >= 1, got %d", (int)fit->traj_full_its);
-  for (PetscInt i = 1; i < nt; i++) PetscCheck(T[i]->fit->mat == fit->mat && T[i]->fit->gamma_min[0] == fit->gamma_min[0] && T[i]->fit->gamma_min[1] == fit->gamma_min[1] && T[i]->fit->gamma_max[0] == fit->gamma_max[0] && T[i]->fit->gamma_max[1] == fit->gamma_max[1], fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: trajectory %d is not fitted on the same material, floor and ceiling as trajectory 0", (int)i);
+  for (PetscInt i = 1; i < nt; i++) PetscCheck(T[i]->fit->mat == fit->mat && VKFitSameBounds(T[i]->fit, fit), fit->comm, PETSC_ERR_ARG_INCOMP, "Joint trajectory fit: trajectory %d is not fitted on the same material, floor and ceiling as trajectory 0", (int)i);
   PetscCall(VecDuplicate(gamma, &u));
   PetscCall(VecDuplicate(gamma, &g));
   PetscCall(VecDuplicate(gamma, &d));

@@ -11,7 +11,8 @@
  *                    materials as volknit report's REL does; optionally
  *                    refined in g_s and g_v apart by the trajectory fit's
  *                    stage r = 1 (the constant harmonic), a 2-parameter
- *                    Gauss-Newton that keeps the material uniform. */
+ *                    Gauss-Newton that keeps the material uniform (3 with a
+ *                    fitted coupling g_c, which the scan leaves as it is). */
 #include "fitimpl.h"
 #include <vkutil.h>
 
@@ -74,6 +75,22 @@ static PetscErrorCode Search(MPI_Comm comm, PetscReal lo, PetscReal hi, UniformL
   PetscFunctionReturn(0);
 }
 
+/* g_s = g_v = g on every tet; a fitted g_c (the third of k parameters)
+ * keeps what gamma holds. */
+static PetscErrorCode SetUniform(Vec gamma, PetscInt k, PetscReal g)
+{
+  PetscScalar *a;
+  PetscInt     n;
+
+  PetscFunctionBegin;
+  PetscCall(VecGetLocalSize(gamma, &n));
+  PetscCall(VecGetArray(gamma, &a));
+  for (PetscInt i = 0; i < n; i++)
+    if (i % k < 2) a[i] = g;
+  PetscCall(VecRestoreArray(gamma, &a));
+  PetscFunctionReturn(0);
+}
+
 typedef struct {
   VKFit       fit;
   PetscInt    nf;
@@ -87,7 +104,7 @@ static PetscErrorCode FramesLossAt(void *ctx, PetscReal g, PetscReal *loss)
   FramesCtx *c = (FramesCtx *)ctx;
 
   PetscFunctionBegin;
-  PetscCall(VecSet(c->gamma, g));
+  PetscCall(SetUniform(c->gamma, c->fit->ngamma, g));
   PetscCall(VKFitSetGamma(c->fit, c->gamma));
   *loss = 0;
   for (PetscInt i = 0; i < c->nf; i++) {
@@ -113,6 +130,7 @@ PetscErrorCode VKFitBestUniform(VKFit fit, PetscInt nf, VKFitFrame f[], PetscRea
   PetscFunctionBegin;
   PetscCheck(nf >= 1, fit->comm, PETSC_ERR_ARG_WRONG, "The uniform search needs a sample frame");
   PetscCall(VKFitCreateGammaVec(fit, &c.gamma));
+  PetscCall(VKFitGetGamma(fit, c.gamma));
   PetscCall(Search(fit->comm, lo, hi, FramesLossAt, &c, gbest, lbest));
   PetscCall(VecDestroy(&c.gamma));
   PetscFunctionReturn(0);
@@ -150,23 +168,25 @@ static PetscErrorCode TrajectoryLossAt(void *ctx, PetscReal g, PetscReal *loss)
   TrajectoryCtx *c = (TrajectoryCtx *)ctx;
 
   PetscFunctionBegin;
-  PetscCall(VecSet(c->gamma, g));
+  PetscCall(SetUniform(c->gamma, c->T[0]->fit->ngamma, g));
   PetscCall(TrajectoryLoss(c, c->gamma, loss));
   PetscCall(PetscInfo(NULL, "uniform g = %g Pa: trajectory loss %.10e\n", (double)g, (double)*loss));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], PetscReal lo, PetscReal hi, PetscBool refine, Vec gamma, PetscReal g[2], PetscReal *loss, VKFitStageReason *reason)
+PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], PetscReal lo, PetscReal hi, PetscBool refine, Vec gamma, PetscReal g[3], PetscReal *loss, VKFitStageReason *reason)
 {
   TrajectoryCtx c = {nt, T, gamma};
   MPI_Comm      comm;
+  PetscInt      k = T[0]->fit->ngamma;
 
   PetscFunctionBegin;
   PetscCall(PetscObjectGetComm((PetscObject)gamma, &comm));
   PetscCheck(nt >= 1, comm, PETSC_ERR_ARG_WRONG, "The uniform search needs a trajectory");
   PetscCall(Search(comm, lo, hi, TrajectoryLossAt, &c, &g[0], loss));
   g[1] = g[0];
-  PetscCall(VecSet(gamma, g[0]));
+  g[2] = 0;
+  PetscCall(SetUniform(gamma, k, g[0]));
   for (PetscInt i = 0; i < nt; i++) { /* the ceiling is relative to the fit's start */
     VKFit fit;
     PetscCall(VKFitTrajectoryGetFit(T[i], &fit));
@@ -176,16 +196,16 @@ PetscErrorCode VKFitTrajectoryBestUniform(PetscInt nt, VKFitTrajectory T[], Pets
   if (refine) {
     const PetscScalar *a;
     PetscInt           n;
-    PetscReal          mx[2] = {0, 0};
+    PetscReal          mx[3] = {0, 0, 0};
     PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, 1, gamma, NULL, reason));
     PetscCall(TrajectoryLoss(&c, gamma, loss));
     PetscCheck(*loss < PETSC_INFINITY, comm, PETSC_ERR_NOT_CONVERGED, "The refined uniform material's rollout did not converge; raise -fit_eq_newton_its or -fit_pd_max_it");
     /* uniform still (the constant harmonic): its value from any tet */
     PetscCall(VecGetLocalSize(gamma, &n));
     PetscCall(VecGetArrayRead(gamma, &a));
-    for (PetscInt i = 0; i < n; i++) mx[i % 2] = PetscMax(mx[i % 2], PetscRealPart(a[i]));
+    for (PetscInt i = 0; i < n; i++) mx[i % k] = PetscMax(mx[i % k], PetscRealPart(a[i]));
     PetscCall(VecRestoreArrayRead(gamma, &a));
-    PetscCall(MPIU_Allreduce(mx, g, 2, MPIU_REAL, MPIU_MAX, comm));
+    PetscCall(MPIU_Allreduce(mx, g, 3, MPIU_REAL, MPIU_MAX, comm));
   }
   PetscFunctionReturn(0);
 }

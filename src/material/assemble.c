@@ -129,27 +129,28 @@ PetscErrorCode VKMaterialHessian(VKMaterial m, Vec x, PetscBool psd, Mat H)
   PetscFunctionReturn(0);
 }
 
-/* Rows: 3 per node in the node layout; columns: 2 per tet in the tet layout.
- * Every tet touching an owned node fills 2 entries of each of its rows. */
+/* Rows: 3 per node in the node layout; columns: k per tet in the tet layout
+ * (k = VKMaterialGetGammaCount).  Every tet touching an owned node fills k
+ * entries of each of its rows. */
 PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial m, Mat *J)
 {
   VKMesh    mesh = m->mesh;
   const VKLayout *L    = VKMeshLayout(mesh);
-  PetscInt  nown = L->nEnd - L->nStart, *d_nnz, *o_nnz;
+  PetscInt  nown = L->nEnd - L->nStart, *d_nnz, *o_nnz, k = m->ngamma;
 
   PetscFunctionBegin;
   PetscCall(PetscCalloc2(3 * nown + 1, &d_nnz, 3 * nown + 1, &o_nnz));
   for (PetscInt e = 0; e < VKMeshTetCount(mesh); e++)
-    for (int k = 0; k < 4; k++) {
-      PetscInt g = VKMeshTets(mesh)[4 * e + k];
+    for (int c = 0; c < 4; c++) {
+      PetscInt g = VKMeshTets(mesh)[4 * e + c];
       if (g < L->nStart || g >= L->nEnd) continue;
       for (int r = 0; r < 3; r++) {
-        if (e >= L->eStart && e < L->eEnd) d_nnz[3 * (g - L->nStart) + r] += 2;
-        else o_nnz[3 * (g - L->nStart) + r] += 2;
+        if (e >= L->eStart && e < L->eEnd) d_nnz[3 * (g - L->nStart) + r] += k;
+        else o_nnz[3 * (g - L->nStart) + r] += k;
       }
     }
   PetscCall(MatCreate(m->comm, J));
-  PetscCall(MatSetSizes(*J, 3 * nown, 2 * (L->eEnd - L->eStart), 3 * VKMeshNodeCount(mesh), 2 * VKMeshTetCount(mesh)));
+  PetscCall(MatSetSizes(*J, 3 * nown, k * (L->eEnd - L->eStart), 3 * VKMeshNodeCount(mesh), k * VKMeshTetCount(mesh)));
   PetscCall(MatSetType(*J, MATAIJ));
   PetscCall(MatSeqAIJSetPreallocation(*J, 0, d_nnz));
   PetscCall(MatMPIAIJSetPreallocation(*J, 0, d_nnz, 0, o_nnz));
@@ -161,7 +162,8 @@ PetscErrorCode VKMaterialCreateGammaJacobian(VKMaterial m, Mat *J)
 PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
 {
   VKMesh             mesh = m->mesh;
-  const VKLayout          *L    = VKMeshLayout(mesh);
+  const VKLayout    *L    = VKMeshLayout(mesh);
+  PetscInt           k    = m->ngamma;
   Vec                local;
   const PetscScalar *a;
 
@@ -169,17 +171,20 @@ PetscErrorCode VKMaterialGammaJacobian(VKMaterial m, Vec x, Mat J)
   PetscCall(MatZeroEntries(J));
   PetscCall(VKMeshGetLocalPositions(x, &local, &a));
   for (PetscInt e = 0; e < L->eEnd - L->eStart; e++) {
-    PetscReal X[12], dgdg[24], vals[24];
-    PetscInt  rows[12], cols[2] = {2 * (L->eStart + e), 2 * (L->eStart + e) + 1};
+    const PetscReal *G = VKMeshTetGradients(mesh) + 12 * (L->eStart + e), vol = VKMeshTetVolumes(mesh)[L->eStart + e];
+    PetscReal        X[12], dgdg[36], vals[36];
+    PetscInt         rows[12], cols[3];
+
+    for (PetscInt j = 0; j < k; j++) cols[j] = k * (L->eStart + e) + j;
     VKLayoutGatherTet(L, e, a, X);
-    PetscCall(VKTetEvaluate(VKMeshTetGradients(mesh) + 12 * (L->eStart + e), VKMeshTetVolumes(mesh)[L->eStart + e], X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
-    for (int k = 0; k < 4; k++)
+    PetscCall(VKTetEvaluate(G, vol, X, &m->band, m->gamma[2 * e], m->gamma[2 * e + 1], PETSC_FALSE, NULL, NULL, NULL, dgdg));
+    if (k == 3) PetscCall(VKTetCouplingEvaluate(G, vol, X, 1, m->coupling[2 * e + 1], PETSC_FALSE, NULL, dgdg + 24, NULL)); /* g_c psi_c is linear in g_c */
+    for (int c = 0; c < 4; c++)
       for (int r = 0; r < 3; r++) {
-        rows[3 * k + r]         = 3 * VKMeshTets(mesh)[4 * (L->eStart + e) + k] + r;
-        vals[2 * (3 * k + r)]     = dgdg[3 * k + r];
-        vals[2 * (3 * k + r) + 1] = dgdg[12 + 3 * k + r];
+        rows[3 * c + r] = 3 * VKMeshTets(mesh)[4 * (L->eStart + e) + c] + r;
+        for (PetscInt j = 0; j < k; j++) vals[k * (3 * c + r) + j] = dgdg[12 * j + 3 * c + r];
       }
-    PetscCall(MatSetValues(J, 12, rows, 2, cols, vals, INSERT_VALUES));
+    PetscCall(MatSetValues(J, 12, rows, k, cols, vals, INSERT_VALUES));
   }
   PetscCall(VKMeshRestoreLocalPositions(x, &local, &a));
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));

@@ -7,6 +7,10 @@
  *   /material/band    1 x 2     stretch band lo, hi (-mat_band; absent: 1, 1)
  *   /material/coupling n_E x 2  g_c (Pa), nu of the stretch-to-bending
  *                               coupling (coupling.c; absent: none)
+ *   /material/coupling_from 1 x 3  the uniform coupling g_c, nu_top,
+ *                               nu_bottom (-mat_coupling, -mat_coupling_nu)
+ *                               a fit of g_c per tet started from (absent:
+ *                               not recorded)
  * Tets are matched through (voxel, Kuhn index), so a file written with one
  * partition reads into a mesh with any other. */
 #include "materialimpl.h"
@@ -35,6 +39,7 @@ PetscErrorCode VKMaterialCreate(VKMesh mesh, VKMaterial *mat)
   m->coupling_nu[0] = DEFAULT_NU_TOP;
   m->coupling_nu[1] = DEFAULT_NU_BOTTOM;
   m->coupling_max_it = VK_COUPLING_MAX_IT;
+  m->ngamma  = 2;
   *mat       = m;
   PetscFunctionReturn(0);
 }
@@ -166,6 +171,10 @@ static PetscErrorCode UniformCoupling(VKMaterial m)
     m->coupling[2 * e]     = m->coupling_gc;
     m->coupling[2 * e + 1] = FaceNu(m, L->eStart + e, mid);
   }
+  m->coupling_from[0]  = m->coupling_gc;
+  m->coupling_from[1]  = m->coupling_nu[0];
+  m->coupling_from[2]  = m->coupling_nu[1];
+  m->has_coupling_from = PETSC_TRUE;
   PetscFunctionReturn(0);
 }
 
@@ -179,11 +188,21 @@ PetscErrorCode VKMaterialSetCoupling(VKMaterial m, PetscReal gc, PetscReal nu_to
   m->coupling_nu[1] = nu_bottom;
   m->coupling_set   = PETSC_TRUE;
   if (m->setup) { /* solvers built on the material rebuild (K gains g_c) */
+    PetscCheck(gc > 0 || m->ngamma == 2, m->comm, PETSC_ERR_ORDER, "The coupling's g_c is one of the material's fitted parameters (VKMaterialSetGammaCount 3): it cannot be removed");
     if (gc > 0) PetscCall(UniformCoupling(m));
     else PetscCall(PetscFree(m->coupling));
     for (PetscInt d = 0; d < VKMeshDomainCount(m->mesh); d++) m->domain_state[d]++;
     m->state++;
   }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetCoupling(VKMaterial m, PetscReal *gc, PetscReal nu[2])
+{
+  PetscFunctionBegin;
+  *gc   = m->coupling_gc;
+  nu[0] = m->coupling_nu[0];
+  nu[1] = m->coupling_nu[1];
   PetscFunctionReturn(0);
 }
 
@@ -236,24 +255,49 @@ PetscErrorCode VKMaterialSetUp(VKMaterial m)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKMaterialSetGammaCount(VKMaterial m, PetscInt k)
+{
+  PetscFunctionBegin;
+  PetscCall(VKMaterialSetUp(m));
+  PetscCheck(k == 2 || k == 3, m->comm, PETSC_ERR_ARG_OUTOFRANGE, "A material has 2 (g_s, g_v) or 3 (g_s, g_v, g_c) parameters per tet, not %d", (int)k);
+  PetscCheck(k == 2 || m->coupling, m->comm, PETSC_ERR_ARG_WRONG, "g_c as a third parameter per tet needs the stretch-to-bending coupling (-mat_coupling g_c, or a material.h5 that has one)");
+  m->ngamma = k;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode VKMaterialGetGammaCount(VKMaterial m, PetscInt *k)
+{
+  PetscFunctionBegin;
+  *k = m->ngamma;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKMaterialCreateGammaVec(VKMaterial m, Vec *g)
 {
   const VKLayout *L = VKMeshLayout(m->mesh);
 
   PetscFunctionBegin;
-  PetscCall(VecCreateMPI(m->comm, 2 * (L->eEnd - L->eStart), 2 * VKMeshTetCount(m->mesh), g));
+  PetscCall(VecCreateMPI(m->comm, m->ngamma * (L->eEnd - L->eStart), m->ngamma * VKMeshTetCount(m->mesh), g));
   PetscFunctionReturn(0);
+}
+
+/* Where parameter j (0 g_s, 1 g_v, 2 g_c) of owned tet e is stored. */
+static PetscReal *GammaEntry(VKMaterial m, PetscInt e, PetscInt j)
+{
+  return j < 2 ? &m->gamma[2 * e + j] : &m->coupling[2 * e];
 }
 
 PetscErrorCode VKMaterialGetGamma(VKMaterial m, Vec g)
 {
   const VKLayout *L = VKMeshLayout(m->mesh);
+  PetscInt        k = m->ngamma;
   PetscScalar    *a;
 
   PetscFunctionBegin;
   PetscCall(VKMaterialSetUp(m));
   PetscCall(VecGetArray(g, &a));
-  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) a[i] = m->gamma[i];
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++)
+    for (PetscInt j = 0; j < k; j++) a[k * e + j] = *GammaEntry(m, e, j);
   PetscCall(VecRestoreArray(g, &a));
   PetscFunctionReturn(0);
 }
@@ -262,23 +306,26 @@ PetscErrorCode VKMaterialSetGamma(VKMaterial m, Vec g)
 {
   const VKLayout    *L = VKMeshLayout(m->mesh);
   const PetscScalar *a;
-  PetscInt           bad = -1, any, changed = 0, anychanged;
+  PetscInt           bad = -1, any, changed = 0, anychanged, k = m->ngamma;
+  static const char *const names[] = {"g_s", "g_v", "g_c"};
 
   PetscFunctionBegin;
   PetscCall(VKMaterialSetUp(m));
   PetscCall(VecGetArrayRead(g, &a));
-  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart) && bad < 0; i++)
-    if (!(a[i] >= 0 && a[i] <= VK_GAMMA_MAX)) bad = 2 * L->eStart + i;
+  for (PetscInt i = 0; i < k * (L->eEnd - L->eStart) && bad < 0; i++)
+    if (!(a[i] >= 0 && a[i] <= VK_GAMMA_MAX)) bad = k * L->eStart + i;
   PetscCallMPI(MPI_Allreduce(&bad, &any, 1, MPIU_INT, MPI_MAX, m->comm));
   if (any >= 0) PetscCall(VecRestoreArrayRead(g, &a));
-  PetscCheck(any < 0, m->comm, PETSC_ERR_FP, "Material parameter %d (tet %d, %s) is negative, not finite or above %g Pa; the material is left as it was", (int)any, (int)(any / 2), any % 2 ? "g_v" : "g_s", (double)VK_GAMMA_MAX);
-  for (PetscInt i = 0; i < 2 * (L->eEnd - L->eStart); i++) {
-    if (a[i] != m->gamma[i]) {
-      m->domain_state[VKMeshTetDomains(m->mesh)[L->eStart + i / 2]]++;
-      changed = 1;
+  PetscCheck(any < 0, m->comm, PETSC_ERR_FP, "Material parameter %d (tet %d, %s) is negative, not finite or above %g Pa; the material is left as it was", (int)any, (int)(any / k), names[any % k], (double)VK_GAMMA_MAX);
+  for (PetscInt e = 0; e < L->eEnd - L->eStart; e++)
+    for (PetscInt j = 0; j < k; j++) {
+      PetscReal *v = GammaEntry(m, e, j);
+      if (a[k * e + j] != *v) {
+        m->domain_state[VKMeshTetDomains(m->mesh)[L->eStart + e]]++;
+        changed = 1;
+      }
+      *v = a[k * e + j];
     }
-    m->gamma[i] = a[i];
-  }
   PetscCall(VecRestoreArrayRead(g, &a));
   PetscCallMPI(MPI_Allreduce(&changed, &anychanged, 1, MPIU_INT, MPI_MAX, m->comm));
   if (anychanged) m->state++;
@@ -350,6 +397,7 @@ typedef struct {
   VKMesh           mesh;
   const PetscReal *gamma;    /* all tets, rank 0 */
   const PetscReal *coupling; /* all tets, rank 0; NULL: none */
+  const PetscReal *coupling_from; /* 3; NULL: not recorded */
   VKStretchBand    band;
 } WriteCtx;
 
@@ -381,6 +429,7 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
     ierr              = VKH5WriteReal(&h, "/material/band", 1, 2, band);
   }
   if (!ierr && w->coupling) ierr = VKH5WriteReal(&h, "/material/coupling", VKMeshTetCount(w->mesh), 2, w->coupling);
+  if (!ierr && w->coupling && w->coupling_from) ierr = VKH5WriteReal(&h, "/material/coupling_from", 1, 3, w->coupling_from);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "units", "Pa");
   if (!ierr) ierr = VKH5WriteAttrReal(&h, "/material", "h", VKMeshGrid(w->mesh)->h);
@@ -415,7 +464,7 @@ PetscErrorCode VKMaterialWriteH5(VKMaterial m, const char path[])
   PetscCallMPI(MPI_Gatherv(m->gamma, n, MPIU_REAL, all, counts, displs, MPIU_REAL, 0, m->comm));
   if (m->coupling) PetscCallMPI(MPI_Gatherv(m->coupling, n, MPIU_REAL, allc, counts, displs, MPIU_REAL, 0, m->comm));
   if (rank == 0) {
-    WriteCtx w = {mesh, all, m->coupling ? allc : NULL, m->band};
+    WriteCtx w = {mesh, all, m->coupling ? allc : NULL, m->has_coupling_from ? m->coupling_from : NULL, m->band};
     ierr       = VKOutputWrite(path, PETSC_FALSE, WriteMaterial, &w);
     PetscCall(PetscFree2(counts, displs));
     PetscCall(PetscFree2(all, allc));
@@ -431,8 +480,8 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   const VKLayout  *L    = VKMeshLayout(mesh);
   VKH5       h;
   PetscInt   n, nv = 0, nk = 0, nc = 0, *voxel = NULL, *kuhn = NULL, *seen = NULL;
-  PetscReal *gamma = NULL, *band = NULL, *coupling = NULL, mid = MidPlane(mesh);
-  PetscBool  hasband = PETSC_FALSE, hascoupling = PETSC_FALSE;
+  PetscReal *gamma = NULL, *band = NULL, *coupling = NULL, *from = NULL, mid = MidPlane(mesh);
+  PetscBool  hasband = PETSC_FALSE, hascoupling = PETSC_FALSE, hasfrom = PETSC_FALSE, frommatch = PETSC_TRUE;
   char       format[64];
   PetscErrorCode ierr;
 
@@ -451,6 +500,14 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
   }
   if (!ierr) ierr = VKH5HasDataset(&h, "/material/coupling", &hascoupling);
   if (!ierr && hascoupling) ierr = VKH5ReadReal(&h, "/material/coupling", 2, &nc, &coupling);
+  if (!ierr && hascoupling) ierr = VKH5HasDataset(&h, "/material/coupling_from", &hasfrom);
+  if (!ierr && hasfrom) {
+    PetscInt nf;
+    ierr = VKH5ReadReal(&h, "/material/coupling_from", 3, &nf, &from);
+    if (!ierr && !(nf == 1 && from[0] >= 0 && from[0] <= VK_GAMMA_MAX && PetscAbsReal(from[1]) <= VK_COUPLING_NU_MAX && PetscAbsReal(from[2]) <= VK_COUPLING_NU_MAX)) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_FILE_UNEXPECTED, PETSC_ERROR_INITIAL, "%s: /material/coupling_from must be one row g_c, nu_top, nu_bottom with g_c in [0, %g] Pa and each nu in [-%g, %g], got %d rows starting %g", path, (double)VK_GAMMA_MAX, (double)VK_COUPLING_NU_MAX, (double)VK_COUPLING_NU_MAX, (int)nf, nf > 0 ? (double)from[0] : 0.0);
+    if (!ierr && m->coupling_set) frommatch = (PetscBool)(from[0] == m->coupling_gc && from[1] == m->coupling_nu[0] && from[2] == m->coupling_nu[1]);
+    if (!ierr && !frommatch) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_coupling %g -mat_coupling_nu %g,%g conflicts with the coupling of %s, made from g_c %g, nu %g,%g (the material was fitted with it: leave -mat_coupling out)", (double)m->coupling_gc, (double)m->coupling_nu[0], (double)m->coupling_nu[1], path, (double)from[0], (double)from[1], (double)from[2]);
+  }
   VKH5Close(&h);
   if (!ierr) {
     PetscReal lo = band ? band[0] : 1, hi = band ? band[1] : 1;
@@ -480,7 +537,7 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
       break;
     }
     e = VKMeshTetOfKuhn(mesh)[6 * vi + kuhn[i]];
-    if (coupling && m->coupling_set && !(coupling[2 * i] == m->coupling_gc && coupling[2 * i + 1] == FaceNu(m, e, mid))) { /* what -mat_coupling would have made */
+    if (coupling && m->coupling_set && !hasfrom && !(coupling[2 * i] == m->coupling_gc && coupling[2 * i + 1] == FaceNu(m, e, mid))) { /* what -mat_coupling would have made */
       ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "-mat_coupling %g -mat_coupling_nu %g,%g conflicts with the coupling stored in %s (row %d: g_c %g, nu %g; the coupling the material was fitted with: leave -mat_coupling out)", (double)m->coupling_gc, (double)m->coupling_nu[0], (double)m->coupling_nu[1], path, (int)i, (double)coupling[2 * i], (double)coupling[2 * i + 1]);
       break;
     }
@@ -498,6 +555,12 @@ static PetscErrorCode LoadMaterial(VKMaterial m, const char path[])
     }
   }
   if (!ierr && !coupling && m->coupling_gc > 0) ierr = UniformCoupling(m); /* -mat_coupling beside a file without one */
+  else if (!ierr && coupling) {
+    m->has_coupling_from = hasfrom;
+    for (int c = 0; c < 3 && hasfrom; c++) m->coupling_from[c] = from[c];
+  }
+  if (!ierr && m->ngamma == 3 && !m->coupling) ierr = PetscError(PETSC_COMM_SELF, __LINE__, PETSC_FUNCTION_NAME, __FILE__, PETSC_ERR_ARG_INCOMP, PETSC_ERROR_INITIAL, "%s has no stretch-to-bending coupling, but g_c is one of this material's fitted parameters", path);
+  PetscCall(PetscFree(from));
   PetscCall(PetscFree(seen));
   PetscCall(PetscFree(gamma));
   PetscCall(PetscFree(band));

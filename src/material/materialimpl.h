@@ -15,6 +15,9 @@ struct _n_VKMaterial {
   PetscBool coupling_set;                /* -mat_coupling given: a file's coupling must not be there too */
   PetscInt  coupling_max_it;             /* Newton steps of each projection in the PD local step (-mat_coupling_max_it) */
   PetscReal *coupling;                   /* 2 per owned tet: g_c, nu; NULL without the coupling term */
+  PetscReal coupling_from[3];            /* the uniform coupling g_c, nu_top, nu_bottom the per-tet one started from */
+  PetscBool has_coupling_from;           /* (unknown for a file that does not record it) */
+  PetscInt  ngamma;                      /* parameters per tet in the gamma Vec and J: 2 (g_s, g_v) or 3 (+ g_c) */
   PetscObjectState state;                /* raised by every change of gamma */
   PetscObjectState *domain_state;        /* per mesh domain: raised when one of its owned tets changes */
   PetscBool setup;
