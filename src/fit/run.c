@@ -6,7 +6,7 @@
  * each sample starting from the average so far; with -fit_loss trajectory
  * VKFitRun hands over to trajectory.c.  Outputs in DIR (both losses):
  *   material.h5    g_s, g_v per tet (VKMaterialWriteH5; volknit sim -mat_file)
- *   material.xdmf  the mesh of mesh.h5 coloured by g_s and g_v (ParaView)
+ *   material.xdmf  the mesh of mesh.h5 coloured by g_s, g_v (and g_c) (ParaView)
  *   fit.csv        one row per iteration (sample frame, -1 for the
  *                  trajectory, harmonic stage,
  *                  method, iteration, loss, gradient norm, step,
@@ -196,7 +196,9 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
 
 static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
 {
-  VKMesh m = (VKMesh)ctx;
+  VKFit            fit = (VKFit)ctx;
+  VKMesh           m   = fit->mesh;
+  const PetscReal *coupling;
 
   PetscFunctionBegin;
   PetscCall(VKXdmfBegin(out->fp));
@@ -205,6 +207,8 @@ static PetscErrorCode WriteXdmf(void *ctx, VKOutput *out)
   PetscCall(VKXdmfGeometry(out->fp, VKMeshNodeCount(m), "mesh.h5", "/mesh/x"));
   PetscCall(VKXdmfAttribute(out->fp, "g_s", "Cell", VKMeshTetCount(m), 1, PETSC_FALSE, "material.h5", "/material/g_s"));
   PetscCall(VKXdmfAttribute(out->fp, "g_v", "Cell", VKMeshTetCount(m), 1, PETSC_FALSE, "material.h5", "/material/g_v"));
+  PetscCall(VKMaterialGetCouplingArrayRead(fit->mat, &coupling));
+  if (coupling) PetscCall(VKXdmfAttribute(out->fp, "g_c", "Cell", VKMeshTetCount(m), 1, PETSC_FALSE, "material.h5", "/material/g_c"));
   PetscCall(VKXdmfGridEnd(out->fp));
   PetscCall(VKXdmfEnd(out->fp));
   PetscFunctionReturn(0);
@@ -330,7 +334,7 @@ PetscErrorCode VKFitWriteOutputs_Private(VKFit fit, VKFitData data, const VKFitR
   PetscCall(VKFitGammaAtFloor(fit, res->gamma, sum.at_floor, sum.largest));
   if (rank == 0) {
     PetscCall(VKPathJoin(dir, "material.xdmf", path, sizeof(path)));
-    ierr = VKOutputWrite(path, PETSC_TRUE, WriteXdmf, fit->mesh);
+    ierr = VKOutputWrite(path, PETSC_TRUE, WriteXdmf, fit);
     if (!ierr) {
       PetscCall(VKPathJoin(dir, "fit.csv", path, sizeof(path)));
       ierr = VKOutputWrite(path, PETSC_TRUE, WriteCSV, fit);

@@ -7,6 +7,7 @@
  *   /material/band    1 x 2     stretch band lo, hi (-mat_band; absent: 1, 1)
  *   /material/coupling n_E x 2  g_c (Pa), nu of the stretch-to-bending
  *                               coupling (coupling.c; absent: none)
+ *   /material/g_c     n_E x 1   g_c alone, as g_s and g_v are (/material/g_s, g_v)
  *   /material/coupling_from 1 x 3  the uniform coupling g_c, nu_top,
  *                               nu_bottom (-mat_coupling, -mat_coupling_nu)
  *                               a fit of g_c per tet started from (absent:
@@ -429,6 +430,13 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
     ierr              = VKH5WriteReal(&h, "/material/band", 1, 2, band);
   }
   if (!ierr && w->coupling) ierr = VKH5WriteReal(&h, "/material/coupling", VKMeshTetCount(w->mesh), 2, w->coupling);
+  if (!ierr && w->coupling) { /* g_c alone, for material.xdmf */
+    PetscReal *col;
+    PetscCall(PetscMalloc1(VKMeshTetCount(w->mesh) + 1, &col));
+    for (PetscInt e = 0; e < VKMeshTetCount(w->mesh); e++) col[e] = w->coupling[2 * e];
+    ierr = VKH5WriteReal(&h, "/material/g_c", VKMeshTetCount(w->mesh), 1, col);
+    PetscCall(PetscFree(col));
+  }
   if (!ierr && w->coupling && w->coupling_from) ierr = VKH5WriteReal(&h, "/material/coupling_from", 1, 3, w->coupling_from);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "units", "Pa");
