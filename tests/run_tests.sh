@@ -614,6 +614,11 @@ for n in 1 2; do
     else not_ok "run sweep -n $n: the best uniform material's predicted REL $pred is not the REL $rel the report measured of its run"; fi
   else not_ok "run sweep -n $n (uniform, best_uniform) failed or left no report of 2 runs and run.json (see $rd/s$n.log)"; fi
 done
+# with the coupling the best uniform material refines g_c too, and the run
+# of it is the material whose REL the search predicted
+if sweep_run "sc" 1 -mat_coupling 2000 -run_sweep_material best_uniform && gc=$(json_num "$rd/sc/run.json" best_uniform_coupling_Pa) && [ -n "$gc" ] \
+   && close "$(json_num "$rd/sc/run.json" best_uniform_predicted_rel)" "$(json_num "$rd/sc/report/report.json" rel 1)" 1e-3; then ok
+else not_ok "run sweep -mat_coupling 2000: expected a refined uniform g_c ('$gc') whose predicted REL is the one measured (see $rd/sc.log)"; fi
 for key in best_uniform_gamma_s_Pa best_uniform_gamma_v_Pa; do
   if close "$(json_num "$rd/s1/run.json" $key)" "$(json_num "$rd/s2/run.json" $key)" 1e-5; then ok
   else not_ok "run sweep: $key differs between 1 and 2 ranks ($(json_num "$rd/s1/run.json" $key) and $(json_num "$rd/s2/run.json" $key))"; fi
