@@ -186,6 +186,8 @@ int main(int argc, char **argv)
     {"material.h5", "/material/coupling", NULL,     SET_REAL,    4,  -5,         "has coupling g_c = -5"                 },
     {"material.h5", "/material/coupling", NULL,     SET_REAL,    1,  NAN,        "nu finite in"                          },
     {"material.h5", "/material/coupling", NULL,     RESHAPE,     2,  0,          "/material/coupling has 4 rows"         },
+    {"material.h5", "/material/coupling_from", NULL, SET_REAL,   2,  NAN,        "/material/coupling_from must be one row"},
+    {"material.h5", "/material/coupling_from", NULL, SET_REAL,   0,  -1,         "/material/coupling_from must be one row"},
     {"material.h5", "/material",        "format",   ATTR_STRING, 0,  0,          "expected 'volknit-material 1'"         }
   };
 
