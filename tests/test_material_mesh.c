@@ -22,6 +22,14 @@
 #include <vkio.h>
 #include "vktest.h"
 
+/* ierr = call, with errors returned instead of printed (a refusal expected) */
+#define CALL_EXPECTING_ERROR(ierr, call) \
+  do { \
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL)); \
+    ierr = (call); \
+    PetscCall(PetscPopErrorHandler()); \
+  } while (0)
+
 /* gamma of a tet from its voxel and Kuhn index, so every partition agrees */
 static void CanonicalGamma(const PetscInt v[], PetscInt p, PetscReal g[])
 {
@@ -100,9 +108,7 @@ static PetscErrorCode TestGammaState(MPI_Comm comm)
   PetscCall(VecGetArray(g, &a));
   if (rank == size - 1) a[1] = -1;
   PetscCall(VecRestoreArray(g, &a));
-  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-  err = VKMaterialSetGamma(mat, g);
-  PetscCall(PetscPopErrorHandler());
+  CALL_EXPECTING_ERROR(err, VKMaterialSetGamma(mat, g));
   PetscCall(VKMaterialGetState(mat, &s2));
   PetscCall(VKTestCheck((PetscBool)(err == PETSC_ERR_FP && s2 == s1 && mat->gamma[1] == before), NULL, "VKMaterialSetGamma refuses a negative g_v (error %d) and leaves the material and its state as they were", (int)err));
   PetscCall(PetscFree2(d0, d1));
@@ -415,8 +421,9 @@ int main(int argc, char **argv)
     PetscCall(VKMaterialSetCoupling(other, 3e3, 1.5, 0));
     PetscCall(CheckLoad(&other, path, NULL, "a material.h5 with a coupling loads where -mat_coupling gives the same one (volknit run passes it to the fit and the sim)"));
     { /* g_c as the third parameter per tet, as the fit moves it */
-      Mat          J3 = NULL;
-      Vec          g3;
+      Mat            J3 = NULL;
+      Vec            g3;
+      PetscErrorCode ierr;
       PetscScalar *a;
       PetscInt     n, k;
       PetscReal    E3, E3s;
@@ -448,19 +455,11 @@ int main(int argc, char **argv)
       PetscCall(CheckLoad(&other, path, "made from g_c 3000", "a material.h5 with fitted g_c is refused beside another -mat_coupling_nu"));
       PetscCall(VKMaterialCreate(ms, &other));
       PetscCall(VKMaterialSetUp(other));
-      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-      {
-        PetscErrorCode ierr = VKMaterialSetGammaCount(other, 3);
-        PetscCall(PetscPopErrorHandler());
-        PetscCall(VKTestCheck((PetscBool)(ierr != 0), NULL, "g_c as a third parameter is refused on a material without the coupling"));
-      }
+      CALL_EXPECTING_ERROR(ierr, VKMaterialSetGammaCount(other, 3));
+      PetscCall(VKTestCheck((PetscBool)(ierr != 0), NULL, "g_c as a third parameter is refused on a material without the coupling"));
       PetscCall(VKMaterialDestroy(&other));
-      PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
-      {
-        PetscErrorCode ierr = VKMaterialSetCoupling(mat, 0, 1.5, 0);
-        PetscCall(PetscPopErrorHandler());
-        PetscCall(VKTestCheck((PetscBool)(ierr != 0), NULL, "the coupling cannot be removed while g_c is a fitted parameter"));
-      }
+      CALL_EXPECTING_ERROR(ierr, VKMaterialSetCoupling(mat, 0, 1.5, 0));
+      PetscCall(VKTestCheck((PetscBool)(ierr != 0), NULL, "the coupling cannot be removed while g_c is a fitted parameter"));
       PetscCall(VKMaterialSetGammaCount(mat, 2));
       PetscCall(VecDestroy(&g3));
     }

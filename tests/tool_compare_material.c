@@ -36,6 +36,16 @@ static PetscErrorCode Load(const char path[], Material *m)
   PetscFunctionReturn(0);
 }
 
+/* Per column of two n x 2 arrays: max |a - b| and max |a|. */
+static void MaxDifference(PetscInt n, const PetscReal a[], const PetscReal b[], PetscReal diff[2], PetscReal amax[2])
+{
+  diff[0] = diff[1] = amax[0] = amax[1] = 0;
+  for (PetscInt i = 0; i < 2 * n; i++) {
+    diff[i % 2] = PetscMax(diff[i % 2], PetscAbsReal(a[i] - b[i]));
+    amax[i % 2] = PetscMax(amax[i % 2], PetscAbsReal(a[i]));
+  }
+}
+
 int main(int argc, char **argv)
 {
   Material  a, b;
@@ -49,21 +59,14 @@ int main(int argc, char **argv)
   PetscCall(Load(argv[2], &b));
   PetscCall(VKTestCheck((PetscBool)(a.n == b.n && a.n > 0), NULL, "same number of tets (%d, %d)", (int)a.n, (int)b.n));
   if (a.n == b.n) {
-    PetscReal diff[2] = {0, 0}, amax[2] = {0, 0};
+    PetscReal diff[2], amax[2];
     PetscCall(VKTestCheck((PetscBool)(!memcmp(a.voxel, b.voxel, 3 * a.n * sizeof(PetscInt)) && !memcmp(a.kuhn, b.kuhn, a.n * sizeof(PetscInt))), NULL, "same tets, row by row"));
-    for (PetscInt i = 0; i < 2 * a.n; i++) {
-      diff[i % 2] = PetscMax(diff[i % 2], PetscAbsReal(a.gamma[i] - b.gamma[i]));
-      amax[i % 2] = PetscMax(amax[i % 2], PetscAbsReal(a.gamma[i]));
-    }
+    MaxDifference(a.n, a.gamma, b.gamma, diff, amax);
     for (int c = 0; c < 2; c++) PetscCall(VKTestCheck((PetscBool)(amax[c] > 0 && diff[c] <= rtol * amax[c]), NULL, "%s equal: max |a - b| / max |a| = %.3e (<= %g)", c ? "g_v" : "g_s", (double)(amax[c] > 0 ? diff[c] / amax[c] : PETSC_INFINITY), (double)rtol));
     if (a.coupling || b.coupling) {
       PetscCall(VKTestCheck((PetscBool)(a.coupling && b.coupling && a.nc == a.n && b.nc == b.n), NULL, "both have the coupling (%s, %s)", a.coupling ? "yes" : "no", b.coupling ? "yes" : "no"));
       if (a.coupling && b.coupling && a.nc == a.n && b.nc == b.n) {
-        diff[0] = diff[1] = amax[0] = amax[1] = 0;
-        for (PetscInt i = 0; i < 2 * a.n; i++) {
-          diff[i % 2] = PetscMax(diff[i % 2], PetscAbsReal(a.coupling[i] - b.coupling[i]));
-          amax[i % 2] = PetscMax(amax[i % 2], PetscAbsReal(a.coupling[i]));
-        }
+        MaxDifference(a.n, a.coupling, b.coupling, diff, amax);
         PetscCall(VKTestCheck((PetscBool)(amax[0] > 0 && diff[0] <= rtol * amax[0] && diff[1] <= rtol * amax[1]), NULL, "coupling g_c equal: max |a - b| / max |a| = %.3e (<= %g), nu %.3e", (double)(amax[0] > 0 ? diff[0] / amax[0] : PETSC_INFINITY), (double)rtol, (double)(amax[1] > 0 ? diff[1] / amax[1] : diff[1])));
       }
     }

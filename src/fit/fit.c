@@ -272,6 +272,8 @@ static PetscErrorCode SetGammaCount(VKFit fit)
   PetscReal        mine[2];
 
   PetscFunctionBegin;
+  if (fit->gamma_count_set) PetscFunctionReturn(0); /* once, from the starting material */
+  fit->gamma_count_set = PETSC_TRUE;
   PetscCall(VKMaterialSetUp(fit->mat));
   PetscCall(VKMaterialGetCouplingArrayRead(fit->mat, &c));
   fit->ngamma = fit->fit_coupling && c ? 3 : 2;
@@ -302,8 +304,7 @@ PetscErrorCode VKFitSetUp(VKFit fit)
   PetscCall(VKSceneGetGravity(fit->scene, fit->gravity));
   PetscCall(VKSceneGetHandles(fit->scene, &nhandles, NULL));
   PetscCheck(fit->inertia == VK_FIT_INERTIA_IMPLICIT || nhandles > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_inertia %s is a static equilibrium, which needs scene handles to hold the mesh (this scene has none); use -fit_inertia implicit", VKFitInertias[fit->inertia]);
-  if (!fit->gamma_count_set) PetscCall(SetGammaCount(fit));
-  fit->gamma_count_set = PETSC_TRUE;
+  PetscCall(SetGammaCount(fit));
   PetscCall(VKShapeFitSetUp(fit->sf));
   PetscCall(VKPDSetStatic(fit->pd, fit->inertia == VK_FIT_INERTIA_IMPLICIT ? PETSC_FALSE : PETSC_TRUE));
   PetscCall(VKPDSetUp(fit->pd));
@@ -341,8 +342,7 @@ PetscErrorCode VKFitView(VKFit fit, PetscViewer viewer)
 PetscErrorCode VKFitCreateGammaVec(VKFit fit, Vec *g)
 {
   PetscFunctionBegin;
-  if (!fit->gamma_count_set) PetscCall(SetGammaCount(fit));
-  fit->gamma_count_set = PETSC_TRUE;
+  PetscCall(SetGammaCount(fit));
   PetscCall(VKMaterialCreateGammaVec(fit->mat, g));
   PetscFunctionReturn(0);
 }

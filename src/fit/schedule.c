@@ -150,6 +150,12 @@ static PetscErrorCode Record(Opt *o, VKFitMethod method, PetscInt it, PetscReal 
   PetscFunctionReturn(0);
 }
 
+/* Entries of a harmonic step dq: k parameters per tet, r harmonics each. */
+static PetscInt QSize(const Opt *o)
+{
+  return o->fit->ngamma * o->r;
+}
+
 /* v_i = 0 for the frozen parameters. */
 static PetscErrorCode MaskFrozen(Opt *o, Vec v)
 {
@@ -190,7 +196,7 @@ static PetscErrorCode Gradient(Opt *o)
     PetscCall(MaskFrozen(o, o->step));
     PetscCall(VKFitHarmonicApplyTranspose(fit, o->r, o->step, o->gq));
     o->gnorm = 0;
-    for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) o->gnorm += PetscSqr(o->gq[j]);
+    for (PetscInt j = 0; j < QSize(o); j++) o->gnorm += PetscSqr(o->gq[j]);
     o->gnorm = PetscSqrtReal(o->gnorm);
   } else {
     PetscCallMPI(MPI_Allreduce(&s, &o->gnorm, 1, MPIU_REAL, MPIU_SUM, fit->comm));
@@ -209,8 +215,8 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
   PetscCall(VecCopy(o->gamma, o->trial));
   if (o->r) {
     PetscReal *sdq;
-    PetscCall(PetscMalloc1(o->fit->ngamma * o->r, &sdq));
-    for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) sdq[j] = s * o->dq[j];
+    PetscCall(PetscMalloc1(QSize(o), &sdq));
+    for (PetscInt j = 0; j < QSize(o); j++) sdq[j] = s * o->dq[j];
     PetscCall(VecSet(o->step, 0));
     PetscCall(VKFitHarmonicApply(fit, o->r, sdq, o->step));
     PetscCall(MaskFrozen(o, o->step));
@@ -229,7 +235,7 @@ static PetscErrorCode Trial(Opt *o, PetscReal s)
 static PetscErrorCode HarmonicGaussNewton(Opt *o, PetscReal kappa)
 {
   VKFit      fit = o->fit;
-  PetscInt   n   = o->fit->ngamma * o->r;
+  PetscInt   n   = QSize(o);
   PetscReal *P, *l, *Q, *e;
 
   PetscFunctionBegin;
@@ -337,9 +343,9 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
     if (o->gnorm == 0) break;
     if (o->r) {
       if (method == VK_FIT_GD)
-        for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) o->dq[j] = -o->gq[j];
+        for (PetscInt j = 0; j < QSize(o); j++) o->dq[j] = -o->gq[j];
       else PetscCall(HarmonicGaussNewton(o, fit->kappa * o->gnorm / gnorm_gamma));
-      for (PetscInt j = 0; j < o->fit->ngamma * o->r; j++) {
+      for (PetscInt j = 0; j < QSize(o); j++) {
         dn += PetscSqr(o->dq[j]);
         slope += o->gq[j] * o->dq[j];
       }
@@ -411,9 +417,9 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
   PetscCall(PetscMalloc1(o.nloc + 1, &o.frozen));
   if (r) {
     PetscCall(VKFitHarmonicSetUp(fit, r));
-    PetscCall(PetscMalloc3(fit->ngamma * r, &o.gq, fit->ngamma * r, &o.dq, PetscSqr(fit->ngamma * r), &o.work));
-    PetscCall(VecDuplicateVecs(fit->rhs, fit->ngamma * r, &o.Z));
-    PetscCall(VecDuplicateVecs(fit->rhs, fit->ngamma * r, &o.AZ));
+    PetscCall(PetscMalloc3(QSize(&o), &o.gq, QSize(&o), &o.dq, PetscSqr(QSize(&o)), &o.work));
+    PetscCall(VecDuplicateVecs(fit->rhs, QSize(&o), &o.Z));
+    PetscCall(VecDuplicateVecs(fit->rhs, QSize(&o), &o.AZ));
     PetscCall(VecDuplicate(gamma, &o.step));
   } else PetscCall(VecDuplicate(gamma, &o.d));
   PetscCall(VecDuplicate(gamma, &o.grad));
@@ -435,8 +441,8 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
   if (phase != VK_FIT_PHASE_DONE) PetscCall(Phase(&o, VK_FIT_GN, first, fit->gn_its));
   if (r) {
     PetscCall(PetscFree3(o.gq, o.dq, o.work));
-    PetscCall(VecDestroyVecs(fit->ngamma * r, &o.Z));
-    PetscCall(VecDestroyVecs(fit->ngamma * r, &o.AZ));
+    PetscCall(VecDestroyVecs(QSize(&o), &o.Z));
+    PetscCall(VecDestroyVecs(QSize(&o), &o.AZ));
     PetscCall(VecDestroy(&o.step));
   } else PetscCall(VecDestroy(&o.d));
   PetscCall(PetscFree(o.frozen));

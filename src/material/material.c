@@ -402,6 +402,21 @@ typedef struct {
   VKStretchBand    band;
 } WriteCtx;
 
+/* Column c of an n x 2 array as a dataset of its own, for the XDMF cell
+ * attributes of material.xdmf. */
+static PetscErrorCode WriteColumn(VKH5 *h, const char name[], PetscInt n, const PetscReal a[], int c)
+{
+  PetscReal     *col;
+  PetscErrorCode ierr;
+
+  PetscFunctionBegin;
+  PetscCall(PetscMalloc1(n + 1, &col));
+  for (PetscInt e = 0; e < n; e++) col[e] = a[2 * e + c];
+  ierr = VKH5WriteReal(h, name, n, 1, col);
+  PetscCall(PetscFree(col));
+  PetscFunctionReturn(ierr);
+}
+
 static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
 {
   WriteCtx      *w = (WriteCtx *)ctx;
@@ -414,15 +429,8 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
   PetscCall(TetVoxels(w->mesh, voxel, kuhn));
   PetscCall(VKH5Create(out->tmp, &h));
   ierr = VKH5WriteReal(&h, "/material/gamma", VKMeshTetCount(w->mesh), 2, w->gamma);
-  { /* each column alone as well, for XDMF cell attributes (material.xdmf) */
-    PetscReal *col;
-    PetscCall(PetscMalloc1(VKMeshTetCount(w->mesh) + 1, &col));
-    for (int c = 0; c < 2 && !ierr; c++) {
-      for (PetscInt e = 0; e < VKMeshTetCount(w->mesh); e++) col[e] = w->gamma[2 * e + c];
-      ierr = VKH5WriteReal(&h, c ? "/material/g_v" : "/material/g_s", VKMeshTetCount(w->mesh), 1, col);
-    }
-    PetscCall(PetscFree(col));
-  }
+  if (!ierr) ierr = WriteColumn(&h, "/material/g_s", VKMeshTetCount(w->mesh), w->gamma, 0);
+  if (!ierr) ierr = WriteColumn(&h, "/material/g_v", VKMeshTetCount(w->mesh), w->gamma, 1);
   if (!ierr) ierr = VKH5WriteInt(&h, "/material/voxel", VKMeshTetCount(w->mesh), 3, voxel);
   if (!ierr) ierr = VKH5WriteInt(&h, "/material/kuhn", VKMeshTetCount(w->mesh), 1, kuhn);
   if (!ierr) {
@@ -430,13 +438,7 @@ static PetscErrorCode WriteMaterial(void *ctx, VKOutput *out)
     ierr              = VKH5WriteReal(&h, "/material/band", 1, 2, band);
   }
   if (!ierr && w->coupling) ierr = VKH5WriteReal(&h, "/material/coupling", VKMeshTetCount(w->mesh), 2, w->coupling);
-  if (!ierr && w->coupling) { /* g_c alone, for material.xdmf */
-    PetscReal *col;
-    PetscCall(PetscMalloc1(VKMeshTetCount(w->mesh) + 1, &col));
-    for (PetscInt e = 0; e < VKMeshTetCount(w->mesh); e++) col[e] = w->coupling[2 * e];
-    ierr = VKH5WriteReal(&h, "/material/g_c", VKMeshTetCount(w->mesh), 1, col);
-    PetscCall(PetscFree(col));
-  }
+  if (!ierr && w->coupling) ierr = WriteColumn(&h, "/material/g_c", VKMeshTetCount(w->mesh), w->coupling, 0);
   if (!ierr && w->coupling && w->coupling_from) ierr = VKH5WriteReal(&h, "/material/coupling_from", 1, 3, w->coupling_from);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "format", MATERIAL_FORMAT);
   if (!ierr) ierr = VKH5WriteAttrString(&h, "/material", "units", "Pa");
