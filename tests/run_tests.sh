@@ -470,8 +470,16 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
          && [ "$(grep -c '^volknit fit: trajectory of .*: loss .* -> .* (at rest' "$fd/joint$n.log")" = 2 ] \
          && sed -n 's/^volknit fit: trajectory loss \([^ ]*\) -> \([^ ]*\) (of its excess.*/\1 \2/p' "$fd/joint$n.log" | awk 'NF == 2 && $2 < $1 { down++ } END { exit down != 1 }'; then ok
       else not_ok "volknit fit -n $n -fit_joint: failed, no material.h5, no joint_data in fit.json, a scene's loss not reported, or the joint loss did not fall (see $fd/joint$n.log)"; fi
+      # the same with the coupling, g_c fitted per tet on both scenes at once
+      fit_dir "jointc$n"
+      if fit_run "jointc$n" "$n" -mat_coupling 2000 -fit_loss trajectory -fit_best_uniform 0 -fit_joint "$fd/hang" -prefix_push fit_joint1_ -options_file options/hang.opts -prefix_pop \
+         && [ -s "$fd/jointc$n/material.h5" ] && grep -q '"coupling_fitted": true' "$fd/jointc$n/fit.json" \
+         && [ "$(grep -c '^volknit fit: trajectory of .*: loss .* -> .* (at rest' "$fd/jointc$n.log")" = 2 ] \
+         && sed -n 's/^volknit fit: trajectory loss \([^ ]*\) -> \([^ ]*\) (of its excess.*/\1 \2/p' "$fd/jointc$n.log" | awk 'NF == 2 && $2 < $1 { down++ } END { exit down != 1 }'; then ok
+      else not_ok "volknit fit -n $n -fit_joint -mat_coupling 2000: failed, no material.h5, g_c not fitted, a scene's loss not reported, or the joint loss did not fall (see $fd/jointc$n.log)"; fi
     done
     compare_material "$fd/joint1/material.h5" "$fd/joint2/material.h5" 1e-5 "joint, 1 vs 2 ranks"
+    compare_material "$fd/jointc1/material.h5" "$fd/jointc2/material.h5" 1e-5 "joint with g_c fitted, 1 vs 2 ranks"
     for case in "frames:-fit_joint fits trajectories of several scenes: give -fit_loss trajectory" "missing:/nonexistent/yls.h5" "five:a list of 1 to 4 directories"; do
       kind=${case%%:*}; expect=${case#*:}
       fit_dir "joint.$kind"
