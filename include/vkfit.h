@@ -311,11 +311,15 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory, PetscInt r,
  * result out (lossf, optional); iterations appended to fit->hist
  * (sample -1). */
 /* Why a stage ended: converged, the objective no longer falls by
- * -fit_rtol of it (an accepted step or none of the trial steps); stalled,
- * no step accepted and a trial rollout's equilibria were not reached (the
- * solves, not the loss, stopped it); iteration_limit, -fit_gn_its reached
- * while it still fell. */
-typedef enum { VK_FIT_STAGE_CONVERGED, VK_FIT_STAGE_STALLED, VK_FIT_STAGE_ITERATION_LIMIT } VKFitStageReason;
+ * -fit_rtol of it (an accepted step, or none of the trial steps while the
+ * model's predicted decrease of the last, smallest one was below -fit_rtol
+ * too); stalled, no step accepted and a trial rollout's equilibria were not
+ * reached (the solves, not the loss, stopped it); iteration_limit,
+ * -fit_gn_its reached while it still fell; line_search_failed, no trial
+ * step lowered the objective though even the smallest was predicted to
+ * lower it by more than -fit_rtol (the objective and its derivatives
+ * disagree: fit->traj_stop_pred holds that predicted relative decrease). */
+typedef enum { VK_FIT_STAGE_CONVERGED, VK_FIT_STAGE_STALLED, VK_FIT_STAGE_ITERATION_LIMIT, VK_FIT_STAGE_LINE_SEARCH_FAILED } VKFitStageReason;
 PETSC_EXTERN const char *const VKFitStageReasons[];
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma, PetscReal lossf[], VKFitStageReason *);
 /* The same on sum_i L_i / L_i(rest) over nt trajectories, e.g. of several scenes:

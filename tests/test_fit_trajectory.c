@@ -615,6 +615,30 @@ static PetscErrorCode TestFullStage(void)
   PetscFunctionReturn(0);
 }
 
+/* How a stage ends when none of an iteration's trials was accepted: a
+ * failed rollout is stalled; a model that still predicted the smallest
+ * trial to lower the loss by more than -fit_rtol is line_search_failed,
+ * never converged; below -fit_rtol, converged.  (The fits of the 8 x 7
+ * rib's twist reach the middle case: docs/FIDELITY.md.) */
+static PetscErrorCode TestRejectedStage(void)
+{
+  Problem          p;
+  VKFitStageReason why[4];
+  char             d[256];
+
+  PetscFunctionBegin;
+  PetscCall(Build(&p, PETSC_FALSE));
+  p.fit->rtol = 1e-6;
+  why[0]      = VKFitRejectedStage(p.fit, PETSC_TRUE, 1e-3);
+  why[1]      = VKFitRejectedStage(p.fit, PETSC_FALSE, 1e-3);
+  why[2]      = VKFitRejectedStage(p.fit, PETSC_FALSE, 1e-9);
+  why[3]      = VKFitRejectedStage(p.fit, PETSC_FALSE, -1e-3); /* the model itself rose */
+  PetscCall(PetscSNPrintf(d, sizeof(d), "failed rollout: %s; predicted 1e-3: %s; 1e-9: %s; -1e-3: %s (-fit_rtol 1e-6); the last predicted decrease kept: %g", VKFitStageReasons[why[0]], VKFitStageReasons[why[1]], VKFitStageReasons[why[2]], VKFitStageReasons[why[3]], (double)p.fit->traj_stop_pred));
+  PetscCall(VKTestCheck((PetscBool)(why[0] == VK_FIT_STAGE_STALLED && why[1] == VK_FIT_STAGE_LINE_SEARCH_FAILED && why[2] == VK_FIT_STAGE_CONVERGED && why[3] == VK_FIT_STAGE_CONVERGED && p.fit->traj_stop_pred == -1e-3), d, "trajectory: a stage whose trials were all rejected is stalled, line_search_failed or converged by its failed rollouts and predicted decrease"));
+  PetscCall(Destroy(&p));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char **argv)
 {
   PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL));
@@ -629,6 +653,7 @@ int main(int argc, char **argv)
   PetscCall(TestAdjointGradient(0));
   PetscCall(TestAdjointGradient(3e3));
   PetscCall(TestFullStage());
+  PetscCall(TestRejectedStage());
   {
     int rc = VKTestFinish();
     PetscCall(SlepcFinalize());

@@ -12,7 +12,7 @@
 const char *const VKFitInertias[] = {"implicit", "data", "none", "VKFitInertia", "VK_FIT_INERTIA_", NULL};
 const char *const VKFitMethods[]  = {"GD", "GN", "LBFGS", "VKFitMethod", "VK_FIT_", NULL};
 const char *const VKFitLosses[]   = {"frames", "trajectory", "VKFitLoss", "VK_FIT_LOSS_", NULL};
-const char *const VKFitStageReasons[] = {"converged", "stalled", "iteration_limit", "VKFitStageReason", "VK_FIT_STAGE_", NULL};
+const char *const VKFitStageReasons[] = {"converged", "stalled", "iteration_limit", "line_search_failed", "VKFitStageReason", "VK_FIT_STAGE_", NULL};
 
 PetscErrorCode VKFitCreate(VKMaterial mat, VKScene scene, VKFit *out)
 {

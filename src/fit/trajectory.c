@@ -612,7 +612,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
   PetscCall(VKFitTrajectoryRecord_Private(T[0], r, VK_FIT_GN, 0, loss, PetscSqrtReal(gnorm), 0));
   for (it = 1; it <= fit->gn_its; it++) {
     PetscBool accepted = PETSC_FALSE, failed = PETSC_FALSE;
-    PetscReal change   = 0, lmax = 0;
+    PetscReal change = 0, lmax = 0, predicted = 0;
     /* Converged when the data loss is within what the rollouts resolve: the
      * equilibria place positions to about -fit_eq_rtol of the motion (the
      * loss to eq_rtol^2 of staying at rest), and double precision the
@@ -627,6 +627,12 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
     if (lambda < 0) lambda = fit->kappa * lmax;
     for (PetscInt tries = 0; tries <= fit->max_halvings && !accepted; tries++) {
       PetscCall(LMStep(fit, r, gamma, Q, l, grad, &lambda, cap, dq, work_v, &change));
+      predicted = 0; /* the Gauss-Newton model's decrease, -(grad.dq + dq.P dq/2) */
+      for (PetscInt i = 0; i < n; i++) {
+        PetscReal Pdq = 0;
+        for (PetscInt j = 0; j < n; j++) Pdq += P[n * i + j] * dq[j];
+        predicted -= dq[i] * (grad[i] + 0.5 * Pdq);
+      }
       PetscCall(VKFitTrajectoryMove(fit, r, gamma, dq, trial));
       PetscCall(EvaluateAll(nt, T, trial, r, &lt, gt, Pt, scratch, &bad, &ok));
       if (!ok) {
@@ -639,7 +645,7 @@ PetscErrorCode VKFitTrajectoryOptimizeJoint(PetscInt nt, VKFitTrajectory T[], Pe
       else lambda = PetscMax(10 * lambda, 1e-12 * lmax);
     }
     if (!accepted) {
-      why = failed ? VK_FIT_STAGE_STALLED : VK_FIT_STAGE_CONVERGED;
+      why = VKFitRejectedStage(fit, failed, predicted / obj);
       break;
     }
     lambda /= 3;
@@ -697,6 +703,32 @@ PetscErrorCode VKFitTrajectoryCreateFromData(VKFit fit, VKFitData data, PetscRea
   if (eps_out) PetscCall(PetscArraycpy(eps_out, eps, nf));
   for (PetscInt k = 0; k < nf; k++) PetscCall(VecDestroy(&xhat[k]));
   PetscCall(PetscFree2(xhat, eps));
+  PetscFunctionReturn(0);
+}
+
+/* The warning of a stage that did not converge (name: "stage r = 3" or
+ * "the full stage"; limit: the option that caps its iterations). */
+static PetscErrorCode StageWarning(VKFit fit, VKFitTrajectory T[], PetscInt nt, const char name[], const char limit[], PetscInt its, VKFitStageReason why)
+{
+  PetscInt inverted = 0;
+
+  PetscFunctionBegin;
+  for (PetscInt i = 0; i < nt; i++) inverted = PetscMax(inverted, T[i]->inverted_max);
+  switch (why) {
+  case VK_FIT_STAGE_ITERATION_LIMIT:
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %s stopped at %s %d with the loss still falling by more than -fit_rtol %g: not converged\n", name, limit, (int)its, (double)fit->rtol));
+    break;
+  case VK_FIT_STAGE_STALLED:
+    PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %s stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n", name));
+    break;
+  case VK_FIT_STAGE_LINE_SEARCH_FAILED:
+    PetscCall(PetscPrintf(fit->comm,
+                          "volknit fit: WARNING: %s: line search failed: no trial step lowered the loss, though the model predicted even the smallest to lower it by %.3g of itself, more than -fit_rtol %g. The loss and its derivatives disagree there: rollouts whose inverted tets (%d at most in the last) change branch, or equilibria too loose for the derivatives (-fit_eq_rtol): not converged\n",
+                          name, (double)fit->traj_stop_pred, (double)fit->rtol, (int)inverted));
+    break;
+  case VK_FIT_STAGE_CONVERGED:
+    break;
+  }
   PetscFunctionReturn(0);
 }
 
@@ -766,11 +798,12 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   for (PetscInt s = 0; s < nst; s++) {
     PetscReal before = fit->nhist ? fit->hist[fit->nhist - 1].loss : l0;
     PetscInt  its0   = fit->nits;
+    char      name[32];
     PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, stages[s], gamma, lossf, &why[s]));
     stage_its[s] = fit->nits - its0;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
-    if (why[s] == VK_FIT_STAGE_ITERATION_LIMIT) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stopped at -fit_gn_its %d with the loss still falling by more than -fit_rtol %g: not converged\n", (int)stages[s], (int)fit->gn_its, (double)fit->rtol));
-    if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: stage r = %d stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n", (int)stages[s]));
+    PetscCall(PetscSNPrintf(name, sizeof(name), "stage r = %d", (int)stages[s]));
+    PetscCall(StageWarning(fit, T, nt, name, "-fit_gn_its", fit->gn_its, why[s]));
   }
   if (fit->traj_full_its > 0) { /* every parameter: stage 0, as the frames loss's full gamma */
     PetscReal before = fit->hist[fit->nhist - 1].loss;
@@ -779,8 +812,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     PetscCall(VKFitTrajectoryOptimizeFull(nt, T, gamma, lossf, &why[s]));
     stage_its[s] = fit->nits - its0;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: full stage (%d parameters, L-BFGS by adjoint gradients): trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)(fit->ngamma * VKMeshTetCount(fit->mesh)), (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
-    if (why[s] == VK_FIT_STAGE_ITERATION_LIMIT) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: the full stage stopped at -fit_trajectory_full_its %d with the loss still falling by more than -fit_rtol %g: not converged\n", (int)fit->traj_full_its, (double)fit->rtol));
-    if (why[s] == VK_FIT_STAGE_STALLED) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: the full stage stalled: no step lowered the loss and a trial rollout's equilibria were not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n"));
+    PetscCall(StageWarning(fit, T, nt, "the full stage", "-fit_trajectory_full_its", fit->traj_full_its, why[s]));
   }
   /* of the last accepted rollouts: a rollout again could land on another side of a step's tolerance */
   for (PetscInt k = 0; k < nf; k++) {

@@ -252,7 +252,7 @@ PetscErrorCode VKFitTrajectoryOptimizeFull(PetscInt nt, VKFitTrajectory T[], Vec
   PetscCall(VecNorm(g, NORM_2, &gnorm));
   PetscCall(VKFitTrajectoryRecord_Private(T[0], 0, VK_FIT_LBFGS, 0, loss, gnorm, 0));
   for (it = 1; it <= fit->traj_full_its; it++) {
-    PetscReal gd, dmax, step, prev = obj, change = 0;
+    PetscReal gd, dmax, step, prev = obj, change = 0, predicted = 0;
     PetscBool accepted = PETSC_FALSE, failed = PETSC_FALSE;
     /* converged within what the rollouts resolve, as the harmonic stages */
     if (loss <= PetscMax(PetscSqr(fit->eq_rtol) * (nt > 1 ? (PetscReal)nt : T[0]->rest_loss), 1e-16 * loss0)) {
@@ -275,6 +275,7 @@ PetscErrorCode VKFitTrajectoryOptimizeFull(PetscInt nt, VKFitTrajectory T[], Vec
       PetscCall(VecNorm(d, NORM_INFINITY, &dmax));
       step = dmax > cap ? cap / dmax : 1;
       for (PetscInt tries = 0; tries <= fit->max_halvings && !accepted; tries++) {
+        predicted = -step * gd; /* to first order */
         PetscCall(VecWAXPY(ut, step, d, u));
         PetscCall(Evaluate(&o, ut, &objt, &losst, gt, &ok));
         if (!ok) {
@@ -286,7 +287,7 @@ PetscErrorCode VKFitTrajectoryOptimizeFull(PetscInt nt, VKFitTrajectory T[], Vec
       }
     }
     if (!accepted) {
-      why = failed ? VK_FIT_STAGE_STALLED : VK_FIT_STAGE_CONVERGED;
+      why = VKFitRejectedStage(fit, failed, predicted / obj);
       break;
     }
     { /* the new pair s = u' - u, y = g' - g, kept if it curves upward */
