@@ -213,6 +213,7 @@ typedef struct {
   PetscInt                nstages; /* the trajectory fit's stages: */
   const PetscInt         *stage_r, *stage_its;
   const VKFitStageReason *stage_reason;
+  const PetscReal        *stage_pred; /* of a line_search_failed stage: its last trial's predicted relative decrease */
 } VKFitResult;
 /* material.h5, material.xdmf, fit.csv, fit.json and fit.png in dir. */
 PETSC_INTERN PetscErrorCode VKFitWriteOutputs_Private(VKFit, VKFitData, const VKFitResult *, const char dir[]);

@@ -152,6 +152,7 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
       PetscCall(VKJSONInt(&j, "r", res->stage_r[s]));
       PetscCall(VKJSONInt(&j, "iterations", res->stage_its[s]));
       PetscCall(VKJSONString(&j, "stop", VKFitStageReasons[res->stage_reason[s]]));
+      if (res->stage_reason[s] == VK_FIT_STAGE_LINE_SEARCH_FAILED) PetscCall(VKJSONReal(&j, "predicted_decrease", res->stage_pred[s]));
       PetscCall(VKJSONObjectEnd(&j));
     }
     PetscCall(VKJSONArrayEnd(&j));

@@ -737,7 +737,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   VKFit            fit = fits[0];
   PetscInt         nf = 0, rmax = 0, *frames, *traj, *stages, *stage_its, nst = 0, steps = 0, off = 0;
   VKFitStageReason *why;
-  PetscReal       *eps, *loss0, *loss1, **lossf, l0 = 0, l1 = 0, floor = 0;
+  PetscReal       *pred, *eps, *loss0, *loss1, **lossf, l0 = 0, l1 = 0, floor = 0;
   Vec              gamma;
   VKFitTrajectory *T;
   VKFitResult      res = {0};
@@ -755,7 +755,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   fit->nhist = fit->nits = fit->traj_failed_rollouts = 0;
   for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitSetUp(fits[i]));
   PetscCall(VKMakeDirectory(fit->comm, dir));
-  PetscCall(PetscMalloc5(fit->nharm + 1, &stages, fit->nharm + 1, &stage_its, fit->nharm + 1, &why, nf, &frames, nf, &traj));
+  PetscCall(PetscMalloc6(fit->nharm + 1, &stages, fit->nharm + 1, &stage_its, fit->nharm + 1, &why, fit->nharm + 1, &pred, nf, &frames, nf, &traj));
   for (PetscInt h = 0; h < fit->nharm; h++)
     if (fit->harm_r[h] < VKMeshTetCount(fit->mesh)) stages[nst++] = fit->harm_r[h];
   PetscCheck(nst > 0, fit->comm, PETSC_ERR_ARG_WRONG, "-fit_loss trajectory fits in harmonic stages only; give -fit_harmonic r1,r2,... with sizes below the %d tets", (int)VKMeshTetCount(fit->mesh));
@@ -799,8 +799,10 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     PetscReal before = fit->nhist ? fit->hist[fit->nhist - 1].loss : l0;
     PetscInt  its0   = fit->nits;
     char      name[32];
+    fit->traj_stop_pred = 0;
     PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, stages[s], gamma, lossf, &why[s]));
     stage_its[s] = fit->nits - its0;
+    pred[s]      = fit->traj_stop_pred;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
     PetscCall(PetscSNPrintf(name, sizeof(name), "stage r = %d", (int)stages[s]));
     PetscCall(StageWarning(fit, T, nt, name, "-fit_gn_its", fit->gn_its, why[s]));
@@ -809,8 +811,10 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     PetscReal before = fit->hist[fit->nhist - 1].loss;
     PetscInt  its0   = fit->nits, s = nst++;
     stages[s] = 0;
+    fit->traj_stop_pred = 0;
     PetscCall(VKFitTrajectoryOptimizeFull(nt, T, gamma, lossf, &why[s]));
     stage_its[s] = fit->nits - its0;
+    pred[s]      = fit->traj_stop_pred;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: full stage (%d parameters, L-BFGS by adjoint gradients): trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)(fit->ngamma * VKMeshTetCount(fit->mesh)), (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
     PetscCall(StageWarning(fit, T, nt, "the full stage", "-fit_trajectory_full_its", fit->traj_full_its, why[s]));
   }
@@ -840,6 +844,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   res.stage_r    = stages;
   res.stage_its  = stage_its;
   res.stage_reason = why;
+  res.stage_pred   = pred;
   PetscCall(VKFitWriteOutputs_Private(fit, data[0], &res, dir));
   if (nt > 1) {
     off = 0;
@@ -866,6 +871,6 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitTrajectoryDestroy(&T[i]));
   PetscCall(VecDestroy(&gamma));
   PetscCall(PetscFree5(eps, loss0, loss1, lossf, T));
-  PetscCall(PetscFree5(stages, stage_its, why, frames, traj));
+  PetscCall(PetscFree6(stages, stage_its, why, pred, frames, traj));
   PetscFunctionReturn(0);
 }
