@@ -103,6 +103,19 @@ typedef struct _n_VKFit *VKFit;
 
 /* Phases of a stage, as a checkpoint records where to go on. */
 enum { VK_FIT_PHASE_GD = VK_FIT_GD, VK_FIT_PHASE_GN = VK_FIT_GN, VK_FIT_PHASE_DONE };
+/* Why a fitting stage ended (a sample's stage of the frames loss, a stage
+ * of the trajectory loss): converged, the objective no longer falls by
+ * -fit_rtol of it (an accepted step, or none of the trial steps while the
+ * model's predicted decrease of the last, smallest one was below -fit_rtol
+ * too); stalled, no step accepted and a trial's equilibria were not
+ * reached (the solves, not the loss, stopped it); iteration_limit, the
+ * stage's iteration count reached while the objective still fell;
+ * line_search_failed, no trial step lowered the objective though even the
+ * smallest was predicted to lower it by more than -fit_rtol (the objective
+ * and its derivatives disagree). */
+typedef enum { VK_FIT_STAGE_CONVERGED, VK_FIT_STAGE_STALLED, VK_FIT_STAGE_ITERATION_LIMIT, VK_FIT_STAGE_LINE_SEARCH_FAILED } VKFitStageReason;
+PETSC_EXTERN const char *const VKFitStageReasons[];
+
 PETSC_EXTERN PetscErrorCode VKFitCreate(VKMaterial, VKScene, VKFit *);
 PETSC_EXTERN PetscErrorCode VKFitSetTimeStep(VKFit, PetscReal dt);
 PETSC_EXTERN PetscErrorCode VKFitSetFromOptions(VKFit);
@@ -175,14 +188,17 @@ PETSC_EXTERN PetscErrorCode VKFitHarmonicApplyTranspose(VKFit, PetscInt r, Vec v
  * the floor gamma_min (projection of every trial; frozen and pivoted
  * parameters in the full space) and below the ceiling gamma_max
  * (projection only).  Iterations are appended
- * to fit->hist.  The frame is left at the equilibrium of the final gamma. */
+ * to fit->hist.  The frame is left at the equilibrium of the final gamma.
+ * why (optional): how the stage ended, the Gauss-Newton phase's reason
+ * (the gradient-descent phase's when -fit_gn_its is 0); left as it was
+ * when -fit_max_iterations stopped the fit inside the stage. */
 /* The uniform material g_s = g_v = g in [lo, hi] Pa minimizing the sum of
  * the frames' losses at equilibrium (uniform.c). */
 PETSC_EXTERN PetscErrorCode VKFitBestUniform(VKFit, PetscInt nf, VKFitFrame f[], PetscReal lo, PetscReal hi, PetscReal *g, PetscReal *loss);
 /* Where g lies in the search range [lo, hi]: "lower" or "upper" within
  * 1 % of an end (the loss may fall further outside it), else NULL. */
 PETSC_EXTERN const char *VKFitUniformRangeEnd(PetscReal lo, PetscReal hi, PetscReal g);
-PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma);
+PETSC_EXTERN PetscErrorCode VKFitOptimize(VKFit, VKFitFrame *, PetscInt r, Vec gamma, VKFitStageReason *why);
 /* The floor gamma_min = -fit_gamma_min (relative) x the mean of each
  * parameter kind in gamma (g_s, g_v, and g_c when the fit fits the
  * coupling), and the ceiling (VKFitSetGammaCeiling). */
@@ -233,6 +249,7 @@ typedef struct {
   PetscInt  ns, samples[VK_FIT_MAX_SAMPLES];
   PetscReal floor[VK_FIT_MAX_SAMPLES]; /* eps(xhat) of each sample begun: the loss no material can go below */
   PetscInt  nstages, stages[VK_FIT_MAX_STAGES];
+  PetscInt  stops[VK_FIT_MAX_SAMPLES * VK_FIT_MAX_STAGES]; /* how each sample's stages ended (VKFitStageReason; -1: not yet), row by sample */
   PetscInt  sample, stage, phase, iteration;
   PetscReal weight;
   Vec       avg, gamma, x;
@@ -310,17 +327,6 @@ PETSC_EXTERN PetscErrorCode VKFitTrajectoryAddPrior(VKFitTrajectory, PetscInt r,
  * lifted 0.1 % of the floor above it) and the per-frame losses of the
  * result out (lossf, optional); iterations appended to fit->hist
  * (sample -1). */
-/* Why a stage ended: converged, the objective no longer falls by
- * -fit_rtol of it (an accepted step, or none of the trial steps while the
- * model's predicted decrease of the last, smallest one was below -fit_rtol
- * too); stalled, no step accepted and a trial rollout's equilibria were not
- * reached (the solves, not the loss, stopped it); iteration_limit,
- * -fit_gn_its reached while it still fell; line_search_failed, no trial
- * step lowered the objective though even the smallest was predicted to
- * lower it by more than -fit_rtol (the objective and its derivatives
- * disagree: fit->traj_stop_pred holds that predicted relative decrease). */
-typedef enum { VK_FIT_STAGE_CONVERGED, VK_FIT_STAGE_STALLED, VK_FIT_STAGE_ITERATION_LIMIT, VK_FIT_STAGE_LINE_SEARCH_FAILED } VKFitStageReason;
-PETSC_EXTERN const char *const VKFitStageReasons[];
 PETSC_EXTERN PetscErrorCode VKFitTrajectoryOptimize(VKFitTrajectory, PetscInt r, Vec gamma, PetscReal lossf[], VKFitStageReason *);
 /* The same on sum_i L_i / L_i(rest) over nt trajectories, e.g. of several scenes:
  * each with its own VKFit (scene, PD) on one shared VKMaterial, the same

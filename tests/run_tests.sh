@@ -403,6 +403,14 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
     if fit_run "n$n" "$n" && [ -s "$fd/n$n/material.h5" ] && [ -s "$fd/n$n/fit.csv" ] && [ -s "$fd/n$n/fit.json" ] && [ ! -e "$fd/n$n/fit_checkpoint.h5" ] \
        && grep -q '"fraction_of_g_v_on_it"' "$fd/n$n/fit.json" && grep -q 'on the parameter floor: [0-9]*% of g_s' "$fd/n$n.log"; then ok
     else not_ok "volknit fit -n $n: failed, an output or the parameter-floor report missing, or the checkpoint left behind (see $fd/n$n.log)"; fi
+    # how each sample's stages ended: one stop per sample and stage in fit.json
+    # (2 samples, stages r = 1, 10 and full), the status the same in the log,
+    # and an unconverged fit warned about
+    st=$(sed -n 's/^  "status": "\([a-z]*\)".*/\1/p' "$fd/n$n/fit.json")
+    if [ "$(grep -c '"stop": "[a-z_]*"' "$fd/n$n/fit.json")" = 6 ] && [ -n "$st" ] && grep -q "^volknit fit: status $st (" "$fd/n$n.log" \
+       && grep -q '; stages r = 1 [a-z_]*, r = 10 [a-z_]*, full [a-z_]*$' "$fd/n$n.log" \
+       && { [ "$st" = converged ] || grep -q '^volknit fit: WARNING: .* sample stages .*not converged' "$fd/n$n.log"; }; then ok
+    else not_ok "volknit fit -n $n: expected a stop per sample and stage in fit.json, its status '$st' in the log, and a warning when unconverged (see $fd/n$n.log)"; fi
   done
   compare_material "$fd/ref/material.h5" "$fd/n1/material.h5" 1e-7 "volknit run -run_fit vs volknit fit"
   compare_material "$fd/n1/material.h5" "$fd/n2/material.h5" 1e-5 "1 vs 2 ranks"
@@ -443,7 +451,7 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
        && sed -n 's/^volknit fit: trajectory loss \([^ ]*\) -> \([^ ]*\) .*/\1 \2/p' "$fd/traj$n.log" | awk 'NF == 2 && $2 < 0.9 * $1 { found = 1 } END { exit !found }'; then ok
     else not_ok "volknit fit -n $n -fit_loss trajectory: failed, no material.h5, no best-uniform search, or the loss did not fall by a tenth (see $fd/traj$n.log; measured: 19 %, with the handles holding their yarns' tets and the scene's drag)"; fi
     # its status: the same in fit.json and the log, and a stage cut at -fit_gn_its is warned about and unconverged
-    st=$(sed -n 's/.*"status": "\([a-z]*\)".*/\1/p' "$fd/traj$n/fit.json")
+    st=$(sed -n 's/^  "status": "\([a-z]*\)".*/\1/p' "$fd/traj$n/fit.json")
     if [ -n "$st" ] && grep -q "^volknit fit: status $st " "$fd/traj$n.log" \
        && { ! grep -q '"stop": "iteration_limit"' "$fd/traj$n/fit.json" || { [ "$st" = unconverged ] && grep -q 'WARNING: stage r = .* stopped at -fit_gn_its' "$fd/traj$n.log"; }; }; then ok
     else not_ok "volknit fit -n $n -fit_loss trajectory: status '$st' in fit.json, its log line or the iteration-limit warning missing (see $fd/traj$n.log)"; fi
@@ -558,6 +566,9 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
     cp "$fd/$d/fit_checkpoint.h5" "$fd/checkpoint.$d.h5" 2> /dev/null
     if fit_run "$d" "$2" -fit_restart && grep -q 'resuming' "$fd/$d.log"; then compare_material "$fd/n$2/material.h5" "$fd/$d/material.h5" "$3" "stopped on $1 rank(s), restarted on $2"
     else not_ok "fit -n $2 -fit_restart after a stop on $1 rank(s) failed (see $fd/$d.log)"; fi
+    # the stages ended before the stop keep their reasons through the checkpoint
+    if [ "$(grep -o '"stop": "[a-z_]*"' "$fd/$d/fit.json")" = "$(grep -o '"stop": "[a-z_]*"' "$fd/n$2/fit.json")" ]; then ok
+    else not_ok "fit -fit_restart after a stop on $1 rank(s): the stages' stop reasons differ from the uninterrupted fit's (see $fd/$d/fit.json, $fd/n$2/fit.json)"; fi
   done
   # killed (SIGKILL) once a checkpoint exists: no material.h5, and the restart still gets there
   d="killed"; fit_dir "$d"

@@ -232,15 +232,16 @@ static PetscErrorCode BuildProblem(MPI_Comm comm, const VKStretchBand *band, Pet
 }
 
 /* The loss after gd_its gradient-descent and gn_its Gauss-Newton
- * iterations over every parameter from the uniform start. */
-static PetscErrorCode LossAfter(Problem *p, PetscInt gd_its, PetscInt gn_its, Vec gamma, PetscReal *loss)
+ * iterations over every parameter from the uniform start, and why the
+ * stage ended (optional). */
+static PetscErrorCode LossAfter(Problem *p, PetscInt gd_its, PetscInt gn_its, Vec gamma, PetscReal *loss, VKFitStageReason *why)
 {
   PetscFunctionBegin;
   p->fit->gd_its = gd_its;
   p->fit->gn_its = gn_its;
   p->fit->nhist  = 0;
   PetscCall(VecCopy(p->gamma0, gamma));
-  PetscCall(VKFitOptimize(p->fit, &p->frame, 0, gamma));
+  PetscCall(VKFitOptimize(p->fit, &p->frame, 0, gamma, why));
   *loss = p->fit->hist[p->fit->nhist - 1].loss;
   PetscFunctionReturn(0);
 }
@@ -258,15 +259,20 @@ static PetscErrorCode DestroyProblem(Problem *p)
 }
 
 /* Fit from gamma0: the harmonic stages then every parameter; the loss
- * before and after. */
-static PetscErrorCode Recover(Problem *p, Vec gamma, PetscReal *loss0, PetscReal *loss1)
+ * before and after, and whether every stage ended converged. */
+static PetscErrorCode Recover(Problem *p, Vec gamma, PetscReal *loss0, PetscReal *loss1, PetscBool *converged)
 {
   VKFit fit = p->fit;
 
   PetscFunctionBegin;
   PetscCall(VecCopy(p->gamma0, gamma));
   fit->nhist = 0;
-  for (PetscInt s = 0; s < fit->nharm; s++) PetscCall(VKFitOptimize(fit, &p->frame, fit->harm_r[s], gamma));
+  *converged = PETSC_TRUE;
+  for (PetscInt s = 0; s < fit->nharm; s++) {
+    VKFitStageReason why;
+    PetscCall(VKFitOptimize(fit, &p->frame, fit->harm_r[s], gamma, &why));
+    *converged = (PetscBool)(*converged && why == VK_FIT_STAGE_CONVERGED);
+  }
   *loss0 = fit->hist[0].loss;
   *loss1 = fit->hist[fit->nhist - 1].loss;
   PetscFunctionReturn(0);
@@ -471,6 +477,7 @@ int main(int argc, char **argv)
   Vec         gamma;
   PetscReal   loss0, loss1, err, lossGD, lossGN;
   PetscInt    below;
+  PetscBool   conv;
   PetscMPIInt size;
 
   PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL));
@@ -488,9 +495,10 @@ int main(int argc, char **argv)
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "# the data's own loss floor eps(xhat) = %.4e; the loss at gamma* %.4e\n", (double)p.frame.eps_hat, (double)ls));
   }
   PetscCall(VecDuplicate(p.gamma0, &gamma));
-  PetscCall(Recover(&p, gamma, &loss0, &loss1));
+  PetscCall(Recover(&p, gamma, &loss0, &loss1, &conv));
   PetscCall(CompareToTruth(&p, gamma, &err, &below));
   PetscCall(VKTestCheck((PetscBool)(loss1 <= 1e-4 * loss0), NULL, "manufactured recovery: the loss falls from %.4e to %.4e (%.1ex, >= 1e4 asked) in %d iterations", (double)loss0, (double)loss1, (double)(loss0 / loss1), (int)p.fit->nhist));
+  PetscCall(VKTestCheck(conv, NULL, "manufactured recovery: every harmonic stage ends converged"));
   PetscCall(VKTestCheck((PetscBool)(err <= 0.05), NULL, "manufactured recovery: gamma within %.1e (relative) of gamma* where each parameter's own energy is above the median (5%% asked)", (double)err));
   PetscCall(VKTestCheck((PetscBool)(below == 0), NULL, "manufactured recovery: no parameter below the floor (%d)", (int)below));
   { /* the floor count: none of gamma* on it, every parameter of the floor itself */
@@ -512,9 +520,10 @@ int main(int argc, char **argv)
     Problem    q;
     Vec        gq;
     PetscReal *a, *b, d = 0, nrm = 0, l0, l1;
+    PetscBool  conv;
     PetscCall(BuildProblem(PETSC_COMM_SELF, NULL, 0, &q));
     PetscCall(VecDuplicate(q.gamma0, &gq));
-    PetscCall(Recover(&q, gq, &l0, &l1));
+    PetscCall(Recover(&q, gq, &l0, &l1, &conv));
     PetscCall(GammaByKuhn(&p, gamma, &a));
     PetscCall(GammaByKuhn(&q, gq, &b));
     for (PetscInt i = 0; i < 12 * p.m->nvox; i++) {
@@ -530,7 +539,7 @@ int main(int argc, char **argv)
   { /* then every parameter: the loss never rises, the floor holds */
     VKFit     fit = p.fit;
     PetscInt  first = fit->nhist, rises = 0;
-    PetscCall(VKFitOptimize(fit, &p.frame, 0, gamma));
+    PetscCall(VKFitOptimize(fit, &p.frame, 0, gamma, NULL));
     for (PetscInt i = first + 1; i < fit->nhist; i++) rises += fit->hist[i].loss > fit->hist[i - 1].loss;
     PetscCall(CompareToTruth(&p, gamma, &err, &below));
     PetscCall(VKTestCheck((PetscBool)(rises == 0 && below == 0 && fit->hist[fit->nhist - 1].loss <= loss1), NULL, "then every parameter (%d iterations): the loss never rises (%.4e -> %.4e), no parameter below the floor (%d)", (int)(fit->nhist - first), (double)loss1, (double)fit->hist[fit->nhist - 1].loss, (int)below));
@@ -538,9 +547,26 @@ int main(int argc, char **argv)
   { /* Gauss-Newton 20 against gradient descent 200, every parameter, from the uniform start */
     p.fit->rtol    = 0;
     p.fit->gd_rtol = 0; /* all 200: no hand-over to Gauss-Newton */
-    PetscCall(LossAfter(&p, 200, 0, gamma, &lossGD));
-    PetscCall(LossAfter(&p, 0, 20, gamma, &lossGN));
+    PetscCall(LossAfter(&p, 200, 0, gamma, &lossGD, NULL));
+    PetscCall(LossAfter(&p, 0, 20, gamma, &lossGN, NULL));
     PetscCall(VKTestCheck((PetscBool)(lossGN < lossGD), NULL, "Gauss-Newton in 20 iterations reaches a lower loss (%.4e) than gradient descent in 200 (%.4e), from %.4e", (double)lossGN, (double)lossGD, (double)loss0));
+  }
+  { /* how a stage says it ended: cut after one Gauss-Newton iteration from
+     * the start, iteration_limit; a gradient step of 100 |gamma| with no
+     * halving allowed overshoots, and its model still promised more than
+     * -fit_rtol: line_search_failed, with no iteration accepted */
+    VKFitStageReason cut, overshoot;
+    PetscReal        loss, step = p.fit->gd_step;
+    PetscInt         halvings = p.fit->max_halvings, accepted;
+    p.fit->rtol = 1e-6;
+    PetscCall(LossAfter(&p, 0, 1, gamma, &loss, &cut));
+    p.fit->gd_step      = 100;
+    p.fit->max_halvings = 0;
+    PetscCall(LossAfter(&p, 1, 0, gamma, &loss, &overshoot));
+    accepted            = p.fit->nhist - 1;
+    p.fit->gd_step      = step;
+    p.fit->max_halvings = halvings;
+    PetscCall(VKTestCheck((PetscBool)(cut == VK_FIT_STAGE_ITERATION_LIMIT && overshoot == VK_FIT_STAGE_LINE_SEARCH_FAILED && accepted == 0), NULL, "a stage cut at -fit_gn_its 1 says %s; an overshooting step with -fit_max_halvings 0 says %s after %d accepted iterations", VKFitStageReasons[cut], VKFitStageReasons[overshoot], (int)accepted));
   }
   { /* -fit_gd_rtol: gradient descent hands over to Gauss-Newton after the
      * first iteration that lowers the loss by less than that fraction */
@@ -548,7 +574,7 @@ int main(int argc, char **argv)
     PetscInt  ngd = 0, ngn = 0, slow = -1;
     PetscReal loss;
     fit->gd_rtol = 0.5; /* more than one step of 0.01 |gamma| can take */
-    PetscCall(LossAfter(&p, 15, 3, gamma, &loss));
+    PetscCall(LossAfter(&p, 15, 3, gamma, &loss, NULL));
     for (PetscInt i = 1; i < fit->nhist; i++) {
       ngd += fit->hist[i].method == VK_FIT_GD;
       ngn += fit->hist[i].method == VK_FIT_GN;
@@ -576,7 +602,7 @@ int main(int argc, char **argv)
       PetscCall(DestroyProblem(&q));
     }
     PetscCall(VecDuplicate(p.gamma0, &gamma));
-    PetscCall(Recover(&p, gamma, &loss0, &loss1));
+    PetscCall(Recover(&p, gamma, &loss0, &loss1, &conv));
     PetscCall(CompareToTruth(&p, gamma, &err, &below));
     PetscCall(VKTestCheck((PetscBool)(fraction[0] < 0.8), NULL, "stretch band [0.97, 1.03]: the manufactured motion's g_s energy is %.2f of the paper material's", (double)fraction[0]));
     PetscCall(VKTestCheck((PetscBool)(loss1 <= 1e-4 * loss0), NULL, "stretch band: the loss falls from %.4e to %.4e (%.1ex, >= 1e4 asked) in %d iterations", (double)loss0, (double)loss1, (double)(loss0 / loss1), (int)p.fit->nhist));
@@ -591,7 +617,7 @@ int main(int argc, char **argv)
     PetscCallMPI(MPI_Allreduce(es, all, 3, MPIU_REAL, MPIU_SUM, PETSC_COMM_WORLD));
     share = all[2] / (all[0] + all[1] + all[2]);
     PetscCall(VecDuplicate(p.gamma0, &gamma));
-    PetscCall(Recover(&p, gamma, &loss0, &loss1));
+    PetscCall(Recover(&p, gamma, &loss0, &loss1, &conv));
     PetscCall(CompareToTruth(&p, gamma, &err, &below));
     PetscCall(VKTestCheck((PetscBool)(p.k == 3 && share > 0.2), NULL, "coupling: 3 parameters per tet (%d), the coupling holds %.2f of the manufactured motion's strain energy", (int)p.k, (double)share));
     PetscCall(VKTestCheck((PetscBool)(loss1 <= 1e-4 * loss0), NULL, "coupling: the loss falls from %.4e to %.4e (%.1ex, >= 1e4 asked) in %d iterations", (double)loss0, (double)loss1, (double)(loss0 / loss1), (int)p.fit->nhist));

@@ -25,7 +25,7 @@
 #include <vkio.h>
 #include <vkutil.h>
 
-#define CHECKPOINT_FORMAT "volknit-fit-checkpoint 2"
+#define CHECKPOINT_FORMAT "volknit-fit-checkpoint 3" /* 3: /checkpoint/stage_stops */
 #define HIST_COLS         9
 
 /* Connectivity fingerprint: exact in double for any mesh we can hold. */
@@ -73,6 +73,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   const VKFitState *st  = w->st;
   VKH5              h;
   PetscReal        *hist;
+  PetscInt         *stops;
   PetscErrorCode    ierr;
   const char       *g   = "/checkpoint";
   struct {
@@ -86,6 +87,9 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
 
   PetscFunctionBegin;
   PetscCall(PetscMalloc1(HIST_COLS * fit->nhist + 1, &hist));
+  PetscCall(PetscMalloc1(st->ns * st->nstages, &stops));
+  for (PetscInt s = 0; s < st->ns; s++)
+    for (PetscInt k = 0; k < st->nstages; k++) stops[st->nstages * s + k] = st->stops[VK_FIT_MAX_STAGES * s + k];
   for (PetscInt i = 0; i < fit->nhist; i++) {
     const VKFitIterate *it = &fit->hist[i];
     PetscReal           row[HIST_COLS] = {it->sample, it->stage, it->method, it->iteration, it->loss, it->gnorm, it->step, it->eq_residual, it->wall};
@@ -95,6 +99,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
   ierr = VKH5WriteInt(&h, "/checkpoint/samples", st->ns, 1, st->samples);
   if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/loss_floor", st->ns, 1, st->floor);
   if (!ierr) ierr = VKH5WriteInt(&h, "/checkpoint/stages", st->nstages, 1, st->stages);
+  if (!ierr) ierr = VKH5WriteInt(&h, "/checkpoint/stage_stops", st->ns, st->nstages, stops);
   if (!ierr) ierr = VKH5WriteReal(&h, "/checkpoint/average", VKMeshTetCount(fit->mesh), fit->ngamma, w->avg);
   if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/gamma", VKMeshTetCount(fit->mesh), fit->ngamma, w->gamma);
   if (!ierr && st->phase >= 0) ierr = VKH5WriteReal(&h, "/checkpoint/x", VKMeshNodeCount(fit->mesh), 3, w->x);
@@ -112,6 +117,7 @@ static PetscErrorCode WriteCheckpoint(void *ctx, VKOutput *out)
     if (!ierr) ierr = cerr;
   }
   PetscCall(PetscFree(hist));
+  PetscCall(PetscFree(stops));
   PetscCall(ierr);
   PetscFunctionReturn(0);
 }
@@ -168,7 +174,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscRe
   VKStretchBand band = Band(fit);
   VKH5       h;
   char       format[64];
-  PetscInt   ne, nv, nd, rows, nfl = 0, *samples = NULL, *stages = NULL;
+  PetscInt   ne, nv, nd, rows, nfl = 0, nstop = 0, *samples = NULL, *stages = NULL, *stops = NULL;
   PetscReal  fp, blo = 0, bhi = 0, *avg = NULL, *gamma = NULL, *x = NULL, *hist = NULL, *fl = NULL;
   PetscErrorCode ierr;
   const char *g = "/checkpoint";
@@ -228,6 +234,8 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscRe
   if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/loss_floor", 1, &nfl, &fl);
   if (!ierr && nfl != st->ns) ierr = BAD("%s: /checkpoint/loss_floor has %d rows for %d samples", path, (int)nfl, (int)st->ns);
   if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/stages", 1, &st->nstages, &stages);
+  if (!ierr) ierr = VKH5ReadInt(&h, "/checkpoint/stage_stops", st->nstages, &nstop, &stops);
+  if (!ierr && nstop != st->ns) ierr = BAD("%s: /checkpoint/stage_stops has %d rows for %d samples", path, (int)nstop, (int)st->ns);
   if (!ierr) ierr = VKH5ReadReal(&h, "/checkpoint/average", fit->ngamma, &rows, &avg);
   if (!ierr && rows != ne) ierr = BAD("%s: /checkpoint/average has %d rows for %d tets", path, (int)rows, (int)ne);
   if (!ierr && !(st->ns >= 1 && st->ns <= VK_FIT_MAX_SAMPLES && st->nstages >= 1 && st->nstages <= VK_FIT_MAX_STAGES && st->sample >= 0 && st->sample <= st->ns && st->stage >= 0 && st->stage < st->nstages && st->phase >= -1 && st->phase <= VK_FIT_PHASE_DONE && st->iteration >= 0 && fit->nits >= 0 && st->weight >= 0 && fit->gamma_min[0] > 0 && fit->gamma_min[1] > 0 && fit->gamma_max[0] > fit->gamma_min[0] && fit->gamma_max[1] > fit->gamma_min[1] && st->wall >= 0 && fit->step_factor > 0 && fit->step_factor <= 1))
@@ -242,6 +250,13 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscRe
     PetscCall(PetscArraycpy(st->samples, samples, st->ns));
     PetscCall(PetscArraycpy(st->floor, fl, st->ns));
     PetscCall(PetscArraycpy(st->stages, stages, st->nstages));
+    for (PetscInt s = 0; s < st->ns; s++) /* ended (a reason) exactly for the stages before the place it goes on from */
+      for (PetscInt k = 0; k < st->nstages; k++) {
+        PetscInt  why   = stops[st->nstages * s + k];
+        PetscBool ended = (PetscBool)(s < st->sample || (s == st->sample && k < st->stage));
+        PetscCheck(ended ? why >= VK_FIT_STAGE_CONVERGED && why <= VK_FIT_STAGE_LINE_SEARCH_FAILED : why == -1, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: /checkpoint/stage_stops holds %d for sample %d, stage %d (sample %d, stage %d is next)", path, (int)why, (int)s, (int)k, (int)st->sample, (int)st->stage);
+        st->stops[VK_FIT_MAX_STAGES * s + k] = why;
+      }
     for (PetscInt i = 0; i < st->nstages; i++) PetscCheck(stages[i] >= 0 && stages[i] <= VKMeshTetCount(m), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: stage %d has basis size %d", path, (int)i, (int)stages[i]);
     PetscCall(TakeOwned(path, "average", avg, PETSC_TRUE, st->avg));
     if (st->phase >= 0) {
@@ -260,6 +275,7 @@ static PetscErrorCode ReadCheckpoint(VKFit fit, const char path[], const PetscRe
   PetscCall(PetscFree(samples));
   PetscCall(PetscFree(fl));
   PetscCall(PetscFree(stages));
+  PetscCall(PetscFree(stops));
   PetscCall(PetscFree(avg));
   PetscCall(PetscFree(gamma));
   PetscCall(PetscFree(x));

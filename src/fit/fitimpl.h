@@ -132,7 +132,6 @@ struct _n_VKFitTrajectory {
   PetscInt  *frame_step;
 };
 
-/* The floor and ceiling of parameter i of a gamma Vec (kind i % k). */
 /* Why a trajectory stage ends when none of an iteration's trial steps was
  * accepted: a trial rollout failed (stalled), or the model still predicted
  * the last, smallest trial to lower the objective by more than -fit_rtol of
@@ -145,6 +144,7 @@ static inline VKFitStageReason VKFitRejectedStage(VKFit fit, PetscBool failed, P
   return predicted_rel > fit->rtol ? VK_FIT_STAGE_LINE_SEARCH_FAILED : VK_FIT_STAGE_CONVERGED;
 }
 
+/* The floor and ceiling of parameter i of a gamma Vec (kind i % k). */
 static inline PetscReal VKFitFloor(VKFit fit, PetscInt i)
 {
   return fit->gamma_min[i % fit->ngamma];
@@ -210,8 +210,9 @@ typedef struct {
   PetscInt         ntraj;  /* > 1 for a joint trajectory fit: */
   const VKFitData *joint;  /* the data of each trajectory (the first is the fit's) */
   const PetscInt  *traj;   /* and each frame's trajectory */
-  PetscInt                nstages; /* the trajectory fit's stages: */
+  PetscInt                nstages; /* the stages (the trajectory fit's, or each sample's): */
   const PetscInt         *stage_r, *stage_its;
+  const PetscInt         *sample_stops; /* frames loss: how each sample's stages ended, VK_FIT_MAX_STAGES a sample */
   const VKFitStageReason *stage_reason;
   const PetscReal        *stage_pred; /* of a line_search_failed stage: its last trial's predicted relative decrease */
 } VKFitResult;

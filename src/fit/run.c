@@ -67,6 +67,18 @@ static PetscErrorCode WriteCSV(void *ctx, VKOutput *out)
   PetscFunctionReturn(0);
 }
 
+/* How many of the samples' stages ended for each reason; converged when all did. */
+static PetscBool CountStops(PetscInt ns, PetscInt nstages, const PetscInt stops[], PetscInt count[4])
+{
+  for (int k = 0; k < 4; k++) count[k] = 0;
+  for (PetscInt s = 0; s < ns; s++)
+    for (PetscInt k = 0; k < nstages; k++) {
+      PetscInt why = stops[VK_FIT_MAX_STAGES * s + k];
+      if (why >= 0 && why < 4) count[why]++;
+    }
+  return (PetscBool)(count[VK_FIT_STAGE_CONVERGED] == ns * nstages);
+}
+
 typedef struct {
   VKFit              fit;
   VKFitData          data;
@@ -134,6 +146,14 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   }
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONString(&j, "loss", VKFitLosses[fit->loss]));
+  { /* converged only when every stage did (of every sample) */
+    PetscInt  n[4];
+    PetscBool all = PETSC_TRUE;
+    if (res->trajectory)
+      for (PetscInt s = 0; s < res->nstages; s++) all = (PetscBool)(all && res->stage_reason[s] == VK_FIT_STAGE_CONVERGED);
+    else all = CountStops(res->ns, res->nstages, res->sample_stops, n);
+    PetscCall(VKJSONString(&j, "status", all ? "converged" : "unconverged"));
+  }
   if (res->trajectory) {
     PetscCall(VKJSONObjectBegin(&j, "trajectory"));
     PetscCall(VKJSONReal(&j, "time_step", res->traj_dt));
@@ -178,6 +198,16 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONReal(&j, "loss_start", res->loss0[s]));
     PetscCall(VKJSONReal(&j, "loss_end", res->loss1[s]));
     PetscCall(VKJSONReal(&j, "loss_floor", res->floor[s]));
+    if (!res->trajectory) {
+      PetscCall(VKJSONArrayBegin(&j, "stages"));
+      for (PetscInt k = 0; k < res->nstages; k++) {
+        PetscCall(VKJSONObjectBegin(&j, NULL));
+        PetscCall(VKJSONInt(&j, "r", res->stage_r[k]));
+        PetscCall(VKJSONString(&j, "stop", VKFitStageReasons[res->sample_stops[VK_FIT_MAX_STAGES * s + k]]));
+        PetscCall(VKJSONObjectEnd(&j));
+      }
+      PetscCall(VKJSONArrayEnd(&j));
+    }
     PetscCall(VKJSONObjectEnd(&j));
   }
   PetscCall(VKJSONArrayEnd(&j));
@@ -302,6 +332,7 @@ static PetscErrorCode Plan(VKFit fit, VKFitData data, VKFitState *st)
   PetscCall(VKFitSetGammaFloor(fit, st->avg));
   st->sample = st->stage = st->iteration = 0;
   st->phase  = -1;
+  for (PetscInt i = 0; i < VK_FIT_MAX_SAMPLES * VK_FIT_MAX_STAGES; i++) st->stops[i] = -1;
   st->weight = 0;
   fit->nhist = fit->nits = 0;
   PetscFunctionReturn(0);
@@ -350,6 +381,21 @@ PetscErrorCode VKFitWriteOutputs_Private(VKFit fit, VKFitData data, const VKFitR
   PetscFunctionReturn(0);
 }
 
+/* The frames fit's status line, and a warning naming what stopped the
+ * stages that did not converge. */
+static PetscErrorCode ReportStatus(VKFit fit, const VKFitState *st)
+{
+  PetscInt  n[4];
+  PetscBool all = CountStops(st->ns, st->nstages, st->stops, n);
+
+  PetscFunctionBegin;
+  PetscCall(PetscPrintf(fit->comm, "volknit fit: status %s (%d of %d sample stages converged)\n", all ? "converged" : "unconverged", (int)n[VK_FIT_STAGE_CONVERGED], (int)(st->ns * st->nstages)));
+  if (n[VK_FIT_STAGE_ITERATION_LIMIT]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages stopped at -fit_gn_its %d (-fit_gd_its %d before it) with the loss still falling by more than -fit_rtol %g: not converged\n", (int)n[VK_FIT_STAGE_ITERATION_LIMIT], (int)fit->gn_its, (int)fit->gd_its, (double)fit->rtol));
+  if (n[VK_FIT_STAGE_LINE_SEARCH_FAILED]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages ended in a failed line search: no trial step lowered the loss by -fit_rtol %g, though the model predicted a smaller step still would (-fit_max_halvings %d): not converged\n", (int)n[VK_FIT_STAGE_LINE_SEARCH_FAILED], (double)fit->rtol, (int)fit->max_halvings));
+  if (n[VK_FIT_STAGE_STALLED]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages stalled: no step lowered the loss and a trial's equilibrium was not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n", (int)n[VK_FIT_STAGE_STALLED]));
+  PetscFunctionReturn(0);
+}
+
 static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *st, const char dir[], PetscLogDouble total)
 {
   PetscReal   loss0[VK_FIT_MAX_SAMPLES], loss1[VK_FIT_MAX_SAMPLES];
@@ -358,8 +404,11 @@ static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *
 
   PetscFunctionBegin;
   for (PetscInt s = 0; s < st->ns; s++) SampleLosses(fit, st->samples[s], &loss0[s], &loss1[s], &its);
-  res.ns     = st->ns;
-  res.frames = st->samples;
+  res.ns           = st->ns;
+  res.frames       = st->samples;
+  res.nstages      = st->nstages;
+  res.stage_r      = st->stages;
+  res.sample_stops = st->stops;
   res.loss0  = loss0;
   res.loss1  = loss1;
   res.floor  = st->floor;
@@ -422,7 +471,11 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
       st->stage = 0;
     }
     st->x = f.x;
-    for (; st->stage < st->nstages && !fit->stopped; st->stage++) PetscCall(VKFitOptimize(fit, &f, st->stages[st->stage], st->gamma));
+    for (; st->stage < st->nstages && !fit->stopped; st->stage++) {
+      VKFitStageReason why;
+      PetscCall(VKFitOptimize(fit, &f, st->stages[st->stage], st->gamma, &why));
+      if (!fit->stopped) st->stops[VK_FIT_MAX_STAGES * st->sample + st->stage] = why;
+    }
     if (!fit->stopped) { /* Eq. 22; the first sample, or no energy to weigh by: plain mean */
       if (st->sample == 0) PetscCall(VecCopy(st->gamma, st->avg));
       else if (!(w + f.weight > 0)) PetscCall(VecAXPBY(st->avg, 1.0 / (st->sample + 1), (PetscReal)st->sample / (st->sample + 1), st->gamma));
@@ -432,6 +485,11 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
       PetscCall(VKFitGammaAtFloor(fit, st->gamma, atfloor, largest));
       PetscCall(PetscPrintf(fit->comm, "volknit fit: sample frame %d (t = %g s, weight %.3e): loss %.4e -> %.4e (of its excess over the floor eps(xhat) = %.4e, %.1f%% remains) in %d iterations (%.1f s); on the parameter floor: %.0f%% of g_s, %.0f%% of g_v", (int)frame, (double)f.t, (double)f.weight, (double)l0, (double)l1, (double)f.eps_hat, l0 > f.eps_hat ? 100 * (double)((l1 - f.eps_hat) / (l0 - f.eps_hat)) : 0.0, (int)its, VKWallTime() - fit->wall0, 100 * (double)atfloor[0], 100 * (double)atfloor[1]));
       if (fit->ngamma == 3) PetscCall(PetscPrintf(fit->comm, ", %.0f%% of g_c", 100 * (double)atfloor[2]));
+      for (PetscInt s = 0; s < st->nstages; s++) {
+        const char *stop = VKFitStageReasons[st->stops[VK_FIT_MAX_STAGES * st->sample + s]];
+        if (st->stages[s]) PetscCall(PetscPrintf(fit->comm, "%sr = %d %s", s ? ", " : "; stages ", (int)st->stages[s], stop));
+        else PetscCall(PetscPrintf(fit->comm, "%sfull %s", s ? ", " : "; stages ", stop));
+      }
       PetscCall(PetscPrintf(fit->comm, "\n"));
       PetscCall(Checkpoint(fit, -1, 0, &c)); /* the next sample from its start */
     }
@@ -441,6 +499,7 @@ PetscErrorCode VKFitRun(VKFit fit, VKFitData data, const char dir[])
   if (fit->stopped) PetscCall(PetscPrintf(fit->comm, "volknit fit: stopped after %d iterations (-fit_max_iterations %d); the state is in %s, go on with -fit_restart (no material.h5 written)\n", (int)fit->nits, (int)fit->max_iterations, c.path));
   else {
     PetscCall(VKFitSetGamma(fit, st->avg));
+    PetscCall(ReportStatus(fit, st));
     PetscCall(WriteOutputs(fit, data, st, dir, VKWallTime() - fit->wall0));
     if (!rank) (void)remove(c.path); /* the fit is done: material.h5 is its result */
     PetscCall(PetscPrintf(fit->comm, "volknit fit: %d iterations, equilibrium %.1f s, adjoint %.1f s, KKT %.1f s, eigensolves %.1f s, total %.1f s -> %s/material.h5\n", (int)fit->nits, fit->time_eq, fit->time_adjoint, fit->time_kkt, fit->time_eigen, VKWallTime() - fit->wall0, dir));

@@ -327,20 +327,31 @@ static PetscErrorCode AfterIteration(Opt *o, VKFitMethod method, PetscInt it, Pe
   PetscFunctionReturn(0);
 }
 
-/* One phase (GD or GN): iterations first..its. */
-static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt its)
+/* One phase (GD or GN): iterations first..its.  why: how it ended --
+ * iteration_limit when it ran to its (each accepted step lowered the loss
+ * by more than -fit_rtol); converged when no gradient or direction is
+ * left or not even the predicted decrease of a smaller step would be
+ * enough; stalled or line_search_failed when its trials ran out (an
+ * equilibrium failed, or the predicted decrease was still enough); left
+ * as it was when the phase has no iteration, -fit_max_iterations stopped
+ * it, or gradient descent handed over to Gauss-Newton. */
+static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt its, VKFitStageReason *why)
 {
   VKFit fit = o->fit;
 
   PetscFunctionBegin;
   if (first == 1) fit->step_factor = 1; /* else a restart inside the phase: the checkpoint's */
+  if (first <= its) *why = VK_FIT_STAGE_ITERATION_LIMIT;
   for (PetscInt it = first; it <= its && !fit->stopped; it++) {
     PetscReal    s, gnorm_gamma, dn = 0, slope = 0, loss_before;
-    PetscBool    accepted = PETSC_FALSE, slow;
+    PetscBool    accepted = PETSC_FALSE, slow, failed = PETSC_FALSE;
     VKFitEqStats st;
 
     PetscCall(VecNorm(o->gamma, NORM_2, &gnorm_gamma));
-    if (o->gnorm == 0) break;
+    if (o->gnorm == 0) {
+      *why = VK_FIT_STAGE_CONVERGED;
+      break;
+    }
     if (o->r) {
       if (method == VK_FIT_GD)
         for (PetscInt j = 0; j < QSize(o); j++) o->dq[j] = -o->gq[j];
@@ -359,7 +370,10 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
       PetscCall(VecNorm(o->d, NORM_2, &dn));
       PetscCall(VecDot(o->grad, o->d, &slope));
     }
-    if (!(dn > 0)) break;
+    if (!(dn > 0)) {
+      *why = VK_FIT_STAGE_CONVERGED;
+      break;
+    }
     s = fit->step_factor * (method == VK_FIT_GD ? fit->gd_step * gnorm_gamma / dn : 1);
     PetscCall(VecCopy(o->f->x, o->x_acc));
     for (PetscInt h = 0; h <= fit->max_halvings && !accepted; h++, s /= 2) {
@@ -370,6 +384,7 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
       PetscCall(VKFitSetGamma(fit, o->trial));
       PetscCall(VKFitEquilibriumTry(fit, o->f, &st, &ok));
       if (ok) PetscCall(VKFitFrameLoss(fit, o->f, &loss, NULL));
+      else failed = PETSC_TRUE;
       PetscCall(PetscInfo(NULL, "%s %d trial %d: step %g, loss %.10e -> %.10e (predicted decrease %g, needed %g)%s\n", VKFitMethods[method], (int)it, (int)h, (double)(s * dn), (double)o->loss, (double)loss, (double)(-slope * s), (double)(fit->rtol * o->loss), ok ? "" : ", equilibrium failed"));
       if (ok && o->loss - loss > fit->rtol * o->loss) {
         accepted       = PETSC_TRUE;
@@ -387,6 +402,10 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
     if (!accepted) { /* back to the accepted gamma and its equilibrium */
       PetscCall(VKFitSetGamma(fit, o->gamma));
       PetscCall(VecCopy(o->x_acc, o->f->x));
+      /* s: the step a further halving would try; converged when even its
+       * predicted decrease would not be enough */
+      if (failed) *why = VK_FIT_STAGE_STALLED;
+      else *why = -slope * s > fit->rtol * o->loss ? VK_FIT_STAGE_LINE_SEARCH_FAILED : VK_FIT_STAGE_CONVERGED;
       break;
     }
     loss_before = o->loss;
@@ -400,8 +419,9 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
+PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma, VKFitStageReason *why)
 {
+  VKFitStageReason reason = VK_FIT_STAGE_ITERATION_LIMIT; /* no iteration allowed, or a restart after the last (phase done) */
   Opt          o     = {0};
   PetscInt     phase = VK_FIT_PHASE_GD, first = 1;
   VKFitEqStats st;
@@ -435,10 +455,11 @@ PetscErrorCode VKFitOptimize(VKFit fit, VKFitFrame *f, PetscInt r, Vec gamma)
     fit->resume = PETSC_FALSE;
   } else PetscCall(Record(&o, fit->gd_its ? VK_FIT_GD : VK_FIT_GN, 0, 0));
   if (phase == VK_FIT_PHASE_GD) {
-    PetscCall(Phase(&o, VK_FIT_GD, first, fit->gd_its));
+    PetscCall(Phase(&o, VK_FIT_GD, first, fit->gd_its, &reason));
     first = 1;
   }
-  if (phase != VK_FIT_PHASE_DONE) PetscCall(Phase(&o, VK_FIT_GN, first, fit->gn_its));
+  if (phase != VK_FIT_PHASE_DONE) PetscCall(Phase(&o, VK_FIT_GN, first, fit->gn_its, &reason));
+  if (why && !fit->stopped) *why = reason;
   if (r) {
     PetscCall(PetscFree3(o.gq, o.dq, o.work));
     PetscCall(VecDestroyVecs(QSize(&o), &o.Z));
