@@ -130,6 +130,9 @@ PETSC_EXTERN PetscErrorCode VKFitGetUniformRange(VKFit, PetscReal range[2]);
 /* Whether the last run stopped at -fit_max_iterations, with a checkpoint
  * to go on from. */
 PETSC_EXTERN PetscErrorCode VKFitGetStopped(VKFit, PetscBool *);
+/* Whether every stage of the last finished run ended converged (its
+ * status line and fit.json's status). */
+PETSC_EXTERN PetscErrorCode VKFitGetConverged(VKFit, PetscBool *);
 /* Material parameters as a Vec (2 per owned tet: g_s, g_v), and back into
  * the material (which invalidates PD's factorization). */
 PETSC_EXTERN PetscErrorCode VKFitCreateGammaVec(VKFit, Vec *);

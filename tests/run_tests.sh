@@ -398,6 +398,10 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
    && [ -s "$fd/ref/material.h5" ] && [ -s "$fd/ref/sim.h5" ] && grep -q 'stages yarn, yls, mesh, fit, sim, report done' "$fd/ref.log" \
    && grep -q '"label": "fitted"' "$fd/ref/report/report.json"; then
   ok
+  # the run's summary line and run.json say whether the fit converged, as the fit's own status line does
+  fst=$(sed -n 's/^volknit fit: status \([a-z]*\) .*/\1/p' "$fd/ref.log")
+  if [ -n "$fst" ] && grep -q "(fit status: $fst, sim status: " "$fd/ref.log" && grep -q "\"fit_status\": \"$fst\"" "$fd/ref/run.json"; then ok
+  else not_ok "volknit run -run_fit: expected the fit's status '$fst' on the run's summary line and in run.json (see $fd/ref.log)"; fi
   for n in 1 2; do
     fit_dir "n$n"
     if fit_run "n$n" "$n" && [ -s "$fd/n$n/material.h5" ] && [ -s "$fd/n$n/fit.csv" ] && [ -s "$fd/n$n/fit.json" ] && [ ! -e "$fd/n$n/fit_checkpoint.h5" ] \

@@ -68,6 +68,7 @@ typedef struct {
   VKFit      fit[MAX_LIST], bestfit[MAX_LIST]; /* the fit, and the best uniform search */
   PetscBool  has_best[MAX_LIST];
   VKFitStageReason best_why[MAX_LIST];
+  PetscBool  fit_converged[MAX_LIST];
   PetscReal  best[MAX_LIST][3], best_rel[MAX_LIST]; /* g_s, g_v, and g_c when the fit fits the coupling (else 0) */
   PetscInt   npoints;
   Point      pt[MAX_POINTS];
@@ -413,6 +414,7 @@ static PetscErrorCode WriteRunJSON(void *ctx, VKOutput *out)
     PetscCall(VKJSONObjectBegin(&j, NULL));
     PetscCall(VKJSONString(&j, "dir", R->meshdir[i]));
     PetscCall(VKJSONReal(&j, "h", VKMeshGrid(R->mesh[i])->h));
+    if (R->fitting) PetscCall(VKJSONString(&j, "fit_status", R->fit_converged[i] ? "converged" : "unconverged"));
     if (R->has_best[i]) {
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_s_Pa", R->best[i][0]));
       PetscCall(VKJSONReal(&j, "best_uniform_gamma_v_Pa", R->best[i][1]));
@@ -560,6 +562,7 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
       if (R.fit[i]) {
         PetscCall(VKAppFitStage(R.fit[i], NULL, R.dir, R.meshdir[i]));
         PetscCall(VKFitGetStopped(R.fit[i], &stopped));
+        PetscCall(VKFitGetConverged(R.fit[i], &R.fit_converged[i]));
         if (stopped) {
           PetscCall(PetscPrintf(comm, "volknit run: the fit stopped before the end; go on with volknit fit -o %s -fit_restart (it reads yls.h5 there: copy %s/yls.h5 if it is elsewhere), then volknit sim -o %s -mat_file %s/material.h5\n", R.meshdir[i], R.dir, R.meshdir[i], R.meshdir[i]));
         }
@@ -580,7 +583,7 @@ PetscErrorCode VKCommandRun(MPI_Comm comm)
         if (rank == 0) ierr = VKOutputWrite(path, PETSC_TRUE, WriteRunJSON, &R);
         PetscCall(VKCollective(comm, ierr, path));
       }
-      if (R.npoints == 1) PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim%s done in %.2f s (sim status: %s); outputs in %s/%s\n", R.reference ? (R.cached ? "yls (up to date), " : "yls, ") : "", R.fitting ? "fit, " : "", R.report ? ", report" : "", VKWallTime() - t0, R.pt[0].status, R.dir, R.pt[0].compared ? " (compare_preview.png: the homogenized yarns over the yarn-level ones)" : ""));
+      if (R.npoints == 1) PetscCall(PetscPrintf(comm, "volknit run: stages yarn, %smesh, %ssim%s done in %.2f s (%s%ssim status: %s); outputs in %s/%s\n", R.reference ? (R.cached ? "yls (up to date), " : "yls, ") : "", R.fitting ? "fit, " : "", R.report ? ", report" : "", VKWallTime() - t0, R.fitting ? "fit status: " : "", R.fitting ? (R.fit_converged[0] ? "converged, " : "unconverged, ") : "", R.pt[0].status, R.dir, R.pt[0].compared ? " (compare_preview.png: the homogenized yarns over the yarn-level ones)" : ""));
       else {
         PetscInt bad = 0;
         for (PetscInt i = 0; i < R.npoints; i++) bad += strcmp(R.pt[i].status, "completed") != 0;

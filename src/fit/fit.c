@@ -106,6 +106,13 @@ PetscErrorCode VKFitGetStopped(VKFit fit, PetscBool *stopped)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode VKFitGetConverged(VKFit fit, PetscBool *converged)
+{
+  PetscFunctionBegin;
+  *converged = fit->converged;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode VKFitDestroy(VKFit *p)
 {
   VKFit fit = *p;

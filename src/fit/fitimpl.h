@@ -89,6 +89,7 @@ struct _n_VKFit {
   PetscInt      eq_fallbacks; /* equilibria finished by L-BFGS + projected Newton after PD + Newton stalled */
   PetscInt      traj_failed_rollouts; /* trial rollouts of the trajectory fit whose equilibria were not reached */
   PetscReal     traj_stop_pred;       /* of a stage's last rejected trial: the decrease its model predicted, relative to the objective */
+  PetscBool     converged;            /* the last finished run: every stage converged */
   /* checkpoints: after every checkpoint_every accepted iterations the
    * schedule calls checkpoint(fit, phase, iteration, ctx) with the place
    * a restart goes on from (VK_FIT_PHASE_*, the next iteration); it stops

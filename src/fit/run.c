@@ -389,6 +389,7 @@ static PetscErrorCode ReportStatus(VKFit fit, const VKFitState *st)
   PetscBool all = CountStops(st->ns, st->nstages, st->stops, n);
 
   PetscFunctionBegin;
+  fit->converged = all;
   PetscCall(PetscPrintf(fit->comm, "volknit fit: status %s (%d of %d sample stages converged)\n", all ? "converged" : "unconverged", (int)n[VK_FIT_STAGE_CONVERGED], (int)(st->ns * st->nstages)));
   if (n[VK_FIT_STAGE_ITERATION_LIMIT]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages stopped at -fit_gn_its %d (-fit_gd_its %d before it) with the loss still falling by more than -fit_rtol %g: not converged\n", (int)n[VK_FIT_STAGE_ITERATION_LIMIT], (int)fit->gn_its, (int)fit->gd_its, (double)fit->rtol));
   if (n[VK_FIT_STAGE_LINE_SEARCH_FAILED]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages ended in a failed line search: no trial step lowered the loss by -fit_rtol %g, though the model predicted a smaller step still would (-fit_max_halvings %d): not converged\n", (int)n[VK_FIT_STAGE_LINE_SEARCH_FAILED], (double)fit->rtol, (int)fit->max_halvings));

@@ -865,6 +865,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   {
     PetscInt bad = 0;
     for (PetscInt s = 0; s < nst; s++) bad += why[s] != VK_FIT_STAGE_CONVERGED;
+    fit->converged = (PetscBool)!bad;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: status %s (%d of %d stages converged; %d trial rollouts not converged, rejected)\n", bad ? "unconverged" : "converged", (int)(nst - bad), (int)nst, (int)fit->traj_failed_rollouts));
   }
   PetscCall(PetscPrintf(fit->comm, "volknit fit: trajectory loss %.4e -> %.4e (of its excess over the floor %.4e, %.1f%% remains); %d iterations, equilibria %.1f s, sensitivities %.1f s, total %.1f s -> %s/material.h5\n", (double)l0, (double)l1, (double)floor, l0 > floor ? 100 * (double)((l1 - floor) / (l0 - floor)) : 0.0, (int)fit->nits, teq, tadj, VKWallTime() - fit->wall0, dir));
