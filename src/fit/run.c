@@ -410,11 +410,11 @@ static PetscErrorCode WriteOutputs(VKFit fit, VKFitData data, const VKFitState *
   res.nstages      = st->nstages;
   res.stage_r      = st->stages;
   res.sample_stops = st->stops;
-  res.loss0  = loss0;
-  res.loss1  = loss1;
-  res.floor  = st->floor;
-  res.gamma  = st->avg;
-  res.total  = total;
+  res.loss0        = loss0;
+  res.loss1        = loss1;
+  res.floor        = st->floor;
+  res.gamma        = st->avg;
+  res.total        = total;
   PetscCall(VKFitWriteOutputs_Private(fit, data, &res, dir));
   PetscFunctionReturn(0);
 }

@@ -329,12 +329,13 @@ static PetscErrorCode AfterIteration(Opt *o, VKFitMethod method, PetscInt it, Pe
 
 /* One phase (GD or GN): iterations first..its.  why: how it ended --
  * iteration_limit when it ran to its (each accepted step lowered the loss
- * by more than -fit_rtol); converged when no gradient or direction is
- * left or not even the predicted decrease of a smaller step would be
- * enough; stalled or line_search_failed when its trials ran out (an
- * equilibrium failed, or the predicted decrease was still enough); left
- * as it was when the phase has no iteration, -fit_max_iterations stopped
- * it, or gradient descent handed over to Gauss-Newton. */
+ * by more than -fit_rtol), also when gradient descent handed over to
+ * Gauss-Newton early or -fit_max_iterations stopped the fit; converged
+ * when no gradient or direction is left or not even the predicted
+ * decrease of a smaller step would be enough; stalled or
+ * line_search_failed when its trials ran out (an equilibrium failed, or
+ * the predicted decrease was still enough); left as it was when the phase
+ * has no iteration. */
 static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt its, VKFitStageReason *why)
 {
   VKFit fit = o->fit;
