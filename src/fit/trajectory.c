@@ -414,6 +414,8 @@ PetscErrorCode VKFitTrajectoryEvaluate(VKFitTrajectory T, Vec gamma, PetscInt r,
   }
   if (!*ok) *loss = PETSC_INFINITY;
   PetscCall(PetscInfo(NULL, "rollout: loss %.10e over %d steps, worst |g|/tol %.3g, up to %d tets inverted\n", (double)*loss, (int)T->steps, (double)T->eq_worst, (int)T->inverted_max));
+  if (*ok)
+    for (PetscInt k = 0; k < T->nf; k++) PetscCall(PetscInfo(NULL, "rollout: frame %d (step %d): loss %.10e\n", (int)k, (int)T->frame_step[k], (double)T->lossf[k]));
   if (lossf)
     for (PetscInt k = 0; k < T->nf; k++) lossf[k] = *ok ? T->lossf[k] : PETSC_INFINITY;
   PetscFunctionReturn(0);
