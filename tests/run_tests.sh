@@ -416,6 +416,13 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
        && { [ "$st" = converged ] || grep -q '^volknit fit: WARNING: .* sample stages .*not converged' "$fd/n$n.log"; }; then ok
     else not_ok "volknit fit -n $n: expected a stop per sample and stage in fit.json, its status '$st' in the log, and a warning when unconverged (see $fd/n$n.log)"; fi
   done
+  # -fit_strict: the same unconverged fits (either loss) stop with an error and write no material.h5
+  for loss in frames trajectory; do
+    fit_dir "strict.$loss"
+    if [ "$(sed -n 's/^  "status": "\([a-z]*\)".*/\1/p' "$fd/n1/fit.json")" = unconverged ] && ! fit_run "strict.$loss" 1 -fit_loss "$loss" -fit_strict \
+       && grep -q 'The fit did not converge (-fit_strict)' "$fd/strict.$loss.log" && [ ! -e "$fd/strict.$loss/material.h5" ]; then ok
+    else not_ok "volknit fit -fit_loss $loss -fit_strict on an unconverged fit: expected an error naming -fit_strict and no material.h5 (see $fd/strict.$loss.log)"; fi
+  done
   compare_material "$fd/ref/material.h5" "$fd/n1/material.h5" 1e-7 "volknit run -run_fit vs volknit fit"
   compare_material "$fd/n1/material.h5" "$fd/n2/material.h5" 1e-5 "1 vs 2 ranks"
   # the fit's PD with the CMS global solver (CG to 1e-10; measured 7e-11 from Cholesky's material)

@@ -200,6 +200,7 @@ PetscErrorCode VKFitSetFromOptions(VKFit fit)
   }
   PetscCall(PetscOptionsBool("-fit_restart", "Go on from DIR/fit_checkpoint.h5 (sample frames and stages as the checkpoint has them)", "VKFitRun", fit->restart, &fit->restart, NULL));
   PetscCall(PetscOptionsBool("-fit_monitor", "Print every iteration of the schedule", "VKFitOptimize", fit->monitor, &fit->monitor, NULL));
+  PetscCall(PetscOptionsBool("-fit_strict", "A fit whose status is unconverged stops with an error and writes no material.h5 (otherwise it is warned about and the status says so)", "VKFitRun", fit->strict, &fit->strict, NULL));
   PetscCall(PetscOptionsEnum("-fit_loss", "What the loss compares: frames, one implicit Euler step from the yarn-level data at each sample frame, fitted sample by sample (paper section 6); trajectory, the model rolled out from rest as volknit sim runs it, at every frame, fitted in the harmonic stages only", "VKFitRun", VKFitLosses, (PetscEnum)fit->loss, (PetscEnum *)&fit->loss, NULL));
   /* measured on the 4 x 4 rib twist: from 1 kPa the stage r = 1 stops in a
    * local minimum (training REL 0.307), from the searched uniform material

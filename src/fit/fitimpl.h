@@ -74,6 +74,7 @@ struct _n_VKFit {
   PetscReal uniform_range[2];          /* its search interval, Pa */
   PetscReal uniform_g, uniform_loss;   /* its result (uniform_g 0: not searched in this run) */
   PetscBool monitor;
+  PetscBool strict; /* -fit_strict: an unconverged fit is an error, and writes no material */
   PetscBool step_memory; /* -fit_step_memory: an iteration's halving begins at the last accepted step */
   PetscReal step_factor; /* where the next iteration's halving begins, relative to the phase's full step */
   PetscInt      nhist, maxhist; /* every iteration so far (fit.csv) */

@@ -394,6 +394,7 @@ static PetscErrorCode ReportStatus(VKFit fit, const VKFitState *st)
   if (n[VK_FIT_STAGE_ITERATION_LIMIT]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages stopped at -fit_gn_its %d (-fit_gd_its %d before it) with the loss still falling by more than -fit_rtol %g: not converged\n", (int)n[VK_FIT_STAGE_ITERATION_LIMIT], (int)fit->gn_its, (int)fit->gd_its, (double)fit->rtol));
   if (n[VK_FIT_STAGE_LINE_SEARCH_FAILED]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages ended in a failed line search: no trial step lowered the loss by -fit_rtol %g, though the model predicted a smaller step still would (-fit_max_halvings %d): not converged\n", (int)n[VK_FIT_STAGE_LINE_SEARCH_FAILED], (double)fit->rtol, (int)fit->max_halvings));
   if (n[VK_FIT_STAGE_STALLED]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages stalled: no step lowered the loss and a trial's equilibrium was not reached (raise -fit_eq_newton_its or -fit_pd_max_it): not converged\n", (int)n[VK_FIT_STAGE_STALLED]));
+  PetscCheck(all || !fit->strict, fit->comm, PETSC_ERR_NOT_CONVERGED, "The fit did not converge (-fit_strict): %d of %d sample stages converged (see the warnings above); no material.h5 written (the finished fit stays in its checkpoint: -fit_restart without -fit_strict writes it)", (int)n[VK_FIT_STAGE_CONVERGED], (int)(st->ns * st->nstages));
   PetscFunctionReturn(0);
 }
 

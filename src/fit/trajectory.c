@@ -737,7 +737,7 @@ static PetscErrorCode StageWarning(VKFit fit, VKFitTrajectory T[], PetscInt nt, 
 PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data[], const char dir[])
 {
   VKFit            fit = fits[0];
-  PetscInt         nf = 0, rmax = 0, *frames, *traj, *stages, *stage_its, nst = 0, steps = 0, off = 0;
+  PetscInt         nf = 0, rmax = 0, *frames, *traj, *stages, *stage_its, nst = 0, steps = 0, off = 0, bad = 0;
   VKFitStageReason *why;
   PetscReal       *pred, *eps, *loss0, *loss1, **lossf, l0 = 0, l1 = 0, floor = 0;
   Vec              gamma;
@@ -847,6 +847,9 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
   res.stage_its  = stage_its;
   res.stage_reason = why;
   res.stage_pred   = pred;
+  for (PetscInt s = 0; s < nst; s++) bad += why[s] != VK_FIT_STAGE_CONVERGED;
+  fit->converged = (PetscBool)!bad;
+  PetscCheck(!bad || !fit->strict, fit->comm, PETSC_ERR_NOT_CONVERGED, "The fit did not converge (-fit_strict): %d of %d stages converged (see the warnings above); no material.h5 written", (int)(nst - bad), (int)nst);
   PetscCall(VKFitWriteOutputs_Private(fit, data[0], &res, dir));
   if (nt > 1) {
     off = 0;
@@ -864,12 +867,7 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     teq += fits[i]->time_eq;
     tadj += fits[i]->time_adjoint;
   }
-  {
-    PetscInt bad = 0;
-    for (PetscInt s = 0; s < nst; s++) bad += why[s] != VK_FIT_STAGE_CONVERGED;
-    fit->converged = (PetscBool)!bad;
-    PetscCall(PetscPrintf(fit->comm, "volknit fit: status %s (%d of %d stages converged; %d trial rollouts not converged, rejected)\n", bad ? "unconverged" : "converged", (int)(nst - bad), (int)nst, (int)fit->traj_failed_rollouts));
-  }
+  PetscCall(PetscPrintf(fit->comm, "volknit fit: status %s (%d of %d stages converged; %d trial rollouts not converged, rejected)\n", bad ? "unconverged" : "converged", (int)(nst - bad), (int)nst, (int)fit->traj_failed_rollouts));
   PetscCall(PetscPrintf(fit->comm, "volknit fit: trajectory loss %.4e -> %.4e (of its excess over the floor %.4e, %.1f%% remains); %d iterations, equilibria %.1f s, sensitivities %.1f s, total %.1f s -> %s/material.h5\n", (double)l0, (double)l1, (double)floor, l0 > floor ? 100 * (double)((l1 - floor) / (l0 - floor)) : 0.0, (int)fit->nits, teq, tadj, VKWallTime() - fit->wall0, dir));
   for (PetscInt i = 0; i < nt; i++) PetscCall(VKFitTrajectoryDestroy(&T[i]));
   PetscCall(VecDestroy(&gamma));
