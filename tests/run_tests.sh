@@ -416,7 +416,9 @@ if timeout "$TIMEOUT" bin/volknit run -run_fit -run_report -o "$fd/ref" $FIT_OPT
        && { [ "$st" = converged ] || grep -q '^volknit fit: WARNING: .* sample stages .*not converged' "$fd/n$n.log"; }; then ok
     else not_ok "volknit fit -n $n: expected a stop per sample and stage in fit.json, its status '$st' in the log, and a warning when unconverged (see $fd/n$n.log)"; fi
   done
-  # -fit_strict: the same unconverged fits (either loss) stop with an error and write no material.h5
+  # -fit_strict: fits that end unconverged with these options (either loss: the frames fit
+  # above, the trajectory fit measured 1 of 2 stages converged) stop with an error and write
+  # no material.h5
   for loss in frames trajectory; do
     fit_dir "strict.$loss"
     if [ "$(sed -n 's/^  "status": "\([a-z]*\)".*/\1/p' "$fd/n1/fit.json")" = unconverged ] && ! fit_run "strict.$loss" 1 -fit_loss "$loss" -fit_strict \
