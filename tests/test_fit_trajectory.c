@@ -633,8 +633,8 @@ static PetscErrorCode TestRejectedStage(void)
   why[1]      = VKFitRejectedStage(p.fit, PETSC_FALSE, 1e-3);
   why[2]      = VKFitRejectedStage(p.fit, PETSC_FALSE, 1e-9);
   why[3]      = VKFitRejectedStage(p.fit, PETSC_FALSE, -1e-3); /* the model itself rose */
-  PetscCall(PetscSNPrintf(d, sizeof(d), "failed rollout: %s; predicted 1e-3: %s; 1e-9: %s; -1e-3: %s (-fit_rtol 1e-6); the last predicted decrease kept: %g", VKFitStageReasons[why[0]], VKFitStageReasons[why[1]], VKFitStageReasons[why[2]], VKFitStageReasons[why[3]], (double)p.fit->traj_stop_pred));
-  PetscCall(VKTestCheck((PetscBool)(why[0] == VK_FIT_STAGE_STALLED && why[1] == VK_FIT_STAGE_LINE_SEARCH_FAILED && why[2] == VK_FIT_STAGE_CONVERGED && why[3] == VK_FIT_STAGE_CONVERGED && p.fit->traj_stop_pred == -1e-3), d, "trajectory: a stage whose trials were all rejected is stalled, line_search_failed or converged by its failed rollouts and predicted decrease"));
+  PetscCall(PetscSNPrintf(d, sizeof(d), "failed rollout: %s; predicted 1e-3: %s; 1e-9: %s; -1e-3: %s (-fit_rtol 1e-6); the last predicted decrease kept: %g", VKFitStageReasons[why[0]], VKFitStageReasons[why[1]], VKFitStageReasons[why[2]], VKFitStageReasons[why[3]], (double)p.fit->stop_pred));
+  PetscCall(VKTestCheck((PetscBool)(why[0] == VK_FIT_STAGE_STALLED && why[1] == VK_FIT_STAGE_LINE_SEARCH_FAILED && why[2] == VK_FIT_STAGE_CONVERGED && why[3] == VK_FIT_STAGE_CONVERGED && p.fit->stop_pred == -1e-3), d, "trajectory: a stage whose trials were all rejected is stalled, line_search_failed or converged by its failed rollouts and predicted decrease"));
   PetscCall(Destroy(&p));
   PetscFunctionReturn(0);
 }

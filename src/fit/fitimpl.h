@@ -89,7 +89,7 @@ struct _n_VKFit {
   PetscLogDouble time_eq, time_adjoint, time_kkt, time_eigen;
   PetscInt      eq_fallbacks; /* equilibria finished by L-BFGS + projected Newton after PD + Newton stalled */
   PetscInt      traj_failed_rollouts; /* trial rollouts of the trajectory fit whose equilibria were not reached */
-  PetscReal     traj_stop_pred;       /* of a stage's last rejected trial: the decrease its model predicted, relative to the objective */
+  PetscReal     stop_pred;       /* of a stage's last rejected trial: the decrease its model predicted, relative to the objective */
   PetscBool     converged;            /* the last finished run: every stage converged */
   /* checkpoints: after every checkpoint_every accepted iterations the
    * schedule calls checkpoint(fit, phase, iteration, ctx) with the place
@@ -134,14 +134,14 @@ struct _n_VKFitTrajectory {
   PetscInt  *frame_step;
 };
 
-/* Why a trajectory stage ends when none of an iteration's trial steps was
- * accepted: a trial rollout failed (stalled), or the model still predicted
+/* Why a stage ends when none of an iteration's trial steps was accepted
+ * (either loss): a trial's equilibria failed (stalled), or the model still predicted
  * the last, smallest trial to lower the objective by more than -fit_rtol of
  * it (the objective and its derivatives disagree), or not even that
  * (converged: no decrease the stage asks for is left to first order). */
 static inline VKFitStageReason VKFitRejectedStage(VKFit fit, PetscBool failed, PetscReal predicted_rel)
 {
-  fit->traj_stop_pred = predicted_rel;
+  fit->stop_pred = predicted_rel;
   if (failed) return VK_FIT_STAGE_STALLED;
   return predicted_rel > fit->rtol ? VK_FIT_STAGE_LINE_SEARCH_FAILED : VK_FIT_STAGE_CONVERGED;
 }

@@ -67,18 +67,6 @@ static PetscErrorCode WriteCSV(void *ctx, VKOutput *out)
   PetscFunctionReturn(0);
 }
 
-/* How many of the samples' stages ended for each reason; converged when all did. */
-static PetscBool CountStops(PetscInt ns, PetscInt nstages, const PetscInt stops[], PetscInt count[4])
-{
-  for (int k = 0; k < 4; k++) count[k] = 0;
-  for (PetscInt s = 0; s < ns; s++)
-    for (PetscInt k = 0; k < nstages; k++) {
-      PetscInt why = stops[VK_FIT_MAX_STAGES * s + k];
-      if (why >= 0 && why < 4) count[why]++;
-    }
-  return (PetscBool)(count[VK_FIT_STAGE_CONVERGED] == ns * nstages);
-}
-
 typedef struct {
   VKFit              fit;
   VKFitData          data;
@@ -146,25 +134,14 @@ static PetscErrorCode WriteJSON(void *ctx, VKOutput *out)
   }
   PetscCall(VKJSONObjectEnd(&j));
   PetscCall(VKJSONString(&j, "loss", VKFitLosses[fit->loss]));
-  { /* converged only when every stage did (of every sample) */
-    PetscInt  n[4];
-    PetscBool all = PETSC_TRUE;
-    if (res->trajectory)
-      for (PetscInt s = 0; s < res->nstages; s++) all = (PetscBool)(all && res->stage_reason[s] == VK_FIT_STAGE_CONVERGED);
-    else all = CountStops(res->ns, res->nstages, res->sample_stops, n);
-    PetscCall(VKJSONString(&j, "status", all ? "converged" : "unconverged"));
-  }
+  PetscCall(VKJSONString(&j, "status", fit->converged ? "converged" : "unconverged"));
   if (res->trajectory) {
     PetscCall(VKJSONObjectBegin(&j, "trajectory"));
     PetscCall(VKJSONReal(&j, "time_step", res->traj_dt));
     PetscCall(VKJSONInt(&j, "steps", res->traj_steps));
     PetscCall(VKJSONReal(&j, "loss_start", res->traj_loss0));
     PetscCall(VKJSONReal(&j, "loss_end", res->traj_loss1));
-    { /* converged only when every stage did */
-      PetscBool all = PETSC_TRUE;
-      for (PetscInt s = 0; s < res->nstages; s++) all = (PetscBool)(all && res->stage_reason[s] == VK_FIT_STAGE_CONVERGED);
-      PetscCall(VKJSONString(&j, "status", all ? "converged" : "unconverged"));
-    }
+    PetscCall(VKJSONString(&j, "status", fit->converged ? "converged" : "unconverged"));
     PetscCall(VKJSONInt(&j, "failed_trial_rollouts", fit->traj_failed_rollouts));
     PetscCall(VKJSONArrayBegin(&j, "stages"));
     for (PetscInt s = 0; s < res->nstages; s++) {
@@ -385,10 +362,13 @@ PetscErrorCode VKFitWriteOutputs_Private(VKFit fit, VKFitData data, const VKFitR
  * stages that did not converge. */
 static PetscErrorCode ReportStatus(VKFit fit, const VKFitState *st)
 {
-  PetscInt  n[4];
-  PetscBool all = CountStops(st->ns, st->nstages, st->stops, n);
+  PetscInt  n[VK_FIT_STAGE_LINE_SEARCH_FAILED + 1] = {0};
+  PetscBool all;
 
   PetscFunctionBegin;
+  for (PetscInt s = 0; s < st->ns; s++) /* every stage of a finished fit has its reason */
+    for (PetscInt k = 0; k < st->nstages; k++) n[st->stops[VK_FIT_MAX_STAGES * s + k]]++;
+  all = (PetscBool)(n[VK_FIT_STAGE_CONVERGED] == st->ns * st->nstages);
   fit->converged = all;
   PetscCall(PetscPrintf(fit->comm, "volknit fit: status %s (%d of %d sample stages converged)\n", all ? "converged" : "unconverged", (int)n[VK_FIT_STAGE_CONVERGED], (int)(st->ns * st->nstages)));
   if (n[VK_FIT_STAGE_ITERATION_LIMIT]) PetscCall(PetscPrintf(fit->comm, "volknit fit: WARNING: %d sample stages stopped at -fit_gn_its %d (-fit_gd_its %d before it) with the loss still falling by more than -fit_rtol %g: not converged\n", (int)n[VK_FIT_STAGE_ITERATION_LIMIT], (int)fit->gn_its, (int)fit->gd_its, (double)fit->rtol));

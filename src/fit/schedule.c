@@ -405,8 +405,7 @@ static PetscErrorCode Phase(Opt *o, VKFitMethod method, PetscInt first, PetscInt
       PetscCall(VecCopy(o->x_acc, o->f->x));
       /* s: the step a further halving would try; converged when even its
        * predicted decrease would not be enough */
-      if (failed) *why = VK_FIT_STAGE_STALLED;
-      else *why = -slope * s > fit->rtol * o->loss ? VK_FIT_STAGE_LINE_SEARCH_FAILED : VK_FIT_STAGE_CONVERGED;
+      *why = VKFitRejectedStage(fit, failed, -slope * s / o->loss);
       break;
     }
     loss_before = o->loss;

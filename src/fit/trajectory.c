@@ -726,7 +726,7 @@ static PetscErrorCode StageWarning(VKFit fit, VKFitTrajectory T[], PetscInt nt, 
   case VK_FIT_STAGE_LINE_SEARCH_FAILED:
     PetscCall(PetscPrintf(fit->comm,
                           "volknit fit: WARNING: %s: line search failed: no trial step lowered the loss, though the model predicted even the smallest to lower it by %.3g of itself, more than -fit_rtol %g. The loss and its derivatives disagree there: rollouts whose inverted tets (%d at most in the last) change branch, or equilibria too loose for the derivatives (-fit_eq_rtol): not converged\n",
-                          name, (double)fit->traj_stop_pred, (double)fit->rtol, (int)inverted));
+                          name, (double)fit->stop_pred, (double)fit->rtol, (int)inverted));
     break;
   case VK_FIT_STAGE_CONVERGED:
     break;
@@ -801,10 +801,10 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     PetscReal before = fit->nhist ? fit->hist[fit->nhist - 1].loss : l0;
     PetscInt  its0   = fit->nits;
     char      name[32];
-    fit->traj_stop_pred = 0;
+    fit->stop_pred = 0;
     PetscCall(VKFitTrajectoryOptimizeJoint(nt, T, stages[s], gamma, lossf, &why[s]));
     stage_its[s] = fit->nits - its0;
-    pred[s]      = fit->traj_stop_pred;
+    pred[s]      = fit->stop_pred;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: stage r = %d: trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)stages[s], (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
     PetscCall(PetscSNPrintf(name, sizeof(name), "stage r = %d", (int)stages[s]));
     PetscCall(StageWarning(fit, T, nt, name, "-fit_gn_its", fit->gn_its, why[s]));
@@ -813,10 +813,10 @@ PetscErrorCode VKFitTrajectoryRunJoint(PetscInt nt, VKFit fits[], VKFitData data
     PetscReal before = fit->hist[fit->nhist - 1].loss;
     PetscInt  its0   = fit->nits, s = nst++;
     stages[s] = 0;
-    fit->traj_stop_pred = 0;
+    fit->stop_pred = 0;
     PetscCall(VKFitTrajectoryOptimizeFull(nt, T, gamma, lossf, &why[s]));
     stage_its[s] = fit->nits - its0;
-    pred[s]      = fit->traj_stop_pred;
+    pred[s]      = fit->stop_pred;
     PetscCall(PetscPrintf(fit->comm, "volknit fit: full stage (%d parameters, L-BFGS by adjoint gradients): trajectory loss %.4e -> %.4e in %d iterations, %s (%.1f s)\n", (int)(fit->ngamma * VKMeshTetCount(fit->mesh)), (double)before, (double)fit->hist[fit->nhist - 1].loss, (int)stage_its[s], VKFitStageReasons[why[s]], VKWallTime() - fit->wall0));
     PetscCall(StageWarning(fit, T, nt, "the full stage", "-fit_trajectory_full_its", fit->traj_full_its, why[s]));
   }
